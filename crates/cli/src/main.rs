@@ -1,0 +1,42 @@
+//! `saddleflow`: the command-line front end. Thin: every command parses its arguments, calls
+//! library code and prints its result. Direct physics commands print exactly one JSON object on
+//! stdout; logs and progress go to stderr.
+
+use clap::{Parser, Subcommand};
+
+mod flow;
+mod pipeline;
+mod solve;
+
+#[derive(Parser)]
+#[command(name = "saddleflow", version, about = "Contact mechanics of and Reynolds flow through saddle points")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Solve one contact problem at a fixed mean pressure and print a JSON summary.
+    Solve(solve::Args),
+    /// Solve the Reynolds thin-film equation on a gap field read from HDF5.
+    Flow(flow::Args),
+    #[command(flatten)]
+    Pipeline(pipeline::Command),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Solve(args) => solve::run(args),
+        Command::Flow(args) => flow::run(args),
+        Command::Pipeline(cmd) => pipeline::run(cmd),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
