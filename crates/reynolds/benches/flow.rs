@@ -1,0 +1,139 @@
+//! Flow-solver benchmark: `cargo bench -p reynolds --bench flow`.
+//!
+//! Field: `g = max(0, ε + cos 2πx + cos 2πy)` on the unit cell (a constriction of height ε at
+//! the saddle points), flow along x, relative residual 1e-10. For every grid `2^n`, every ε and
+//! every rayon pool size it prints the set-up and total wall time, iterations, true relative
+//! residual, conservation error, conductivity and the peak resident memory of the case
+//! (`VmHWM`, reset before each case through `/proc/self/clear_refs`).
+//!
+//! Environment:
+//! - `FLOW_NS` grid exponents, default `9,10,11,12` (512² … 4096²);
+//! - `FLOW_EPS` values of ε, default `1e-3,1e-1,1e-6`;
+//! - `FLOW_THREADS` rayon pool sizes, default `1,2`;
+//! - `FLOW_REPEAT` solves per case (the fastest is reported), default 1;
+//! - `FLOW_DUMP=DIR` also writes each gap field as raw little-endian f64, row-major `(n, n)`
+//!   (first index x), to `DIR/gap_n{N}_eps{ε}.f64`, for `bench/peers/flow_pyamg.py`.
+//!
+//! Each case also prints one machine-readable line starting with `RESULT`.
+
+use ndarray::Array2;
+use reynolds::{FlowAxis, FlowOptions, solve};
+use std::io::Write;
+
+fn env_list<T: std::str::FromStr>(name: &str, default: &str) -> Vec<T> {
+    std::env::var(name)
+        .unwrap_or_else(|_| default.to_string())
+        .split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| {
+            s.trim()
+                .parse()
+                .unwrap_or_else(|_| panic!("{name}: cannot parse {s:?}"))
+        })
+        .collect()
+}
+
+fn gap_field(n: usize, eps: f64) -> Array2<f64> {
+    let tau = std::f64::consts::TAU;
+    Array2::from_shape_fn((n, n), |(i, j)| {
+        let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+        (eps + (tau * x).cos() + (tau * y).cos()).max(0.0)
+    })
+}
+
+fn status_kib(key: &str) -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    s.lines()
+        .find(|l| l.starts_with(key))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()
+}
+
+fn reset_peak() {
+    // "5" resets the peak resident set size (Linux ≥ 4.0); ignore failures.
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+fn main() {
+    // `cargo bench` passes `--bench`; nothing else is accepted.
+    let ns: Vec<u32> = env_list("FLOW_NS", "9,10,11,12");
+    let epss: Vec<f64> = env_list("FLOW_EPS", "1e-3,1e-1,1e-6");
+    let threads: Vec<usize> = env_list("FLOW_THREADS", "1,2");
+    let repeat: usize = env_list("FLOW_REPEAT", "1")[0];
+    let dump = std::env::var("FLOW_DUMP").ok();
+    let options = FlowOptions::default();
+    println!(
+        "{:>5} {:>7} {:>3} {:>8} {:>8} {:>5} {:>9} {:>9} {:>13} {:>8}",
+        "n", "eps", "thr", "setup_s", "total_s", "iter", "residual", "conserv", "K", "peak_MiB"
+    );
+    for &e in &ns {
+        let n = 1usize << e;
+        for &eps in &epss {
+            let gap = gap_field(n, eps);
+            if let Some(dir) = &dump {
+                let path = format!("{dir}/gap_n{n}_eps{eps:e}.f64");
+                let mut f = std::io::BufWriter::new(
+                    std::fs::File::create(&path).unwrap_or_else(|err| panic!("{path}: {err}")),
+                );
+                for v in gap.iter() {
+                    f.write_all(&v.to_le_bytes()).expect("write gap");
+                }
+                eprintln!("wrote {path}");
+            }
+            for &t in &threads {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(t)
+                    .build()
+                    .expect("thread pool");
+                let mut best: Option<reynolds::FlowResult> = None;
+                let mut peak = 0;
+                for _ in 0..repeat.max(1) {
+                    reset_peak();
+                    let r = pool
+                        .install(|| solve(gap.view(), 1.0, 1.0, FlowAxis::X, &options))
+                        .expect("valid input");
+                    peak = peak.max(status_kib("VmHWM:").unwrap_or(0));
+                    if best
+                        .as_ref()
+                        .is_none_or(|b| r.wall_seconds < b.wall_seconds)
+                    {
+                        best = Some(r);
+                    }
+                }
+                let r = best.expect("at least one run");
+                println!(
+                    "{:>5} {:>7.0e} {:>3} {:>8.3} {:>8.3} {:>5} {:>9.2e} {:>9.2e} {:>13.6e} {:>8.0}{}",
+                    n,
+                    eps,
+                    t,
+                    r.setup_seconds,
+                    r.wall_seconds,
+                    r.iterations,
+                    r.relative_residual,
+                    r.conservation_error,
+                    r.conductivity,
+                    peak as f64 / 1024.0,
+                    if r.converged {
+                        String::new()
+                    } else {
+                        format!("  NOT CONVERGED: {:?}", r.termination)
+                    }
+                );
+                println!(
+                    "RESULT solver=reynolds n={n} eps={eps:e} threads={t} setup_s={} wall_s={} \
+                     iterations={} residual={:e} conservation={:e} flux={:e} peak_mib={:.0} converged={}",
+                    r.setup_seconds,
+                    r.wall_seconds,
+                    r.iterations,
+                    r.relative_residual,
+                    r.conservation_error,
+                    r.flux,
+                    peak as f64 / 1024.0,
+                    r.converged
+                );
+            }
+        }
+    }
+}

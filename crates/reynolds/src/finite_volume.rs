@@ -1,0 +1,237 @@
+//! Cell-centred finite-volume discretisation of `div(g³ ∇p) = 0` on the periodic cell, with the
+//! flow along the first axis (the caller transposes for flow along y).
+//!
+//! Node `(i, j)` (row-major index `i * ny + j`) is the centre of a `dx × dy` control volume. The
+//! face between `(i, j)` and `(i + 1, j)` has conductance `c = H(g³_ij, g³_{i+1,j})`, the harmonic
+//! mean (zero if either node is in contact), and carries the volume flux `c (p_ij − p_{i+1,j}) dy
+//! / dx`; its coupling in the linear system is `s = c dy/dx` (and `c dx/dy` for y-faces).
+//!
+//! # The pressure drop and the cut
+//! The pressure is `p = −x ΔP / L + φ` with `φ` periodic. It is represented by an unknown `u`
+//! that is periodic except across one *cut*: the column of x-faces between node columns `c` and
+//! `c + 1`, where the physical drop is `p_c − p_{c+1} = u_c − u_{c+1} + ΔP`. Any column gives the
+//! same physics (moving the cut adds ΔP to `u` on the columns it passes); the solver puts it on
+//! the column with the smallest total conductance. Near a closing constriction that is the
+//! constriction itself, so the unknown is nearly uniform (and held near zero by the multigrid
+//! gauge) in the well-conducting ponds, where floating-point values must resolve tiny pressure
+//! differences, and the right-hand side `b` (the cut's ±sΔP) is small, of the size of the flux.
+
+use crate::stencil::REDUCE_BLOCK;
+use ndarray::{Array2, ArrayView2};
+use rayon::prelude::*;
+
+/// Harmonic mean of two conductances, 0 if either is 0; no overflow or underflow for any
+/// positive finite inputs whose mean is representable.
+#[inline]
+pub(crate) fn harmonic_mean(a: f64, b: f64) -> f64 {
+    if a > 0.0 && b > 0.0 {
+        (2.0 * a) * (b / (a + b))
+    } else {
+        0.0
+    }
+}
+
+/// Couplings of the 5-point operator on the flowing (kept) nodes.
+pub(crate) struct Assembly {
+    pub nx: usize,
+    pub ny: usize,
+    /// `c dy/dx` on x-faces (node to `i + 1`).
+    pub e: Vec<f64>,
+    /// `c dx/dy` on y-faces (node to `j + 1`).
+    pub n: Vec<f64>,
+    /// The cut column (see the module docs).
+    pub cut: usize,
+}
+
+/// Builds the face couplings from `g³` on the nodes marked `keep` (all others are decoupled).
+pub(crate) fn assemble(g3: &[f64], keep: ArrayView2<bool>, dx: f64, dy: f64) -> Assembly {
+    let (nx, ny) = keep.dim();
+    let (rx, ry) = (dy / dx, dx / dy);
+    let keep = keep.as_standard_layout();
+    let keep = keep.as_slice().expect("standard layout");
+    let mut e = vec![0.0; nx * ny];
+    let mut n = vec![0.0; nx * ny];
+    e.par_chunks_mut(ny)
+        .zip(n.par_chunks_mut(ny))
+        .enumerate()
+        .for_each(|(i, (er, nr))| {
+            let ip = (i + 1) % nx;
+            for j in 0..ny {
+                let k = i * ny + j;
+                if !keep[k] {
+                    continue;
+                }
+                let kx = ip * ny + j;
+                let jp = (j + 1) % ny;
+                let ky = i * ny + jp;
+                if keep[kx] {
+                    er[j] = harmonic_mean(g3[k], g3[kx]) * rx;
+                }
+                if keep[ky] {
+                    nr[j] = harmonic_mean(g3[k], g3[ky]) * ry;
+                }
+            }
+        });
+    let column_sum: Vec<f64> = e.par_chunks(ny).map(|r| r.iter().sum()).collect();
+    let mut cut = 0;
+    for (i, &s) in column_sum.iter().enumerate() {
+        if s < column_sum[cut] {
+            cut = i;
+        }
+    }
+    Assembly { nx, ny, e, n, cut }
+}
+
+impl Assembly {
+    /// The right-hand side for a pressure drop `dp` across the cell: `−s dp` on the upstream
+    /// node of every cut face and `+s dp` on the downstream one.
+    pub fn rhs(&self, dp: f64) -> Vec<f64> {
+        let (nx, ny) = (self.nx, self.ny);
+        let mut b = vec![0.0; nx * ny];
+        let c = self.cut;
+        let cp = (c + 1) % nx;
+        for j in 0..ny {
+            let s = self.e[c * ny + j] * dp;
+            b[c * ny + j] -= s;
+            b[cp * ny + j] += s;
+        }
+        b
+    }
+
+    /// Physical pressure drop `p_ij − p_{i+1,j}` across x-face `(i, j)` for unknown `u`.
+    #[inline]
+    fn drop_x(&self, u: &[f64], i: usize, j: usize, dp: f64) -> f64 {
+        let ny = self.ny;
+        let ip = if i + 1 == self.nx { 0 } else { i + 1 };
+        let d = u[i * ny + j] - u[ip * ny + j];
+        if i == self.cut { d + dp } else { d }
+    }
+
+    #[inline]
+    fn drop_y(&self, u: &[f64], i: usize, j: usize) -> f64 {
+        let ny = self.ny;
+        let jp = if j + 1 == ny { 0 } else { j + 1 };
+        u[i * ny + j] - u[i * ny + jp]
+    }
+
+    /// Post-processing of a solution `u` for pressure drop `dp`.
+    pub fn evaluate(&self, u: &[f64], dp: f64) -> Evaluation {
+        let (nx, ny) = (self.nx, self.ny);
+        // Per row i: dissipation of its x- and y-faces, flux through its x-face column, and
+        // squared residual (the net outflow of each node, computed face by face).
+        let rows: Vec<(f64, f64, f64)> = (0..nx)
+            .into_par_iter()
+            .map(|i| {
+                let im = if i == 0 { nx - 1 } else { i - 1 };
+                let mut diss = 0.0;
+                let mut flux = 0.0;
+                let mut res2 = 0.0;
+                for j in 0..ny {
+                    let jm = if j == 0 { ny - 1 } else { j - 1 };
+                    let k = i * ny + j;
+                    let fe = self.e[k] * self.drop_x(u, i, j, dp);
+                    let fw = self.e[im * ny + j] * self.drop_x(u, im, j, dp);
+                    let fnn = self.n[k] * self.drop_y(u, i, j);
+                    let fs = self.n[i * ny + jm] * self.drop_y(u, i, jm);
+                    diss += fe * self.drop_x(u, i, j, dp) + fnn * self.drop_y(u, i, j);
+                    flux += fe;
+                    // Net outflow; zero for the exact solution.
+                    let r = (fe - fw) + (fnn - fs);
+                    res2 += r * r;
+                }
+                (diss, flux, res2)
+            })
+            .collect();
+        let dissipation: f64 = rows.iter().map(|r| r.0).sum();
+        let residual_norm = rows.iter().map(|r| r.2).sum::<f64>().sqrt();
+        let column_flux: Vec<f64> = rows.iter().map(|r| r.1).collect();
+        Evaluation {
+            flux: dissipation / dp,
+            column_flux,
+            residual_norm,
+        }
+    }
+
+    /// Pressure (with the linear drop restored and the periodic part of zero mean over the
+    /// flowing nodes; NaN elsewhere) and node-centred current densities `−g³ ∇p`.
+    pub fn fields(
+        &self,
+        u: &[f64],
+        dp: f64,
+        dx: f64,
+        dy: f64,
+        flowing: &[bool],
+    ) -> (Array2<f64>, Array2<f64>, Array2<f64>) {
+        let (nx, ny) = (self.nx, self.ny);
+        let lx = dx * nx as f64;
+        let mut p = Array2::from_elem((nx, ny), f64::NAN);
+        let mut mean = 0.0;
+        let mut count = 0usize;
+        for i in 0..nx {
+            for j in 0..ny {
+                let k = i * ny + j;
+                if flowing[k] {
+                    let v = u[k] - if i > self.cut { dp } else { 0.0 };
+                    p[[i, j]] = v;
+                    // Periodic part φ = p + x ΔP / L with x = i dx.
+                    mean += v + (i as f64) * dx * dp / lx;
+                    count += 1;
+                }
+            }
+        }
+        if count > 0 {
+            let shift = mean / count as f64;
+            p.mapv_inplace(|v| v - shift);
+        }
+        // Face current densities: flux / face length.
+        let jx = |i: usize, j: usize| self.e[i * ny + j] * self.drop_x(u, i, j, dp) / dy;
+        let jy = |i: usize, j: usize| self.n[i * ny + j] * self.drop_y(u, i, j) / dx;
+        let cx = Array2::from_shape_fn((nx, ny), |(i, j)| {
+            0.5 * (jx(i, j) + jx((i + nx - 1) % nx, j))
+        });
+        let cy = Array2::from_shape_fn((nx, ny), |(i, j)| {
+            0.5 * (jy(i, j) + jy(i, (j + ny - 1) % ny))
+        });
+        (p, cx, cy)
+    }
+}
+
+/// What [`Assembly::evaluate`] measures.
+pub(crate) struct Evaluation {
+    /// Flux from the dissipation, `Σ s (Δp)² / ΔP`.
+    pub flux: f64,
+    /// Flux through each x-face column (the cross-sections perpendicular to the flow).
+    pub column_flux: Vec<f64>,
+    /// `‖b − A u‖₂`, computed as the net outflow of each node.
+    pub residual_norm: f64,
+}
+
+/// Cubes of the gaps (`g ≤ 0` → 0), in row-major order.
+pub(crate) fn cubes(gap: ArrayView2<f64>) -> Vec<f64> {
+    let gap = gap.as_standard_layout();
+    let s = gap.as_slice().expect("standard layout");
+    let mut out = vec![0.0; s.len()];
+    out.par_chunks_mut(REDUCE_BLOCK)
+        .zip(s.par_chunks(REDUCE_BLOCK))
+        .for_each(|(o, g)| {
+            for (o, &g) in o.iter_mut().zip(g) {
+                *o = if g > 0.0 { g * g * g } else { 0.0 };
+            }
+        });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn harmonic_mean_is_safe_at_the_extremes() {
+        assert_eq!(harmonic_mean(1.0, 1.0), 1.0);
+        assert_eq!(harmonic_mean(0.0, 1.0), 0.0);
+        assert!((harmonic_mean(1e-300, 1e300) - 2e-300).abs() < 1e-310);
+        assert!(harmonic_mean(5e-324, 1.0) > 0.0);
+        assert!((harmonic_mean(1e300, 1e300) - 1e300).abs() < 1e285);
+        assert!((harmonic_mean(2.0, 6.0) - 3.0).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,613 @@
+//! Black-box geometric multigrid (Dendy's operator-dependent interpolation, Galerkin coarse
+//! operators) for periodic Laplacian-form operators with strongly varying coefficients.
+//!
+//! # Coarsening
+//! Full coarsening by two in each direction: coarse node `(I, J)` is fine node `(2I, 2J)`. A
+//! level is coarsened while both sides are even and at least 8 (so that no two offsets of a
+//! stencil alias the same node) and it has more than `COARSEST_TARGET` nodes; the coarsest level
+//! is solved directly ([`DenseElimination`]), or, if it is still large (grids with large odd
+//! factors), relaxed by `COARSE_SWEEPS` symmetric Gauss–Seidel sweeps (a fixed symmetric
+//! operator, so the cycle stays a valid preconditioner; only its quality suffers).
+//!
+//! # Interpolation (Dendy 1982, "black box multigrid")
+//! Per coarse cell `(I, J)` the fine nodes `(2I+1, 2J)` (x-edge), `(2I, 2J+1)` (y-edge) and
+//! `(2I+1, 2J+1)` (centre) are interpolated from the operator:
+//! - an x-edge node takes `w_W = g_W / (g_W + g_E)` from its west coarse neighbour and
+//!   `w_E = g_E / (g_W + g_E)` from its east one, where `g_W` is the sum of its three couplings
+//!   towards the west (W, NW, SW) and `g_E` the same towards the east: the stencil collapsed
+//!   along y. The two weights are computed separately (not as `1 − w`), so a weight of 10^-30
+//!   keeps its relative accuracy. A node with no coupling in x gets 1/2, 1/2;
+//! - a y-edge node likewise with the stencil collapsed along x;
+//! - a centre node solves its own equation with its eight neighbours replaced by their
+//!   interpolants: `w_C = (s_corner(C) + Σ_edges s_edge w_edge(C)) / d`.
+//!
+//! Negative couplings (which Galerkin coarse operators can have) count as zero in the weights.
+//! The weights of every fine node sum to one: constants are interpolated exactly, so the coarse
+//! operators keep zero row sums and are stored in the same coupling form as the fine one.
+//!
+//! # Coarse operators
+//! Galerkin, `A_c = Pᵀ A P`, evaluated in flux form: for coarse nodes `C ≠ D`,
+//! `A_c[C, D] = Σ_{fine f} P_fD (A P_C)_f` with `(A P_C)_f = Σ_m s_fm (P_fC − P_mC)`, i.e. from
+//! differences of interpolation weights times fine couplings — never as the difference of a
+//! large diagonal and large off-diagonal products. The coarse diagonal follows from the zero
+//! row sums. Products of 5- or 9-point operators with this interpolation are 9-point.
+//!
+//! # Cycle
+//! V(ν, ν) with symmetric block-ordered Gauss–Seidel ([`Stencil::gauss_seidel`]): forward
+//! pre-sweeps, the exact reverse ordering as post-sweeps, `R = Pᵀ`: the cycle is a symmetric
+//! positive (semi-)definite operator, as conjugate gradients require.
+
+use crate::dense_elimination::DenseElimination;
+use crate::stencil::{Stencil, block_bounds};
+use rayon::prelude::*;
+
+/// Stop coarsening at this many nodes or fewer.
+const COARSEST_TARGET: usize = 64;
+/// Largest coarsest level solved by dense elimination; larger ones are relaxed.
+const DENSE_MAX: usize = 1200;
+/// Gauss–Seidel sweep pairs on a coarsest level too large for dense elimination.
+const COARSE_SWEEPS: usize = 30;
+const PARALLEL_MIN: usize = 1 << 14;
+
+/// Interpolation weights of one coarse cell: x-edge `[w_W, w_E]`, y-edge `[w_S, w_N]`,
+/// centre `[w_SW, w_SE, w_NW, w_NE]`.
+type CellWeights = [f64; 8];
+
+struct Level {
+    op: Stencil,
+    bounds: Vec<usize>,
+    /// Weights to interpolate from the next coarser level (empty on the coarsest).
+    weights: Vec<CellWeights>,
+    /// Scratch: right-hand side and solution of this level (unused on level 0) and residual.
+    b: Vec<f64>,
+    z: Vec<f64>,
+    r: Vec<f64>,
+}
+
+enum CoarseSolver {
+    Dense(DenseElimination),
+    Relax,
+}
+
+/// A multigrid hierarchy used as a preconditioner.
+pub(crate) struct Multigrid {
+    levels: Vec<Level>,
+    coarse: CoarseSolver,
+    sweeps: usize,
+}
+
+impl Multigrid {
+    /// Builds the hierarchy for `op` (the finest operator, moved in).
+    pub fn new(op: Stencil, sweeps: usize) -> Self {
+        let mut levels = Vec::new();
+        let mut op = op;
+        loop {
+            let (nx, ny) = (op.nx, op.ny);
+            let coarsen =
+                nx % 2 == 0 && ny % 2 == 0 && nx >= 8 && ny >= 8 && nx * ny > COARSEST_TARGET;
+            let first = levels.is_empty();
+            let len = nx * ny;
+            let scratch = |on: bool| if on { vec![0.0; len] } else { Vec::new() };
+            if !coarsen {
+                levels.push(Level {
+                    bounds: block_bounds(nx),
+                    weights: Vec::new(),
+                    b: scratch(!first),
+                    z: scratch(!first),
+                    r: Vec::new(),
+                    op,
+                });
+                break;
+            }
+            let weights = interpolation_weights(&op);
+            let coarse = galerkin(&op, &weights);
+            levels.push(Level {
+                bounds: block_bounds(nx),
+                weights,
+                b: scratch(!first),
+                z: scratch(!first),
+                r: vec![0.0; len],
+                op,
+            });
+            op = coarse;
+        }
+        let last = &levels.last().expect("at least one level").op;
+        let active: Vec<usize> = (0..last.len()).filter(|&k| last.diag[k] > 0.0).collect();
+        let coarse = if active.len() <= DENSE_MAX {
+            let m = active.len();
+            let mut index = vec![usize::MAX; last.len()];
+            for (p, &k) in active.iter().enumerate() {
+                index[k] = p;
+            }
+            let mut s = vec![vec![0.0; m]; m];
+            let (nx, ny) = (last.nx, last.ny);
+            for i in 0..nx {
+                for j in 0..ny {
+                    let k = i * ny + j;
+                    let mut add = |q: usize, c: f64| {
+                        let (a, b) = (index[k], index[q]);
+                        if c != 0.0 && a != usize::MAX && b != usize::MAX && a != b {
+                            s[a][b] += c;
+                            s[b][a] += c;
+                        }
+                    };
+                    add(((i + 1) % nx) * ny + j, last.e[k]);
+                    add(i * ny + (j + 1) % ny, last.n[k]);
+                    if !last.is_five_point() {
+                        add(((i + 1) % nx) * ny + (j + 1) % ny, last.ne[k]);
+                        add(((i + 1) % nx) * ny + (j + ny - 1) % ny, last.se[k]);
+                    }
+                }
+            }
+            CoarseSolver::Dense(DenseElimination::new(active, s))
+        } else {
+            CoarseSolver::Relax
+        };
+        Multigrid {
+            levels,
+            coarse,
+            sweeps,
+        }
+    }
+
+    /// Number of levels.
+    pub fn depth(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// The finest operator.
+    pub fn fine(&self) -> &Stencil {
+        &self.levels[0].op
+    }
+
+    /// `z = M⁻¹ r`: one V-cycle with zero initial guess.
+    pub fn apply(&mut self, r: &[f64], z: &mut [f64]) {
+        let sweeps = self.sweeps;
+        vcycle(&mut self.levels, &self.coarse, sweeps, r, z);
+    }
+}
+
+fn vcycle(levels: &mut [Level], coarse: &CoarseSolver, sweeps: usize, b: &[f64], z: &mut [f64]) {
+    let (cur, rest) = levels.split_first_mut().expect("non-empty hierarchy");
+    z.fill(0.0);
+    if rest.is_empty() {
+        match coarse {
+            CoarseSolver::Dense(d) => d.solve(b, z),
+            CoarseSolver::Relax => {
+                for _ in 0..COARSE_SWEEPS {
+                    cur.op.gauss_seidel(b, z, &cur.bounds, true);
+                    cur.op.gauss_seidel(b, z, &cur.bounds, false);
+                }
+            }
+        }
+        return;
+    }
+    for _ in 0..sweeps {
+        cur.op.gauss_seidel(b, z, &cur.bounds, true);
+    }
+    cur.op.residual(b, z, &mut cur.r);
+    let next = &mut rest[0];
+    restrict(
+        &cur.op,
+        &cur.weights,
+        &cur.r,
+        next.op.nx,
+        next.op.ny,
+        &mut next.b,
+    );
+    let nb = std::mem::take(&mut next.b);
+    let mut nz = std::mem::take(&mut next.z);
+    vcycle(rest, coarse, sweeps, &nb, &mut nz);
+    let next = &mut rest[0];
+    interpolate_add(&cur.op, &cur.weights, &nz, next.op.nx, next.op.ny, z);
+    next.b = nb;
+    next.z = nz;
+    for _ in 0..sweeps {
+        cur.op.gauss_seidel(b, z, &cur.bounds, false);
+    }
+}
+
+#[inline(always)]
+fn up(i: usize, n: usize) -> usize {
+    if i + 1 == n { 0 } else { i + 1 }
+}
+#[inline(always)]
+fn down(i: usize, n: usize) -> usize {
+    if i == 0 { n - 1 } else { i - 1 }
+}
+
+/// Interpolation weights of every coarse cell of `op` (see the module docs).
+fn interpolation_weights(op: &Stencil) -> Vec<CellWeights> {
+    let (cx, cy) = (op.nx / 2, op.ny / 2);
+    let pos = |v: f64| v.max(0.0);
+    // Pass 1: edges.
+    let mut w: Vec<CellWeights> = vec![[0.0; 8]; cx * cy];
+    let edges = |(ci, row): (usize, &mut [CellWeights])| {
+        for (cj, cell) in row.iter_mut().enumerate() {
+            let (i, j) = (2 * ci, 2 * cj);
+            // x-edge (2I+1, 2J): [W, E, S, N, SW, NE, SE, NW]
+            let c = op.couplings(i + 1, j);
+            let gw = pos(c[0]) + pos(c[4]) + pos(c[7]);
+            let ge = pos(c[1]) + pos(c[5]) + pos(c[6]);
+            let (a, b) = split(gw, ge);
+            cell[0] = a;
+            cell[1] = b;
+            // y-edge (2I, 2J+1)
+            let c = op.couplings(i, j + 1);
+            let gs = pos(c[2]) + pos(c[4]) + pos(c[6]);
+            let gn = pos(c[3]) + pos(c[5]) + pos(c[7]);
+            let (a, b) = split(gs, gn);
+            cell[2] = a;
+            cell[3] = b;
+        }
+    };
+    let par = op.len() >= PARALLEL_MIN;
+    if par {
+        w.par_chunks_mut(cy).enumerate().for_each(edges);
+    } else {
+        w.chunks_mut(cy).enumerate().for_each(edges);
+    }
+    // Pass 2: centres, from the edge weights of this and the neighbouring cells.
+    let edge_w = w.clone();
+    let centres = |(ci, row): (usize, &mut [CellWeights])| {
+        for (cj, cell) in row.iter_mut().enumerate() {
+            let (i, j) = (2 * ci + 1, 2 * cj + 1);
+            let c = op.couplings(i, j);
+            let [sw, se, ss, sn, ssw, sne, sse, snw] = c.map(pos);
+            let total = sw + se + ss + sn + ssw + sne + sse + snw;
+            let here = &edge_w[ci * cy + cj];
+            let east = &edge_w[up(ci, cx) * cy + cj];
+            let north = &edge_w[ci * cy + up(cj, cy)];
+            // W = y-edge of this cell, E = y-edge of cell (I+1, J), S = x-edge of this cell,
+            // N = x-edge of cell (I, J+1).
+            if total > 0.0 {
+                cell[4] = (ssw + sw * here[2] + ss * here[0]) / total;
+                cell[5] = (sse + se * east[2] + ss * here[1]) / total;
+                cell[6] = (snw + sw * here[3] + sn * north[0]) / total;
+                cell[7] = (sne + se * east[3] + sn * north[1]) / total;
+            } else {
+                cell[4..8].fill(0.25);
+            }
+        }
+    };
+    if par {
+        w.par_chunks_mut(cy).enumerate().for_each(centres);
+    } else {
+        w.chunks_mut(cy).enumerate().for_each(centres);
+    }
+    w
+}
+
+#[inline]
+fn split(a: f64, b: f64) -> (f64, f64) {
+    let t = a + b;
+    if t > 0.0 { (a / t, b / t) } else { (0.5, 0.5) }
+}
+
+/// Value of coarse basis function `C = (ci, cj)` at fine offset `(u, v)` from `(2ci, 2cj)`,
+/// `u, v ∈ {−1, 0, 1}`.
+#[inline]
+fn basis(w: &[CellWeights], cx: usize, cy: usize, ci: usize, cj: usize, u: i32, v: i32) -> f64 {
+    let cell = |a: usize, b: usize| &w[a * cy + b];
+    let (im, jm) = (down(ci, cx), down(cj, cy));
+    match (u, v) {
+        (0, 0) => 1.0,
+        (1, 0) => cell(ci, cj)[0],
+        (-1, 0) => cell(im, cj)[1],
+        (0, 1) => cell(ci, cj)[2],
+        (0, -1) => cell(ci, jm)[3],
+        (1, 1) => cell(ci, cj)[4],
+        (-1, 1) => cell(im, cj)[5],
+        (1, -1) => cell(ci, jm)[6],
+        (-1, -1) => cell(im, jm)[7],
+        _ => 0.0,
+    }
+}
+
+/// Galerkin coarse operator `Pᵀ A P` in flux form (see the module docs).
+fn galerkin(op: &Stencil, w: &[CellWeights]) -> Stencil {
+    let (nx, ny) = (op.nx, op.ny);
+    let (cx, cy) = (nx / 2, ny / 2);
+    let nine = !op.is_five_point();
+    let mut out = vec![[0.0f64; 4]; cx * cy];
+    let row_job = |(ci, orow): (usize, &mut [[f64; 4]])| {
+        // Wrapped fine row indices for offsets −3..=3.
+        let fi: [usize; 7] = std::array::from_fn(|a| (2 * ci + nx * 4 + a - 3) % nx);
+        for (cj, o) in orow.iter_mut().enumerate() {
+            let fj: [usize; 7] = std::array::from_fn(|b| (2 * cj + ny * 4 + b - 3) % ny);
+            // Local couplings on the 7×7 patch: e, n, ne, se at local (a, b).
+            let mut le = [[0.0f64; 7]; 7];
+            let mut ln = [[0.0f64; 7]; 7];
+            let mut lne = [[0.0f64; 7]; 7];
+            let mut lse = [[0.0f64; 7]; 7];
+            for a in 0..7 {
+                let base = fi[a] * ny;
+                for b in 0..7 {
+                    let k = base + fj[b];
+                    le[a][b] = op.e[k];
+                    ln[a][b] = op.n[k];
+                    if nine {
+                        lne[a][b] = op.ne[k];
+                        lse[a][b] = op.se[k];
+                    }
+                }
+            }
+            // Basis function of C on the 7×7 patch (centre at local (3, 3)).
+            let mut p = [[0.0f64; 7]; 7];
+            for u in -1i32..=1 {
+                for v in -1i32..=1 {
+                    p[(u + 3) as usize][(v + 3) as usize] = basis(w, cx, cy, ci, cj, u, v);
+                }
+            }
+            // (A P_C) on the 5×5 patch (local 1..=5).
+            let mut ap = [[0.0f64; 7]; 7];
+            for a in 1..6 {
+                for b in 1..6 {
+                    let pc = p[a][b];
+                    let mut acc = le[a][b] * (pc - p[a + 1][b])
+                        + le[a - 1][b] * (pc - p[a - 1][b])
+                        + ln[a][b] * (pc - p[a][b + 1])
+                        + ln[a][b - 1] * (pc - p[a][b - 1]);
+                    if nine {
+                        acc += lne[a][b] * (pc - p[a + 1][b + 1])
+                            + lne[a - 1][b - 1] * (pc - p[a - 1][b - 1])
+                            + lse[a][b] * (pc - p[a + 1][b - 1])
+                            + lse[a - 1][b + 1] * (pc - p[a - 1][b + 1]);
+                    }
+                    ap[a][b] = acc;
+                }
+            }
+            // A_c[C, D] = Σ_f P_D(f) (A P_C)(f) for D = C + (1,0), (0,1), (1,1), (1,−1).
+            let targets: [(i32, i32); 4] = [(1, 0), (0, 1), (1, 1), (1, -1)];
+            for (t, &(du, dv)) in targets.iter().enumerate() {
+                let di = (ci + cx + du as usize) % cx;
+                let dj = ((cj + cy) as i32 + dv) as usize % cy;
+                let mut acc = 0.0;
+                for u in -1i32..=1 {
+                    for v in -1i32..=1 {
+                        // Fine offset from C: (2du + u, 2dv + v); only |.| ≤ 2 has A P_C ≠ 0.
+                        let fu = 2 * du + u;
+                        let fv = 2 * dv + v;
+                        if fu.abs() > 2 || fv.abs() > 2 {
+                            continue;
+                        }
+                        let pd = basis(w, cx, cy, di, dj, u, v);
+                        acc += pd * ap[(fu + 3) as usize][(fv + 3) as usize];
+                    }
+                }
+                o[t] = -acc;
+            }
+        }
+    };
+    if op.len() >= PARALLEL_MIN {
+        out.par_chunks_mut(cy).enumerate().for_each(row_job);
+    } else {
+        out.chunks_mut(cy).enumerate().for_each(row_job);
+    }
+    let e = out.iter().map(|o| o[0]).collect();
+    let n = out.iter().map(|o| o[1]).collect();
+    let ne = out.iter().map(|o| o[2]).collect();
+    let se = out.iter().map(|o| o[3]).collect();
+    Stencil::nine_point(cx, cy, e, n, ne, se)
+}
+
+/// `rc = Pᵀ r` (fine residual `r` of `op`, coarse grid `cx × cy`).
+fn restrict(op: &Stencil, w: &[CellWeights], r: &[f64], cx: usize, cy: usize, rc: &mut [f64]) {
+    let ny = op.ny;
+    let job = |(ci, row): (usize, &mut [f64])| {
+        let im = down(ci, cx);
+        let f0 = 2 * ci;
+        let fp = 2 * ci + 1;
+        let fm = (2 * ci + op.nx - 1) % op.nx;
+        let (r0, rp, rm) = (
+            &r[f0 * ny..(f0 + 1) * ny],
+            &r[fp * ny..(fp + 1) * ny],
+            &r[fm * ny..(fm + 1) * ny],
+        );
+        for (cj, out) in row.iter_mut().enumerate() {
+            let jm = down(cj, cy);
+            let (g0, gp, gm) = (2 * cj, 2 * cj + 1, (2 * cj + ny - 1) % ny);
+            let here = &w[ci * cy + cj];
+            let west = &w[im * cy + cj];
+            let south = &w[ci * cy + jm];
+            let sw = &w[im * cy + jm];
+            *out = r0[g0]
+                + here[0] * rp[g0]
+                + west[1] * rm[g0]
+                + here[2] * r0[gp]
+                + south[3] * r0[gm]
+                + here[4] * rp[gp]
+                + west[5] * rm[gp]
+                + south[6] * rp[gm]
+                + sw[7] * rm[gm];
+        }
+    };
+    if op.len() >= PARALLEL_MIN {
+        rc.par_chunks_mut(cy).enumerate().for_each(job);
+    } else {
+        rc.chunks_mut(cy).enumerate().for_each(job);
+    }
+}
+
+/// `z += P zc` on the active fine nodes of `op`.
+fn interpolate_add(
+    op: &Stencil,
+    w: &[CellWeights],
+    zc: &[f64],
+    cx: usize,
+    cy: usize,
+    z: &mut [f64],
+) {
+    let ny = op.ny;
+    let job = |(ci, rows): (usize, &mut [f64])| {
+        let ip = up(ci, cx);
+        let (row0, row1) = rows.split_at_mut(ny);
+        let act0 = &op.inv_diag[2 * ci * ny..(2 * ci + 1) * ny];
+        let act1 = &op.inv_diag[(2 * ci + 1) * ny..(2 * ci + 2) * ny];
+        let zc0 = &zc[ci * cy..(ci + 1) * cy];
+        let zc1 = &zc[ip * cy..(ip + 1) * cy];
+        for cj in 0..cy {
+            let jp = up(cj, cy);
+            let c = &w[ci * cy + cj];
+            let (a, b, c2, d) = (zc0[cj], zc1[cj], zc0[jp], zc1[jp]);
+            let (g0, g1) = (2 * cj, 2 * cj + 1);
+            if act0[g0] > 0.0 {
+                row0[g0] += a;
+            }
+            if act0[g1] > 0.0 {
+                row0[g1] += c[2] * a + c[3] * c2;
+            }
+            if act1[g0] > 0.0 {
+                row1[g0] += c[0] * a + c[1] * b;
+            }
+            if act1[g1] > 0.0 {
+                row1[g1] += c[4] * a + c[5] * b + c[6] * c2 + c[7] * d;
+            }
+        }
+    };
+    if op.len() >= PARALLEL_MIN {
+        z.par_chunks_mut(2 * ny).enumerate().for_each(job);
+    } else {
+        z.chunks_mut(2 * ny).enumerate().for_each(job);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Dense Galerkin product from explicit matrices, for comparison.
+    fn dense_matrix(s: &Stencil) -> Vec<Vec<f64>> {
+        let (nx, ny) = (s.nx, s.ny);
+        let nn = nx * ny;
+        let mut a = vec![vec![0.0; nn]; nn];
+        for i in 0..nx {
+            for j in 0..ny {
+                let k = i * ny + j;
+                let c = s.couplings(i, j);
+                let nb = [
+                    ((i + nx - 1) % nx, j),
+                    ((i + 1) % nx, j),
+                    (i, (j + ny - 1) % ny),
+                    (i, (j + 1) % ny),
+                    ((i + nx - 1) % nx, (j + ny - 1) % ny),
+                    ((i + 1) % nx, (j + 1) % ny),
+                    ((i + 1) % nx, (j + ny - 1) % ny),
+                    ((i + nx - 1) % nx, (j + 1) % ny),
+                ];
+                for (q, &(p, r)) in nb.iter().enumerate() {
+                    a[k][p * ny + r] -= c[q];
+                    a[k][k] += c[q];
+                }
+            }
+        }
+        a
+    }
+
+    fn prolongation(op: &Stencil, w: &[CellWeights]) -> Vec<Vec<f64>> {
+        let (nx, ny) = (op.nx, op.ny);
+        let (cx, cy) = (nx / 2, ny / 2);
+        let mut p = vec![vec![0.0; cx * cy]; nx * ny];
+        for ci in 0..cx {
+            for cj in 0..cy {
+                let mut zc = vec![0.0; cx * cy];
+                zc[ci * cy + cj] = 1.0;
+                let mut z = vec![0.0; nx * ny];
+                interpolate_add(op, w, &zc, cx, cy, &mut z);
+                for f in 0..nx * ny {
+                    p[f][ci * cy + cj] = z[f];
+                }
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn galerkin_matches_dense_triple_product_and_restriction_is_transpose() {
+        let (nx, ny) = (16, 24);
+        let mut state = 99u64;
+        let mut rnd = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64) / ((1u64 << 53) as f64)
+        };
+        // Coefficients spanning 12 decades, with some zero faces.
+        let mut coef = |_: ()| -> Vec<f64> {
+            (0..nx * ny)
+                .map(|_| {
+                    let u = rnd();
+                    if u < 0.1 {
+                        0.0
+                    } else {
+                        10f64.powf(-12.0 * rnd())
+                    }
+                })
+                .collect()
+        };
+        let fine = Stencil::five_point(nx, ny, coef(()), coef(()));
+        let matmul = |a: &Vec<Vec<f64>>, b: &Vec<Vec<f64>>, abs: bool| -> Vec<Vec<f64>> {
+            let (n, k, m) = (a.len(), b.len(), b[0].len());
+            let mut c = vec![vec![0.0; m]; n];
+            for i in 0..n {
+                for l in 0..k {
+                    let x = if abs { a[i][l].abs() } else { a[i][l] };
+                    if x != 0.0 {
+                        for j in 0..m {
+                            c[i][j] += x * if abs { b[l][j].abs() } else { b[l][j] };
+                        }
+                    }
+                }
+            }
+            c
+        };
+        let transpose = |a: &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            (0..a[0].len())
+                .map(|j| a.iter().map(|r| r[j]).collect())
+                .collect()
+        };
+        for op in [fine.clone(), galerkin(&fine, &interpolation_weights(&fine))] {
+            let w = interpolation_weights(&op);
+            let coarse = galerkin(&op, &w);
+            let a = dense_matrix(&op);
+            let p = prolongation(&op, &w);
+            let ac = dense_matrix(&coarse);
+            let pt = transpose(&p);
+            let want = matmul(&pt, &matmul(&a, &p, false), false);
+            let scale = matmul(&pt, &matmul(&a, &p, true), true);
+            let (m, mc) = (a.len(), ac.len());
+            for c in 0..mc {
+                for d in 0..mc {
+                    assert!(
+                        (ac[c][d] - want[c][d]).abs() <= 1e-12 * scale[c][d] + 1e-300,
+                        "A_c[{c}][{d}] = {} vs {} (scale {})",
+                        ac[c][d],
+                        want[c][d],
+                        scale[c][d]
+                    );
+                }
+            }
+            // Constants are interpolated exactly on the active fine nodes.
+            for f in 0..m {
+                if op.diag[f] > 0.0 {
+                    let sum: f64 = p[f].iter().sum();
+                    assert!((sum - 1.0).abs() < 1e-14, "row {f} of P sums to {sum}");
+                }
+            }
+            // Restriction is the transpose of interpolation.
+            let (cx, cy) = (op.nx / 2, op.ny / 2);
+            for f in 0..m {
+                let mut r = vec![0.0; m];
+                r[f] = 1.0;
+                // Inactive fine nodes are masked out of P; R must agree there too.
+                let mut rc = vec![0.0; cx * cy];
+                restrict(&op, &w, &r, cx, cy, &mut rc);
+                if op.diag[f] > 0.0 {
+                    for c in 0..mc {
+                        assert!((rc[c] - p[f][c]).abs() < 1e-14);
+                    }
+                }
+            }
+        }
+    }
+}
