@@ -65,8 +65,18 @@ pub fn rescale_gap_samples(
     for (name, v) in [("chi", chi), ("upsilon", upsilon), ("zeta", zeta)] {
         check_arg(name, v, "finite", true)?;
     }
-    crate::error::check_xy("rescaling", x, y, Some(&vec![1.0; x.len()]), 0)?;
-    crate::error::check_xy("rescaling", x, g, None, 0)?;
+    for (what, v) in [("y", y), ("g", g)] {
+        if v.len() != x.len() {
+            return Err(FitError::LengthMismatch {
+                what,
+                got: v.len(),
+                expected: x.len(),
+            });
+        }
+    }
+    check_finite("x", x)?;
+    check_finite("y", y)?;
+    check_finite("g", g)?;
     let al = l.abs();
     let s = |v: &[f64], e: f64| -> Vec<f64> {
         let f = al.powf(-e);
