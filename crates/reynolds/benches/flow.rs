@@ -10,6 +10,7 @@
 //! - `FLOW_NS` grid exponents, default `9,10,11,12` (512² … 4096²);
 //! - `FLOW_EPS` values of ε, default `1e-3,1e-1,1e-6`;
 //! - `FLOW_THREADS` rayon pool sizes, default `1,2`;
+//! - `FLOW_TOL` relative residual, default 1e-10;
 //! - `FLOW_REPEAT` solves per case (the fastest is reported), default 1;
 //! - `FLOW_DUMP=DIR` also writes each gap field as raw little-endian f64, row-major `(n, n)`
 //!   (first index x), to `DIR/gap_n{N}_eps{ε}.f64`, for `bench/peers/flow_pyamg.py`.
@@ -51,6 +52,16 @@ fn status_kib(key: &str) -> Option<u64> {
         .ok()
 }
 
+/// CPU time (user + system) of the whole process, seconds.
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = s.rsplit_once(')').map(|(_, r)| r).unwrap_or("");
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let tick = |k: usize| f.get(k).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (tick(11) + tick(12)) / 100.0
+}
+
 fn reset_peak() {
     // "5" resets the peak resident set size (Linux ≥ 4.0); ignore failures.
     let _ = std::fs::write("/proc/self/clear_refs", "5");
@@ -63,10 +74,23 @@ fn main() {
     let threads: Vec<usize> = env_list("FLOW_THREADS", "1,2");
     let repeat: usize = env_list("FLOW_REPEAT", "1")[0];
     let dump = std::env::var("FLOW_DUMP").ok();
-    let options = FlowOptions::default();
+    let options = FlowOptions {
+        tolerance: env_list("FLOW_TOL", "1e-10")[0],
+        ..FlowOptions::default()
+    };
     println!(
-        "{:>5} {:>7} {:>3} {:>8} {:>8} {:>5} {:>9} {:>9} {:>13} {:>8}",
-        "n", "eps", "thr", "setup_s", "total_s", "iter", "residual", "conserv", "K", "peak_MiB"
+        "{:>5} {:>7} {:>3} {:>8} {:>8} {:>8} {:>5} {:>9} {:>9} {:>13} {:>8}",
+        "n",
+        "eps",
+        "thr",
+        "setup_s",
+        "total_s",
+        "cpu_s",
+        "iter",
+        "residual",
+        "conserv",
+        "K",
+        "peak_MiB"
     );
     for &e in &ns {
         let n = 1usize << e;
@@ -89,11 +113,14 @@ fn main() {
                     .expect("thread pool");
                 let mut best: Option<reynolds::FlowResult> = None;
                 let mut peak = 0;
+                let mut cpu = f64::INFINITY;
                 for _ in 0..repeat.max(1) {
                     reset_peak();
+                    let c0 = cpu_seconds();
                     let r = pool
                         .install(|| solve(gap.view(), 1.0, 1.0, FlowAxis::X, &options))
                         .expect("valid input");
+                    cpu = cpu.min(cpu_seconds() - c0);
                     peak = peak.max(status_kib("VmHWM:").unwrap_or(0));
                     if best
                         .as_ref()
@@ -104,12 +131,13 @@ fn main() {
                 }
                 let r = best.expect("at least one run");
                 println!(
-                    "{:>5} {:>7.0e} {:>3} {:>8.3} {:>8.3} {:>5} {:>9.2e} {:>9.2e} {:>13.6e} {:>8.0}{}",
+                    "{:>5} {:>7.0e} {:>3} {:>8.3} {:>8.3} {:>8.2} {:>5} {:>9.2e} {:>9.2e} {:>13.6e} {:>8.0}{}",
                     n,
                     eps,
                     t,
                     r.setup_seconds,
                     r.wall_seconds,
+                    cpu,
                     r.iterations,
                     r.relative_residual,
                     r.conservation_error,
@@ -122,10 +150,11 @@ fn main() {
                     }
                 );
                 println!(
-                    "RESULT solver=reynolds n={n} eps={eps:e} threads={t} setup_s={} wall_s={} \
+                    "RESULT solver=reynolds n={n} eps={eps:e} threads={t} setup_s={} wall_s={} cpu_s={} \
                      iterations={} residual={:e} conservation={:e} flux={:e} peak_mib={:.0} converged={}",
                     r.setup_seconds,
                     r.wall_seconds,
+                    cpu,
                     r.iterations,
                     r.relative_residual,
                     r.conservation_error,

@@ -119,13 +119,14 @@ impl Assembly {
         let (nx, ny) = (self.nx, self.ny);
         // Per row i: dissipation of its x- and y-faces, flux through its x-face column, and
         // squared residual (the net outflow of each node, computed face by face).
-        let rows: Vec<(f64, f64, f64)> = (0..nx)
+        let rows: Vec<(f64, f64, f64, f64)> = (0..nx)
             .into_par_iter()
             .map(|i| {
                 let im = if i == 0 { nx - 1 } else { i - 1 };
                 let mut diss = 0.0;
                 let mut flux = 0.0;
                 let mut res2 = 0.0;
+                let mut floor2 = 0.0;
                 for j in 0..ny {
                     let jm = if j == 0 { ny - 1 } else { j - 1 };
                     let k = i * ny + j;
@@ -138,8 +139,12 @@ impl Assembly {
                     // Net outflow; zero for the exact solution.
                     let r = (fe - fw) + (fnn - fs);
                     res2 += r * r;
+                    // Residual that rounding u_k to the nearest double alone can cause.
+                    let d = self.e[k] + self.e[im * ny + j] + self.n[k] + self.n[i * ny + jm];
+                    let f = d * u[k].abs() * f64::EPSILON;
+                    floor2 += f * f;
                 }
-                (diss, flux, res2)
+                (diss, flux, res2, floor2)
             })
             .collect();
         let dissipation: f64 = rows.iter().map(|r| r.0).sum();
@@ -149,6 +154,7 @@ impl Assembly {
             flux: dissipation / dp,
             column_flux,
             residual_norm,
+            rounding_floor: ROUNDING_SAFETY * rows.iter().map(|r| r.3).sum::<f64>().sqrt(),
         }
     }
 
@@ -204,7 +210,13 @@ pub(crate) struct Evaluation {
     pub column_flux: Vec<f64>,
     /// `‖b − A u‖₂`, computed as the net outflow of each node.
     pub residual_norm: f64,
+    /// The residual norm below which rounding of the unknowns themselves dominates:
+    /// `c ε ‖D |u|‖₂` (`D` the diagonal, `ε` the machine epsilon, `c` = [`ROUNDING_SAFETY`]).
+    pub rounding_floor: f64,
 }
+
+/// Safety factor of [`Evaluation::rounding_floor`].
+pub(crate) const ROUNDING_SAFETY: f64 = 8.0;
 
 /// Cubes of the gaps (`g ≤ 0` → 0), in row-major order.
 pub(crate) fn cubes(gap: ArrayView2<f64>) -> Vec<f64> {

@@ -284,110 +284,115 @@ fn split(a: f64, b: f64) -> (f64, f64) {
     if t > 0.0 { (a / t, b / t) } else { (0.5, 0.5) }
 }
 
-/// Value of coarse basis function `C = (ci, cj)` at fine offset `(u, v)` from `(2ci, 2cj)`,
-/// `u, v ∈ {−1, 0, 1}`.
-#[inline]
-fn basis(w: &[CellWeights], cx: usize, cy: usize, ci: usize, cj: usize, u: i32, v: i32) -> f64 {
-    let cell = |a: usize, b: usize| &w[a * cy + b];
-    let (im, jm) = (down(ci, cx), down(cj, cy));
-    match (u, v) {
-        (0, 0) => 1.0,
-        (1, 0) => cell(ci, cj)[0],
-        (-1, 0) => cell(im, cj)[1],
-        (0, 1) => cell(ci, cj)[2],
-        (0, -1) => cell(ci, jm)[3],
-        (1, 1) => cell(ci, cj)[4],
-        (-1, 1) => cell(im, cj)[5],
-        (1, -1) => cell(ci, jm)[6],
-        (-1, -1) => cell(im, jm)[7],
-        _ => 0.0,
-    }
-}
-
 /// Galerkin coarse operator `Pᵀ A P` in flux form (see the module docs).
+///
+/// `A_c[C, D] = Σ_faces s (δP_C)(δP_D)` (`δ` the difference across the face). Every fine face
+/// is owned by the coarse cell `K = (I, J)` whose four corners `(I, J), (I+1, J), (I, J+1),
+/// (I+1, J+1)` carry the interpolation of both its end points; each cell accumulates the six
+/// off-diagonal products of its corners, and a coarse coupling is the sum over the (one or two)
+/// cells that contain both of its nodes.
 fn galerkin(op: &Stencil, w: &[CellWeights]) -> Stencil {
     let (nx, ny) = (op.nx, op.ny);
     let (cx, cy) = (nx / 2, ny / 2);
     let nine = !op.is_five_point();
-    let mut out = vec![[0.0f64; 4]; cx * cy];
-    let row_job = |(ci, orow): (usize, &mut [[f64; 4]])| {
-        // Wrapped fine row indices for offsets −3..=3.
-        let fi: [usize; 7] = std::array::from_fn(|a| (2 * ci + nx * 4 + a - 3) % nx);
-        for (cj, o) in orow.iter_mut().enumerate() {
-            let fj: [usize; 7] = std::array::from_fn(|b| (2 * cj + ny * 4 + b - 3) % ny);
-            // Local couplings on the 7×7 patch: e, n, ne, se at local (a, b).
-            let mut le = [[0.0f64; 7]; 7];
-            let mut ln = [[0.0f64; 7]; 7];
-            let mut lne = [[0.0f64; 7]; 7];
-            let mut lse = [[0.0f64; 7]; 7];
-            for a in 0..7 {
-                let base = fi[a] * ny;
-                for b in 0..7 {
-                    let k = base + fj[b];
-                    le[a][b] = op.e[k];
-                    ln[a][b] = op.n[k];
-                    if nine {
-                        lne[a][b] = op.ne[k];
-                        lse[a][b] = op.se[k];
-                    }
+    // Per cell: corner pairs (0,1), (0,2), (0,3), (1,2), (1,3), (2,3) of Σ s δa δb.
+    let mut cell_energy = vec![[0.0f64; 6]; cx * cy];
+    let job = |(ci, row): (usize, &mut [[f64; 6]])| {
+        let cip = up(ci, cx);
+        let (i0, i1) = (2 * ci, 2 * ci + 1);
+        for (cj, out) in row.iter_mut().enumerate() {
+            let cjp = up(cj, cy);
+            let (j0, j1, j2) = (2 * cj, 2 * cj + 1, (2 * cj + 2) % ny);
+            let k = |i: usize, j: usize| i * ny + j;
+            let (kc, kx, ky, km) = (k(i0, j0), k(i1, j0), k(i0, j1), k(i1, j1));
+            let wk = &w[ci * cy + cj];
+            let wn = &w[ci * cy + cjp]; // cell (I, J+1): its x-edge
+            let we = &w[cip * cy + cj]; // cell (I+1, J): its y-edge
+            let pc = [1.0, 0.0, 0.0, 0.0];
+            let px = [wk[0], wk[1], 0.0, 0.0];
+            let py = [wk[2], 0.0, wk[3], 0.0];
+            let pm = [wk[4], wk[5], wk[6], wk[7]];
+            let pc_e = [0.0, 1.0, 0.0, 0.0];
+            let pc_n = [0.0, 0.0, 1.0, 0.0];
+            let pc_ne = [0.0, 0.0, 0.0, 1.0];
+            let px_n = [0.0, 0.0, wn[0], wn[1]];
+            let py_e = [0.0, we[2], 0.0, we[3]];
+            let mut acc = [0.0f64; 6];
+            let mut face = |s: f64, a: &[f64; 4], b: &[f64; 4]| {
+                if s != 0.0 {
+                    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3]];
+                    acc[0] += s * d[0] * d[1];
+                    acc[1] += s * d[0] * d[2];
+                    acc[2] += s * d[0] * d[3];
+                    acc[3] += s * d[1] * d[2];
+                    acc[4] += s * d[1] * d[3];
+                    acc[5] += s * d[2] * d[3];
                 }
+            };
+            face(op.n[kx], &pm, &px);
+            face(op.n[km], &pm, &px_n);
+            face(op.e[ky], &pm, &py);
+            face(op.e[km], &pm, &py_e);
+            face(op.e[kc], &pc, &px);
+            face(op.e[kx], &px, &pc_e);
+            face(op.n[kc], &pc, &py);
+            face(op.n[ky], &py, &pc_n);
+            if nine {
+                face(op.ne[kc], &pm, &pc);
+                face(op.se[km], &pm, &pc_e);
+                face(op.se[k(i0, j2)], &pm, &pc_n);
+                face(op.ne[km], &pm, &pc_ne);
+                face(op.se[ky], &px, &py);
+                face(op.ne[kx], &px, &py_e);
+                face(op.ne[ky], &px_n, &py);
+                face(op.se[k(i1, j2)], &px_n, &py_e);
             }
-            // Basis function of C on the 7×7 patch (centre at local (3, 3)).
-            let mut p = [[0.0f64; 7]; 7];
-            for u in -1i32..=1 {
-                for v in -1i32..=1 {
-                    p[(u + 3) as usize][(v + 3) as usize] = basis(w, cx, cy, ci, cj, u, v);
-                }
-            }
-            // (A P_C) on the 5×5 patch (local 1..=5).
-            let mut ap = [[0.0f64; 7]; 7];
-            for a in 1..6 {
-                for b in 1..6 {
-                    let pc = p[a][b];
-                    let mut acc = le[a][b] * (pc - p[a + 1][b])
-                        + le[a - 1][b] * (pc - p[a - 1][b])
-                        + ln[a][b] * (pc - p[a][b + 1])
-                        + ln[a][b - 1] * (pc - p[a][b - 1]);
-                    if nine {
-                        acc += lne[a][b] * (pc - p[a + 1][b + 1])
-                            + lne[a - 1][b - 1] * (pc - p[a - 1][b - 1])
-                            + lse[a][b] * (pc - p[a + 1][b - 1])
-                            + lse[a - 1][b + 1] * (pc - p[a - 1][b + 1]);
-                    }
-                    ap[a][b] = acc;
-                }
-            }
-            // A_c[C, D] = Σ_f P_D(f) (A P_C)(f) for D = C + (1,0), (0,1), (1,1), (1,−1).
-            let targets: [(i32, i32); 4] = [(1, 0), (0, 1), (1, 1), (1, -1)];
-            for (t, &(du, dv)) in targets.iter().enumerate() {
-                let di = (ci + cx + du as usize) % cx;
-                let dj = ((cj + cy) as i32 + dv) as usize % cy;
-                let mut acc = 0.0;
-                for u in -1i32..=1 {
-                    for v in -1i32..=1 {
-                        // Fine offset from C: (2du + u, 2dv + v); only |.| ≤ 2 has A P_C ≠ 0.
-                        let fu = 2 * du + u;
-                        let fv = 2 * dv + v;
-                        if fu.abs() > 2 || fv.abs() > 2 {
-                            continue;
-                        }
-                        let pd = basis(w, cx, cy, di, dj, u, v);
-                        acc += pd * ap[(fu + 3) as usize][(fv + 3) as usize];
-                    }
-                }
-                o[t] = -acc;
-            }
+            *out = acc;
         }
     };
     if op.len() >= PARALLEL_MIN {
-        out.par_chunks_mut(cy).enumerate().for_each(row_job);
+        cell_energy.par_chunks_mut(cy).enumerate().for_each(job);
     } else {
-        out.chunks_mut(cy).enumerate().for_each(row_job);
+        cell_energy.chunks_mut(cy).enumerate().for_each(job);
     }
-    let e = out.iter().map(|o| o[0]).collect();
-    let n = out.iter().map(|o| o[1]).collect();
-    let ne = out.iter().map(|o| o[2]).collect();
-    let se = out.iter().map(|o| o[3]).collect();
+    // Coarse couplings s = −A_c: E(I,J) from cells (I,J) [0,1] and (I,J−1) [2,3];
+    // N(I,J) from (I,J) [0,2] and (I−1,J) [1,3]; NE from (I,J) [0,3]; SE (to (I+1,J−1)) from
+    // cell (I,J−1), corners 2 = (I,J) and 1 = (I+1,J−1).
+    let mut e = vec![0.0; cx * cy];
+    let mut n = vec![0.0; cx * cy];
+    let mut ne = vec![0.0; cx * cy];
+    let mut se = vec![0.0; cx * cy];
+    let combine = |(ci, (((er, nr), ner), ser)): (
+        usize,
+        (((&mut [f64], &mut [f64]), &mut [f64]), &mut [f64]),
+    )| {
+        let cim = down(ci, cx);
+        for cj in 0..cy {
+            let cjm = down(cj, cy);
+            let here = &cell_energy[ci * cy + cj];
+            let south = &cell_energy[ci * cy + cjm];
+            let west = &cell_energy[cim * cy + cj];
+            er[cj] = -(here[0] + south[5]);
+            nr[cj] = -(here[1] + west[4]);
+            ner[cj] = -here[2];
+            ser[cj] = -south[3];
+        }
+    };
+    if op.len() >= PARALLEL_MIN {
+        e.par_chunks_mut(cy)
+            .zip(n.par_chunks_mut(cy))
+            .zip(ne.par_chunks_mut(cy))
+            .zip(se.par_chunks_mut(cy))
+            .enumerate()
+            .for_each(combine);
+    } else {
+        e.chunks_mut(cy)
+            .zip(n.chunks_mut(cy))
+            .zip(ne.chunks_mut(cy))
+            .zip(se.chunks_mut(cy))
+            .enumerate()
+            .for_each(combine);
+    }
     Stencil::nine_point(cx, cy, e, n, ne, se)
 }
 

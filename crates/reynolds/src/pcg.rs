@@ -27,6 +27,8 @@ const GROWTH_FACTOR: f64 = 1e8;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Stop {
     Converged,
+    /// The true residual missed the tolerance but is at the rounding floor of the unknowns.
+    RoundoffLimited,
     IterationCap,
     Stagnation,
     Growth,
@@ -39,14 +41,15 @@ pub(crate) struct Outcome {
 }
 
 /// Solves `A x = b` (`A` the finest operator of `mg`) from `x = 0`, to `‖b − A x‖ ≤ tol ‖b‖` by
-/// the recurrence, with `true_residual(x)` as the final judge.
+/// the recurrence, with `true_residual(x)` (returning the true residual norm and its rounding
+/// floor) as the final judge.
 pub(crate) fn solve(
     mg: &mut Multigrid,
     b: &[f64],
     x: &mut [f64],
     tol: f64,
     max_iter: usize,
-    true_residual: &dyn Fn(&[f64]) -> f64,
+    true_residual: &dyn Fn(&[f64]) -> (f64, f64),
 ) -> Outcome {
     let len = b.len();
     let bnorm = dot(b, b).sqrt();
@@ -102,16 +105,20 @@ pub(crate) fn solve(
                 best = rnorm;
             }
             if rnorm <= target {
-                let t = true_residual(x);
+                let (t, floor) = true_residual(x);
                 if t <= target {
                     return Outcome {
                         stop: Stop::Converged,
                         iterations,
                     };
                 }
-                if restarts >= MAX_RESTARTS {
+                if restarts >= MAX_RESTARTS || t <= floor {
                     return Outcome {
-                        stop: Stop::Stagnation,
+                        stop: if t <= floor {
+                            Stop::RoundoffLimited
+                        } else {
+                            Stop::Stagnation
+                        },
                         iterations,
                     };
                 }
@@ -128,8 +135,15 @@ pub(crate) fn solve(
                 };
             }
             if iterations - best_at > STAGNATION_WINDOW {
+                let (t, floor) = true_residual(x);
                 return Outcome {
-                    stop: Stop::Stagnation,
+                    stop: if t <= target {
+                        Stop::Converged
+                    } else if t <= floor {
+                        Stop::RoundoffLimited
+                    } else {
+                        Stop::Stagnation
+                    },
                     iterations,
                 };
             }
