@@ -1,11 +1,379 @@
 //! Pipeline commands: run, run-stage, status, gc, graph. (Owner: orchestrator.)
+//!
+//! All of them read a pipeline file (default `pipeline/paper.toml`) and a params file (default
+//! `params/draft.toml`) relative to the project root (`-C DIR`, default the current folder), and
+//! work on `results/` there. Human-readable output goes to stdout, progress and logs to stderr.
+
+use anyhow::{Context, Result, bail};
+use orchestrator::ops;
+use orchestrator::util::{human_duration, human_size, short};
+use orchestrator::{Action, EntryState, Plan, ProgressMode, RunOptions, Workspace};
+use stages::orchestrator;
+use std::path::{Path, PathBuf};
+
+/// Where the declarative files are.
+#[derive(clap::Args, Clone, Debug)]
+pub struct Files {
+    /// Pipeline file (scenes and stages).
+    #[arg(long, default_value = "pipeline/paper.toml")]
+    pipeline: PathBuf,
+    /// Params file (fidelity: grid exponents, tolerances, load steps).
+    #[arg(long, default_value = "params/draft.toml")]
+    params: PathBuf,
+    /// Run as if started in DIR (the project root holding pipeline/, params/, results/).
+    #[arg(short = 'C', long = "root", value_name = "DIR")]
+    root: Option<PathBuf>,
+}
 
 #[derive(clap::Subcommand)]
 pub enum Command {
-    /// Run the pipeline (under construction).
-    Run,
+    /// Run the pipeline: compute what is not cached, in dependency order.
+    Run {
+        #[command(flatten)]
+        files: Files,
+        /// Only these scenes (or stages), with everything upstream. Repeatable.
+        #[arg(long, value_name = "SCENE")]
+        only: Vec<String>,
+        /// Say what would run and why (new, parameters changed, code version changed, input
+        /// changed), and run nothing.
+        #[arg(long)]
+        dry_run: bool,
+        /// Recompute this stage even if cached. Repeatable.
+        #[arg(long, value_name = "STAGE")]
+        force: Vec<String>,
+        /// Stages run in parallel.
+        #[arg(long, short = 'j', default_value_t = 1)]
+        jobs: usize,
+        /// Wait for another run holding the results folder instead of failing.
+        #[arg(long)]
+        wait: bool,
+    },
+    /// Run one stage, selected by its key (or a unique prefix), from cached inputs.
+    RunStage {
+        /// The stage key (`saddleflow status` lists keys).
+        key: String,
+        #[command(flatten)]
+        files: Files,
+        /// Recompute even if cached.
+        #[arg(long)]
+        force: bool,
+        /// Wait for a run holding the results folder instead of failing.
+        #[arg(long)]
+        wait: bool,
+    },
+    /// Show each stage's cache state, size and scenes.
+    Status {
+        #[command(flatten)]
+        files: Files,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Delete cache entries that no pipeline/*.toml × params/*.toml combination reaches.
+    Gc {
+        /// List what would be deleted, with sizes, and delete nothing.
+        #[arg(long)]
+        dry_run: bool,
+        /// Wait for a run holding the results folder instead of failing.
+        #[arg(long)]
+        wait: bool,
+        /// Run as if started in DIR.
+        #[arg(short = 'C', long = "root", value_name = "DIR")]
+        root: Option<PathBuf>,
+    },
+    /// Print the stage graph in Graphviz DOT (`saddleflow graph | dot -Tsvg > graph.svg`).
+    Graph {
+        #[command(flatten)]
+        files: Files,
+        /// Only these scenes (or stages) and their upstream.
+        #[arg(long, value_name = "SCENE")]
+        only: Vec<String>,
+    },
 }
 
-pub fn run(_cmd: Command) -> anyhow::Result<()> {
-    anyhow::bail!("pipeline commands are under construction")
+fn enter(root: &Option<PathBuf>) -> Result<Workspace> {
+    if let Some(r) = root {
+        std::env::set_current_dir(r).with_context(|| format!("cannot enter `{}`", r.display()))?;
+    }
+    Ok(Workspace::new(""))
+}
+
+fn load(files: &Files) -> Result<(Workspace, Plan)> {
+    let ws = enter(&files.root)?;
+    let plan = Plan::load(&stages::registry(), &files.pipeline, Some(&files.params))?;
+    Ok((ws, plan))
+}
+
+fn command_line() -> String {
+    std::env::args().collect::<Vec<_>>().join(" ")
+}
+
+pub fn run(cmd: Command) -> Result<()> {
+    match cmd {
+        Command::Run {
+            files,
+            only,
+            dry_run,
+            force,
+            jobs,
+            wait,
+        } => {
+            let (ws, plan) = load(&files)?;
+            let opts = RunOptions {
+                only,
+                force,
+                jobs,
+                dry_run,
+                wait,
+                progress: ProgressMode::Auto,
+                log_file: true,
+                command: command_line(),
+            };
+            let summary = orchestrator::run(&ws, &plan, &opts)?;
+            if dry_run {
+                print_decisions(&plan, &summary.decisions);
+                return Ok(());
+            }
+            let to_run = summary
+                .decisions
+                .iter()
+                .filter(|d| d.action == Action::Run)
+                .count();
+            eprintln!(
+                "{} ran, {} cached{}{}, {} failed, {} skipped in {} ({} with {}){}",
+                summary.ran.len(),
+                summary.cached.len(),
+                if summary.restored.is_empty() {
+                    ""
+                } else {
+                    " (side outputs restored for "
+                },
+                if summary.restored.is_empty() {
+                    String::new()
+                } else {
+                    format!("{})", summary.restored.join(", "))
+                },
+                summary.failed.len(),
+                summary.skipped.len(),
+                human_duration(summary.wall_s),
+                plan.pipeline,
+                plan.params,
+                summary
+                    .log
+                    .as_ref()
+                    .map(|p| format!("; log {}", p.display()))
+                    .unwrap_or_default()
+            );
+            let _ = to_run;
+            if !summary.ok() {
+                let mut msg = String::new();
+                for (name, key, err) in &summary.failed {
+                    msg.push_str(&format!("\n  stage `{name}` (key {key}) failed: {err}"));
+                }
+                for (name, because) in &summary.skipped {
+                    msg.push_str(&format!(
+                        "\n  stage `{name}` skipped: upstream `{because}` failed"
+                    ));
+                }
+                bail!(
+                    "{} stage(s) failed, {} skipped; the other results are kept:{msg}",
+                    summary.failed.len(),
+                    summary.skipped.len()
+                );
+            }
+            Ok(())
+        }
+        Command::RunStage {
+            key,
+            files,
+            force,
+            wait,
+        } => {
+            let (ws, plan) = load(&files)?;
+            let opts = RunOptions {
+                wait,
+                command: command_line(),
+                ..Default::default()
+            };
+            let summary = orchestrator::run_stage(&ws, &plan, &key, force, &opts)?;
+            let s = plan.stage_by_key(&key)?;
+            if let Some((_, _, err)) = summary.failed.first() {
+                bail!("stage `{}` (key {}) failed: {err}", s.name, s.key);
+            }
+            let state = if summary.ran.is_empty() {
+                "cached"
+            } else {
+                "ran"
+            };
+            println!(
+                "{state} {} ({} {}) → {}",
+                s.name,
+                s.kind,
+                s.key,
+                ws.artefact_of(s).display()
+            );
+            Ok(())
+        }
+        Command::Status { files, json } => {
+            let (ws, plan) = load(&files)?;
+            let st = ops::status(&ws, &plan);
+            if json {
+                println!("{}", serde_json::to_string_pretty(&st)?);
+                return Ok(());
+            }
+            println!("{} with {}", plan.pipeline, plan.params);
+            let w = st.iter().map(|s| s.name.len()).max().unwrap_or(5).max(5);
+            let (mut cached, mut bytes) = (0, 0);
+            for s in &st {
+                let state = match s.state {
+                    EntryState::Valid => {
+                        cached += 1;
+                        "cached"
+                    }
+                    EntryState::Missing => "missing",
+                    EntryState::Invalid => "INVALID",
+                };
+                bytes += s.bytes;
+                println!(
+                    "  {state:<8} {:<w$} {:<10} {}  {:>10}  {}{}",
+                    s.name,
+                    s.kind,
+                    short(&s.key),
+                    if s.bytes > 0 {
+                        human_size(s.bytes)
+                    } else {
+                        "-".into()
+                    },
+                    if s.scenes.is_empty() {
+                        "(no scene)".to_string()
+                    } else {
+                        s.scenes.join(", ")
+                    },
+                    s.side_outputs
+                        .iter()
+                        .map(|(f, ok)| format!("  {f}{}", if *ok { "" } else { " (missing)" }))
+                        .collect::<String>()
+                );
+            }
+            println!("{cached}/{} stages cached, {}", st.len(), human_size(bytes));
+            Ok(())
+        }
+        Command::Gc {
+            dry_run,
+            wait,
+            root,
+        } => {
+            let ws = enter(&root)?;
+            let plans = all_plans()?;
+            let report = ops::gc(&ws, &plans, dry_run, wait)?;
+            let total: u64 = report.deleted.iter().map(|(_, b)| b).sum();
+            for (p, b) in &report.deleted {
+                println!(
+                    "{} {:>10}  {}",
+                    if dry_run { "would delete" } else { "deleted" },
+                    human_size(*b),
+                    p.display()
+                );
+            }
+            println!(
+                "{} {} files ({}); kept {} entries ({}) reached by {} pipeline × params combinations",
+                if dry_run { "would delete" } else { "deleted" },
+                report.deleted.len(),
+                human_size(total),
+                report.kept,
+                human_size(report.kept_bytes),
+                plans.len()
+            );
+            Ok(())
+        }
+        Command::Graph { files, only } => {
+            let (ws, plan) = load(&files)?;
+            let sel = plan.select(&only)?;
+            print!("{}", ops::graph(&ws, &plan, &sel));
+            Ok(())
+        }
+    }
+}
+
+fn toml_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut v: Vec<PathBuf> = match std::fs::read_dir(dir) {
+        Ok(rd) => rd
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect(),
+        Err(_) => Vec::new(),
+    };
+    v.sort();
+    Ok(v)
+}
+
+/// Every pipeline/*.toml × params/*.toml plan. Any that fails to build stops gc: deleting on
+/// the word of a broken file would be unsafe.
+fn all_plans() -> Result<Vec<Plan>> {
+    let pipelines = toml_files(Path::new("pipeline"))?;
+    let params = toml_files(Path::new("params"))?;
+    if pipelines.is_empty() {
+        bail!("no pipeline/*.toml here: refusing to collect garbage with nothing to keep");
+    }
+    let reg = stages::registry();
+    let mut plans = Vec::new();
+    for p in &pipelines {
+        if params.is_empty() {
+            plans.push(Plan::load(&reg, p, None)?);
+        }
+        for q in &params {
+            plans.push(Plan::load(&reg, p, Some(q)).with_context(|| {
+                format!(
+                    "gc keeps what every pipeline × params combination reaches, but {} with {} does not build; fix it first",
+                    p.display(),
+                    q.display()
+                )
+            })?);
+        }
+    }
+    Ok(plans)
+}
+
+fn print_decisions(plan: &Plan, decisions: &[orchestrator::Decision]) {
+    let w = decisions
+        .iter()
+        .map(|d| d.name.len())
+        .max()
+        .unwrap_or(5)
+        .max(5);
+    let kw = decisions
+        .iter()
+        .map(|d| d.kind.len())
+        .max()
+        .unwrap_or(4)
+        .max(4);
+    for d in decisions {
+        match d.action {
+            Action::Cached => println!(
+                "  cached     {:<w$} {:<kw$} {}",
+                d.name,
+                d.kind,
+                short(&d.key)
+            ),
+            Action::Run => println!(
+                "  would run  {:<w$} {:<kw$} {}  {}",
+                d.name,
+                d.kind,
+                short(&d.key),
+                d.reasons
+                    .iter()
+                    .map(|r| r.to_string())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+        }
+    }
+    let n_run = decisions.iter().filter(|d| d.action == Action::Run).count();
+    println!(
+        "{n_run} to run, {} cached ({} with {}); dry run: nothing was computed",
+        decisions.len() - n_run,
+        plan.pipeline,
+        plan.params
+    );
 }

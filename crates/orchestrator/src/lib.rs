@@ -1,1 +1,42 @@
-//! orchestrator
+//! orchestrator: the generic pipeline engine of saddleflow. No physics lives here.
+//!
+//! - A **stage** is (kind, parameters, named inputs = other stages). Kinds implement
+//!   [`StageKind`] and are collected in a [`Registry`] by the caller (`stages::registry()`).
+//! - **Declarative files** ([`config`]): `pipeline/*.toml` declares settings, scenes and stages;
+//!   `params/*.toml` sets the settings (fidelity). Errors name file, line, key and what is
+//!   allowed.
+//! - A [`Plan`] validates everything (kinds, parameters, inputs, cycles) and computes each
+//!   stage's **key**: BLAKE3 over the kind, its code version, the canonical parameters with every
+//!   default filled in, and the input keys ([`plan::stage_key`]).
+//! - The **cache** ([`Workspace`]) holds `results/cache/<kind>/<key>.h5`; a truncated, unreadable
+//!   or unfinished entry counts as missing. `results/cache/index.json` remembers the last key of
+//!   each stage to explain *why* a stage runs ([`Reason`]).
+//! - The **runner** ([`run`]) runs stages in topological order, independent ones in parallel,
+//!   publishes atomically, keeps independent results when a stage fails, logs events
+//!   (`results/runs/*.jsonl`) and holds a lock on `results/` ([`lock`]).
+//! - [`run_stage`], [`ops::status`], [`ops::gc`], [`ops::graph`] back the CLI commands.
+
+pub mod config;
+pub mod events;
+pub mod kind;
+pub mod lock;
+pub mod ops;
+pub mod plan;
+pub mod progress;
+pub mod runner;
+pub mod schema;
+pub mod util;
+pub mod workspace;
+
+pub use config::{ConfigError, ConfigErrors, Origin, ParamsFile, PipelineFile};
+pub use events::{Event, EventLog, What};
+pub use kind::{
+    InputSpec, Inputs, Params, ProgressSink, Registry, StageContext, StageKind, StageReport,
+};
+pub use plan::{Plan, PlannedStage};
+pub use progress::ProgressMode;
+pub use runner::{
+    Action, Decision, RunOptions, RunSummary, decide, restore_side_outputs, run, run_stage,
+};
+pub use schema::{ParamIssue, ParamSpec, ParamType};
+pub use workspace::{EntryState, Index, Reason, Workspace};

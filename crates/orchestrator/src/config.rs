@@ -1,0 +1,937 @@
+//! The declarative files: `pipeline/*.toml` and `params/*.toml`.
+//!
+//! # Pipeline files
+//!
+//! ```toml
+//! # What a params file may (or must) set. Each entry: `type` ("int", "float", "string", "bool",
+//! # "array", "any") and/or `default`; optional `min`, `max` (numbers, inclusive), `allowed`
+//! # (strings), `doc`. A setting without a default must be set by every params file.
+//! [settings]
+//! n     = { type = "int", min = 3, max = 13, doc = "grid exponent: 2^n × 2^n nodes" }
+//! tol   = { default = 1e-8, min = 0.0, doc = "solver tolerance" }
+//! steps = { default = 40, min = 2 }
+//!
+//! # A scene is one figure or table; it names the stages it needs (their inputs come along).
+//! [scenes.fig2]
+//! doc = "Figure 2: relative contact area against load, square model"
+//! stages = ["fig2"]
+//!
+//! # A stage: a kind, its parameters, its inputs (other stages, by name).
+//! [stages.square]
+//! kind = "surface"
+//! params = { lattice = "square", n = "$n" }      # "$n": the params file's setting `n`
+//!
+//! [stages.sweep_hardwall]
+//! kind = "sweep"
+//! inputs = { surface = "square" }
+//! params = { interaction = "hardwall", steps = "$steps", tol = "$tol" }
+//!
+//! [stages.fig2]
+//! kind = "figure"
+//! inputs = { curves = ["sweep_hardwall", "sweep_adhesion"] }   # a list where the kind allows
+//! ```
+//!
+//! A parameter value that is a string starting with `$` refers to a setting (`"$n"`); write
+//! `"$$"` for a literal leading `$`. References may appear inside arrays and tables too.
+//! Every parameter is then validated by the stage's kind (type, range, allowed values) and its
+//! defaults are filled in, so that the key of a stage sees all of them.
+//!
+//! # Params files
+//!
+//! A flat table of settings declared by the pipeline file:
+//!
+//! ```toml
+//! # params/draft.toml: minutes on two cores
+//! n = 9
+//! tol = 1e-9
+//! ```
+//!
+//! Errors name the file, line and column, the key, and what is allowed.
+
+use crate::schema::{ParamType, describe};
+use crate::util::did_you_mean;
+use serde_json::{Map, Number, Value};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+/// A place in a file: `file:line:col` (1-based).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Origin {
+    /// The file as the user named it.
+    pub file: Arc<str>,
+    /// Line, 1-based.
+    pub line: usize,
+    /// Column (characters), 1-based.
+    pub col: usize,
+}
+
+impl fmt::Display for Origin {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}", self.file, self.line, self.col)
+    }
+}
+
+/// One error in a declarative file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConfigError {
+    /// Where (if known).
+    pub origin: Option<Origin>,
+    /// What is wrong and what is allowed.
+    pub message: String,
+}
+
+impl ConfigError {
+    /// An error at `origin`.
+    pub fn at(origin: &Origin, message: impl Into<String>) -> Self {
+        Self {
+            origin: Some(origin.clone()),
+            message: message.into(),
+        }
+    }
+    /// An error with no position.
+    pub fn plain(message: impl Into<String>) -> Self {
+        Self {
+            origin: None,
+            message: message.into(),
+        }
+    }
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.origin {
+            Some(o) => write!(f, "{o}: {}", self.message),
+            None => write!(f, "{}", self.message),
+        }
+    }
+}
+
+/// All errors found in the declarative files (reported together, like a compiler does).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConfigErrors(pub Vec<ConfigError>);
+
+impl fmt::Display for ConfigErrors {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let n = self.0.len();
+        for (i, e) in self.0.iter().enumerate().take(30) {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            write!(f, "{e}")?;
+        }
+        if n > 30 {
+            write!(f, "\n... and {} more errors", n - 30)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for ConfigErrors {}
+
+/// A value with the place it was written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Located<T> {
+    /// The value.
+    pub value: T,
+    /// Where it was written.
+    pub origin: Origin,
+}
+
+/// A source file with line offsets, to turn byte spans into lines and columns.
+struct Source {
+    name: Arc<str>,
+    text: String,
+    line_starts: Vec<usize>,
+}
+
+impl Source {
+    fn new(name: &str, text: String) -> Self {
+        let mut line_starts = vec![0];
+        line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        Self {
+            name: name.into(),
+            text,
+            line_starts,
+        }
+    }
+    fn origin(&self, offset: usize) -> Origin {
+        let line = self.line_starts.partition_point(|&s| s <= offset).max(1);
+        let start = self.line_starts[line - 1];
+        let end = offset.min(self.text.len());
+        let col = self
+            .text
+            .get(start..end)
+            .map_or(1, |s| s.chars().count() + 1);
+        Origin {
+            file: self.name.clone(),
+            line,
+            col,
+        }
+    }
+    fn at<T>(&self, s: &Spanned<T>) -> Origin {
+        self.origin(s.span().start)
+    }
+}
+
+fn display_name(path: &Path) -> String {
+    path.to_string_lossy().into_owned()
+}
+
+fn read_source(path: &Path) -> Result<Source, ConfigErrors> {
+    let name = display_name(path);
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        ConfigErrors(vec![ConfigError::plain(format!(
+            "cannot read `{name}`: {e}"
+        ))])
+    })?;
+    Ok(Source::new(&name, text))
+}
+
+fn parse_table<'a>(src: &'a Source) -> Result<Spanned<DeTable<'a>>, ConfigErrors> {
+    DeTable::parse(&src.text).map_err(|e| {
+        let origin = e.span().map(|s| src.origin(s.start));
+        ConfigErrors(vec![ConfigError {
+            origin,
+            message: format!("invalid TOML: {}", e.message()),
+        }])
+    })
+}
+
+/// Converts a TOML value to JSON. Dates are not supported (no stage needs them).
+fn to_json(src: &Source, v: &Spanned<DeValue<'_>>, errs: &mut Vec<ConfigError>) -> Value {
+    match v.get_ref() {
+        DeValue::String(s) => Value::String(s.to_string()),
+        DeValue::Integer(i) => match i64::from_str_radix(i.as_str(), i.radix()) {
+            Ok(x) => Value::from(x),
+            Err(_) => {
+                errs.push(ConfigError::at(
+                    &src.at(v),
+                    format!("integer {i} does not fit 64 bits"),
+                ));
+                Value::Null
+            }
+        },
+        DeValue::Float(f) => {
+            let x: f64 = f.as_str().parse().unwrap_or(f64::NAN);
+            match Number::from_f64(x) {
+                Some(n) => Value::Number(n),
+                None => {
+                    errs.push(ConfigError::at(
+                        &src.at(v),
+                        format!("`{f}`: only finite numbers are allowed (no nan or inf)"),
+                    ));
+                    Value::Null
+                }
+            }
+        }
+        DeValue::Boolean(b) => Value::Bool(*b),
+        DeValue::Datetime(d) => {
+            errs.push(ConfigError::at(
+                &src.at(v),
+                format!("dates are not supported (found {d}); write a string"),
+            ));
+            Value::Null
+        }
+        DeValue::Array(a) => Value::Array(a.iter().map(|x| to_json(src, x, errs)).collect()),
+        DeValue::Table(t) => Value::Object(
+            t.iter()
+                .map(|(k, x)| (k.get_ref().to_string(), to_json(src, x, errs)))
+                .collect::<Map<String, Value>>(),
+        ),
+    }
+}
+
+fn type_name(v: &DeValue<'_>) -> &'static str {
+    match v {
+        DeValue::String(_) => "a string",
+        DeValue::Integer(_) => "an integer",
+        DeValue::Float(_) => "a float",
+        DeValue::Boolean(_) => "a boolean",
+        DeValue::Datetime(_) => "a date",
+        DeValue::Array(_) => "an array",
+        DeValue::Table(_) => "a table",
+    }
+}
+
+fn unknown_key(
+    src: &Source,
+    key: &Spanned<std::borrow::Cow<'_, str>>,
+    what: &str,
+    allowed: &[&str],
+) -> ConfigError {
+    let hint = did_you_mean(key.get_ref(), allowed)
+        .map(|s| format!("did you mean `{s}`? "))
+        .unwrap_or_default();
+    ConfigError::at(
+        &src.at(key),
+        format!(
+            "unknown key `{}` in {what}; {hint}allowed: {}",
+            key.get_ref(),
+            allowed.join(", ")
+        ),
+    )
+}
+
+/// Whether `name` is a valid stage, scene or setting name: ASCII letters, digits, `_`, `-`,
+/// starting with a letter or `_`.
+pub fn valid_name(name: &str) -> bool {
+    let mut chars = name.chars();
+    chars
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+/// A setting a params file may set, declared in the pipeline's `[settings]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingDecl {
+    /// Type and range.
+    pub ty: ParamType,
+    /// Default (`None`: every params file must set it).
+    pub default: Option<Value>,
+    /// Documentation.
+    pub doc: String,
+    /// Where it was declared.
+    pub origin: Origin,
+}
+
+/// A scene: one figure or table and the stages it needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneDecl {
+    /// Target stages (their inputs come along).
+    pub stages: Vec<Located<String>>,
+    /// Documentation.
+    pub doc: String,
+    /// Where it was declared.
+    pub origin: Origin,
+}
+
+/// A stage as written in a pipeline file (parameters unresolved).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageDecl {
+    /// Its kind.
+    pub kind: Located<String>,
+    /// Input name → stage names (a single name is a list of one; `many` tells which form).
+    pub inputs: BTreeMap<String, InputDecl>,
+    /// Parameters as written (may hold `$setting` references).
+    pub params: BTreeMap<String, Located<Value>>,
+    /// Documentation.
+    pub doc: String,
+    /// Where it was declared (its table header).
+    pub origin: Origin,
+}
+
+/// One input of a stage declaration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputDecl {
+    /// Stage names.
+    pub stages: Vec<Located<String>>,
+    /// Whether it was written as a list.
+    pub list: bool,
+    /// Where it was written.
+    pub origin: Origin,
+}
+
+/// A parsed pipeline file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PipelineFile {
+    /// Its path as given.
+    pub path: PathBuf,
+    /// Declared settings, by name.
+    pub settings: BTreeMap<String, SettingDecl>,
+    /// Scenes, by name.
+    pub scenes: BTreeMap<String, SceneDecl>,
+    /// Stages, by name.
+    pub stages: BTreeMap<String, StageDecl>,
+}
+
+/// A parsed params file: setting name → value (as written, unchecked).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamsFile {
+    /// Its path as given.
+    pub path: PathBuf,
+    /// Values by setting name.
+    pub values: BTreeMap<String, Located<Value>>,
+    /// Where the file starts (for "missing setting" errors).
+    pub origin: Origin,
+}
+
+const PIPELINE_KEYS: &[&str] = &["settings", "scenes", "stages"];
+const SETTING_KEYS: &[&str] = &["type", "default", "min", "max", "allowed", "doc"];
+const SETTING_TYPES: &[&str] = &["int", "float", "string", "bool", "array", "any"];
+const SCENE_KEYS: &[&str] = &["stages", "doc"];
+const STAGE_KEYS: &[&str] = &["kind", "inputs", "params", "doc"];
+
+impl PipelineFile {
+    /// Reads and checks the structure of a pipeline file (kinds and references are checked
+    /// when a plan is built).
+    pub fn load(path: &Path) -> Result<Self, ConfigErrors> {
+        let src = read_source(path)?;
+        Self::parse_source(path, &src)
+    }
+
+    /// Parses pipeline text (for tests); `name` is used in error messages.
+    pub fn parse_str(name: &str, text: &str) -> Result<Self, ConfigErrors> {
+        let src = Source::new(name, text.to_string());
+        Self::parse_source(Path::new(name), &src)
+    }
+
+    fn parse_source(path: &Path, src: &Source) -> Result<Self, ConfigErrors> {
+        let root = parse_table(src)?;
+        let mut errs = Vec::new();
+        let mut out = PipelineFile {
+            path: path.to_path_buf(),
+            settings: BTreeMap::new(),
+            scenes: BTreeMap::new(),
+            stages: BTreeMap::new(),
+        };
+        for (k, v) in root.get_ref().iter() {
+            let table = |errs: &mut Vec<ConfigError>| match v.get_ref() {
+                DeValue::Table(t) => Some(t),
+                other => {
+                    errs.push(ConfigError::at(
+                        &src.at(v),
+                        format!(
+                            "`{}` must be a table, found {}",
+                            k.get_ref(),
+                            type_name(other)
+                        ),
+                    ));
+                    None
+                }
+            };
+            match k.get_ref().as_ref() {
+                "settings" => {
+                    if let Some(t) = table(&mut errs) {
+                        for (name, decl) in t.iter() {
+                            if let Some(d) = parse_setting(src, name, decl, &mut errs) {
+                                out.settings.insert(name.get_ref().to_string(), d);
+                            }
+                        }
+                    }
+                }
+                "scenes" => {
+                    if let Some(t) = table(&mut errs) {
+                        for (name, decl) in t.iter() {
+                            if let Some(d) = parse_scene(src, name, decl, &mut errs) {
+                                out.scenes.insert(name.get_ref().to_string(), d);
+                            }
+                        }
+                    }
+                }
+                "stages" => {
+                    if let Some(t) = table(&mut errs) {
+                        for (name, decl) in t.iter() {
+                            if let Some(d) = parse_stage(src, name, decl, &mut errs) {
+                                out.stages.insert(name.get_ref().to_string(), d);
+                            }
+                        }
+                    }
+                }
+                _ => errs.push(unknown_key(src, k, "a pipeline file", PIPELINE_KEYS)),
+            }
+        }
+        if out.stages.is_empty() && errs.is_empty() {
+            errs.push(ConfigError::at(
+                &src.origin(0),
+                "the pipeline declares no stages (add `[stages.NAME]` tables)",
+            ));
+        }
+        if errs.is_empty() {
+            Ok(out)
+        } else {
+            Err(ConfigErrors(errs))
+        }
+    }
+}
+
+fn check_name(
+    src: &Source,
+    name: &Spanned<std::borrow::Cow<'_, str>>,
+    what: &str,
+    errs: &mut Vec<ConfigError>,
+) -> bool {
+    if valid_name(name.get_ref()) {
+        true
+    } else {
+        errs.push(ConfigError::at(
+            &src.at(name),
+            format!(
+                "invalid {what} name `{}`: use ASCII letters, digits, `_` and `-`, starting with a letter or `_`",
+                name.get_ref()
+            ),
+        ));
+        false
+    }
+}
+
+fn as_table<'a, 'i>(
+    src: &Source,
+    what: &str,
+    v: &'a Spanned<DeValue<'i>>,
+    errs: &mut Vec<ConfigError>,
+) -> Option<&'a DeTable<'i>> {
+    match v.get_ref() {
+        DeValue::Table(t) => Some(t),
+        other => {
+            errs.push(ConfigError::at(
+                &src.at(v),
+                format!("{what} must be a table, found {}", type_name(other)),
+            ));
+            None
+        }
+    }
+}
+
+fn as_string(
+    src: &Source,
+    what: &str,
+    v: &Spanned<DeValue<'_>>,
+    errs: &mut Vec<ConfigError>,
+) -> Option<Located<String>> {
+    match v.get_ref() {
+        DeValue::String(s) => Some(Located {
+            value: s.to_string(),
+            origin: src.at(v),
+        }),
+        other => {
+            errs.push(ConfigError::at(
+                &src.at(v),
+                format!("{what} must be a string, found {}", type_name(other)),
+            ));
+            None
+        }
+    }
+}
+
+fn parse_setting(
+    src: &Source,
+    name: &Spanned<std::borrow::Cow<'_, str>>,
+    decl: &Spanned<DeValue<'_>>,
+    errs: &mut Vec<ConfigError>,
+) -> Option<SettingDecl> {
+    let n = name.get_ref();
+    if !check_name(src, name, "setting", errs) {
+        return None;
+    }
+    let what =
+        format!("setting `{n}` (write `{n} = {{ type = \"int\", default = 3 }}` or similar)");
+    let t = as_table(src, &what, decl, errs)?;
+    let before = errs.len();
+    let mut ty_name: Option<Located<String>> = None;
+    let (mut default, mut min, mut max, mut allowed, mut doc) =
+        (None, None, None, None, String::new());
+    for (k, v) in t.iter() {
+        match k.get_ref().as_ref() {
+            "type" => {
+                if let Some(s) = as_string(src, "`type`", v, errs) {
+                    if SETTING_TYPES.contains(&s.value.as_str()) {
+                        ty_name = Some(s);
+                    } else {
+                        errs.push(ConfigError::at(
+                            &s.origin,
+                            format!(
+                                "setting `{n}`: unknown type \"{}\"; allowed: {}",
+                                s.value,
+                                SETTING_TYPES.join(", ")
+                            ),
+                        ));
+                    }
+                }
+            }
+            "default" => default = Some((to_json(src, v, errs), src.at(v))),
+            "min" | "max" => {
+                let j = to_json(src, v, errs);
+                if !j.is_number() {
+                    errs.push(ConfigError::at(
+                        &src.at(v),
+                        format!(
+                            "setting `{n}`: `{}` must be a number, found {}",
+                            k.get_ref(),
+                            describe(&j)
+                        ),
+                    ));
+                } else if k.get_ref() == "min" {
+                    min = Some(j);
+                } else {
+                    max = Some(j);
+                }
+            }
+            "allowed" => {
+                let j = to_json(src, v, errs);
+                match j.as_array().filter(|a| a.iter().all(Value::is_string)) {
+                    Some(a) => {
+                        allowed = Some(
+                            a.iter()
+                                .filter_map(|x| x.as_str().map(str::to_string))
+                                .collect::<Vec<_>>(),
+                        )
+                    }
+                    None => errs.push(ConfigError::at(
+                        &src.at(v),
+                        format!("setting `{n}`: `allowed` must be an array of strings"),
+                    )),
+                }
+            }
+            "doc" => {
+                doc = as_string(src, "`doc`", v, errs)
+                    .map(|s| s.value)
+                    .unwrap_or_default()
+            }
+            _ => errs.push(unknown_key(src, k, &format!("setting `{n}`"), SETTING_KEYS)),
+        }
+    }
+    // the type: explicit, or inferred from the default
+    let inferred = match (&ty_name, &default) {
+        (Some(t), _) => t.value.clone(),
+        (None, Some((Value::Number(x), _))) if x.is_f64() => "float".into(),
+        (None, Some((Value::Number(_), _))) => "int".into(),
+        (None, Some((Value::String(_), _))) => "string".into(),
+        (None, Some((Value::Bool(_), _))) => "bool".into(),
+        (None, Some((Value::Array(_), _))) => "array".into(),
+        (None, Some(_)) => "any".into(),
+        (None, None) => {
+            errs.push(ConfigError::at(
+                &src.at(decl),
+                format!("setting `{n}` needs a `type` or a `default`"),
+            ));
+            return None;
+        }
+    };
+    let num = |v: &Option<Value>| v.as_ref().and_then(Value::as_f64);
+    let ty = match inferred.as_str() {
+        "int" => ParamType::Int {
+            min: num(&min).map(|x| x.ceil() as i64),
+            max: num(&max).map(|x| x.floor() as i64),
+        },
+        "float" => ParamType::Float {
+            min: num(&min),
+            min_exclusive: false,
+            max: num(&max),
+            max_exclusive: false,
+        },
+        "string" => ParamType::Str { allowed },
+        "bool" => ParamType::Bool,
+        "array" => ParamType::Array {
+            elem: Box::new(ParamType::Any),
+            min_len: 0,
+            max_len: None,
+        },
+        _ => ParamType::Any,
+    };
+    let default = match default {
+        Some((v, origin)) => match ty.check(&v) {
+            Ok(v) => Some(v),
+            Err(e) => {
+                errs.push(ConfigError::at(
+                    &origin,
+                    format!("setting `{n}`: default: {e}"),
+                ));
+                None
+            }
+        },
+        None => None,
+    };
+    (errs.len() == before).then(|| SettingDecl {
+        ty,
+        default,
+        doc,
+        origin: src.at(name),
+    })
+}
+
+fn parse_scene(
+    src: &Source,
+    name: &Spanned<std::borrow::Cow<'_, str>>,
+    decl: &Spanned<DeValue<'_>>,
+    errs: &mut Vec<ConfigError>,
+) -> Option<SceneDecl> {
+    let n = name.get_ref();
+    if !check_name(src, name, "scene", errs) {
+        return None;
+    }
+    let t = as_table(src, &format!("scene `{n}`"), decl, errs)?;
+    let before = errs.len();
+    let mut stages = None;
+    let mut doc = String::new();
+    for (k, v) in t.iter() {
+        match k.get_ref().as_ref() {
+            "stages" => match v.get_ref() {
+                DeValue::Array(a) => {
+                    stages = Some(
+                        a.iter()
+                            .filter_map(|x| as_string(src, "a scene's stage", x, errs))
+                            .collect::<Vec<_>>(),
+                    )
+                }
+                other => errs.push(ConfigError::at(
+                    &src.at(v),
+                    format!(
+                        "scene `{n}`: `stages` must be an array of stage names, found {}",
+                        type_name(other)
+                    ),
+                )),
+            },
+            "doc" => {
+                doc = as_string(src, "`doc`", v, errs)
+                    .map(|s| s.value)
+                    .unwrap_or_default()
+            }
+            _ => errs.push(unknown_key(src, k, &format!("scene `{n}`"), SCENE_KEYS)),
+        }
+    }
+    let stages = match stages {
+        Some(s) if !s.is_empty() => s,
+        Some(_) => {
+            errs.push(ConfigError::at(
+                &src.at(name),
+                format!("scene `{n}`: `stages` is empty"),
+            ));
+            return None;
+        }
+        None => {
+            errs.push(ConfigError::at(
+                &src.at(name),
+                format!("scene `{n}` needs `stages = [\"...\"]`, the stages it shows"),
+            ));
+            return None;
+        }
+    };
+    (errs.len() == before).then(|| SceneDecl {
+        stages,
+        doc,
+        origin: src.at(name),
+    })
+}
+
+fn parse_stage(
+    src: &Source,
+    name: &Spanned<std::borrow::Cow<'_, str>>,
+    decl: &Spanned<DeValue<'_>>,
+    errs: &mut Vec<ConfigError>,
+) -> Option<StageDecl> {
+    let n = name.get_ref();
+    if !check_name(src, name, "stage", errs) {
+        return None;
+    }
+    let t = as_table(src, &format!("stage `{n}`"), decl, errs)?;
+    let before = errs.len();
+    let mut kind = None;
+    let mut inputs = BTreeMap::new();
+    let mut params = BTreeMap::new();
+    let mut doc = String::new();
+    for (k, v) in t.iter() {
+        match k.get_ref().as_ref() {
+            "kind" => kind = as_string(src, "`kind`", v, errs),
+            "doc" => {
+                doc = as_string(src, "`doc`", v, errs)
+                    .map(|s| s.value)
+                    .unwrap_or_default()
+            }
+            "params" => {
+                if let Some(pt) = as_table(src, &format!("stage `{n}`: `params`"), v, errs) {
+                    for (pk, pv) in pt.iter() {
+                        params.insert(
+                            pk.get_ref().to_string(),
+                            Located {
+                                value: to_json(src, pv, errs),
+                                origin: src.at(pv),
+                            },
+                        );
+                    }
+                }
+            }
+            "inputs" => {
+                if let Some(it) = as_table(src, &format!("stage `{n}`: `inputs`"), v, errs) {
+                    for (ik, iv) in it.iter() {
+                        let (stages, list) = match iv.get_ref() {
+                            DeValue::String(s) => (
+                                vec![Located {
+                                    value: s.to_string(),
+                                    origin: src.at(iv),
+                                }],
+                                false,
+                            ),
+                            DeValue::Array(a) => (
+                                a.iter()
+                                    .filter_map(|x| as_string(src, "an input stage", x, errs))
+                                    .collect(),
+                                true,
+                            ),
+                            other => {
+                                errs.push(ConfigError::at(
+                                    &src.at(iv),
+                                    format!(
+                                        "stage `{n}`: input `{}` must be a stage name or a list of stage names, found {}",
+                                        ik.get_ref(),
+                                        type_name(other)
+                                    ),
+                                ));
+                                continue;
+                            }
+                        };
+                        inputs.insert(
+                            ik.get_ref().to_string(),
+                            InputDecl {
+                                stages,
+                                list,
+                                origin: src.at(ik),
+                            },
+                        );
+                    }
+                }
+            }
+            _ => errs.push(unknown_key(src, k, &format!("stage `{n}`"), STAGE_KEYS)),
+        }
+    }
+    let Some(kind) = kind else {
+        errs.push(ConfigError::at(
+            &src.at(name),
+            format!("stage `{n}` needs `kind = \"...\"`"),
+        ));
+        return None;
+    };
+    (errs.len() == before).then(|| StageDecl {
+        kind,
+        inputs,
+        params,
+        doc,
+        origin: src.at(name),
+    })
+}
+
+impl ParamsFile {
+    /// Reads a params file (values are checked against a pipeline's settings by
+    /// [`ParamsFile::resolve`]).
+    pub fn load(path: &Path) -> Result<Self, ConfigErrors> {
+        let src = read_source(path)?;
+        Self::parse_source(path, &src)
+    }
+
+    /// Parses params text (for tests).
+    pub fn parse_str(name: &str, text: &str) -> Result<Self, ConfigErrors> {
+        let src = Source::new(name, text.to_string());
+        Self::parse_source(Path::new(name), &src)
+    }
+
+    /// An empty params file (every setting takes its default).
+    pub fn empty() -> Self {
+        Self {
+            path: PathBuf::from("<no params file>"),
+            values: BTreeMap::new(),
+            origin: Origin {
+                file: "<no params file>".into(),
+                line: 1,
+                col: 1,
+            },
+        }
+    }
+
+    fn parse_source(path: &Path, src: &Source) -> Result<Self, ConfigErrors> {
+        let root = parse_table(src)?;
+        let mut errs = Vec::new();
+        let mut values = BTreeMap::new();
+        for (k, v) in root.get_ref().iter() {
+            if check_name(src, k, "setting", &mut errs) {
+                values.insert(
+                    k.get_ref().to_string(),
+                    Located {
+                        value: to_json(src, v, &mut errs),
+                        origin: src.at(v),
+                    },
+                );
+            }
+        }
+        if errs.is_empty() {
+            Ok(Self {
+                path: path.to_path_buf(),
+                values,
+                origin: src.origin(0),
+            })
+        } else {
+            Err(ConfigErrors(errs))
+        }
+    }
+
+    /// Checks the values against the pipeline's declared settings (unknown names, types,
+    /// ranges, missing required settings) and returns every setting's value with the place it
+    /// comes from (the params file, or the declaration's default).
+    pub fn resolve(
+        &self,
+        pipeline: &PipelineFile,
+    ) -> Result<BTreeMap<String, Located<Value>>, ConfigErrors> {
+        let mut errs = Vec::new();
+        let mut out = BTreeMap::new();
+        let declared: Vec<&str> = pipeline.settings.keys().map(String::as_str).collect();
+        for (k, v) in &self.values {
+            let Some(decl) = pipeline.settings.get(k) else {
+                let hint = did_you_mean(k, &declared)
+                    .map(|s| format!("did you mean `{s}`? "))
+                    .unwrap_or_default();
+                errs.push(ConfigError::at(
+                    &v.origin,
+                    format!(
+                        "unknown setting `{k}`: {} does not declare it; {hint}allowed: {}",
+                        pipeline.path.display(),
+                        if declared.is_empty() {
+                            "none".to_string()
+                        } else {
+                            declared.join(", ")
+                        }
+                    ),
+                ));
+                continue;
+            };
+            match decl.ty.check(&v.value) {
+                Ok(x) => {
+                    out.insert(
+                        k.clone(),
+                        Located {
+                            value: x,
+                            origin: v.origin.clone(),
+                        },
+                    );
+                }
+                Err(e) => errs.push(ConfigError::at(
+                    &v.origin,
+                    format!("setting `{k}`: {e} (declared at {})", decl.origin),
+                )),
+            }
+        }
+        for (k, decl) in &pipeline.settings {
+            if self.values.contains_key(k) {
+                continue;
+            }
+            match &decl.default {
+                Some(d) => {
+                    out.insert(
+                        k.clone(),
+                        Located {
+                            value: d.clone(),
+                            origin: decl.origin.clone(),
+                        },
+                    );
+                }
+                None => errs.push(ConfigError::at(
+                    &self.origin,
+                    format!(
+                        "{} does not set `{k}`, which {} requires ({}; declared at {})",
+                        self.path.display(),
+                        pipeline.path.display(),
+                        decl.ty,
+                        decl.origin
+                    ),
+                )),
+            }
+        }
+        if errs.is_empty() {
+            Ok(out)
+        } else {
+            Err(ConfigErrors(errs))
+        }
+    }
+}

@@ -1,0 +1,174 @@
+//! The runner's event log: one JSON object per line in `results/runs/<time>-<pid>.jsonl`, and
+//! the same events in memory for tests and summaries.
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// What happened to a stage.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum What {
+    /// The run begins.
+    RunStarted {
+        /// Pipeline file.
+        pipeline: String,
+        /// Params file.
+        params: String,
+        /// Parallel stages.
+        jobs: usize,
+        /// Selected scenes (empty: all).
+        only: Vec<String>,
+        /// Dry run?
+        dry_run: bool,
+        /// Host.
+        host: String,
+        /// Process id.
+        pid: u32,
+        /// UTC start time.
+        utc: String,
+    },
+    /// The plan's decision for a stage.
+    Planned {
+        /// `run` or `cached`.
+        action: String,
+        /// Why it runs (tags: new, forced, params_changed, ...).
+        reasons: Vec<String>,
+        /// Human-readable reasons.
+        why: Vec<String>,
+    },
+    /// Valid in the cache; nothing to do.
+    Cached,
+    /// Side outputs rewritten from the cached artefact (they were missing or edited).
+    Restored {
+        /// The files.
+        files: Vec<String>,
+    },
+    /// Started computing.
+    Started,
+    /// Computed and published.
+    Ran {
+        /// Wall time, seconds.
+        wall_s: f64,
+        /// Warnings it raised.
+        warnings: Vec<String>,
+        /// Artefact size, bytes.
+        bytes: u64,
+    },
+    /// Failed; nothing was published.
+    Failed {
+        /// The error chain.
+        error: String,
+    },
+    /// Not run because an upstream stage failed.
+    Skipped {
+        /// The failed upstream stage.
+        because: String,
+    },
+    /// The run ends.
+    RunFinished {
+        /// Stages computed.
+        ran: usize,
+        /// Stages found in the cache.
+        cached: usize,
+        /// Stages failed.
+        failed: usize,
+        /// Stages skipped.
+        skipped: usize,
+        /// Wall time, seconds.
+        wall_s: f64,
+    },
+}
+
+/// One event.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Event {
+    /// Seconds since the run started.
+    pub t_s: f64,
+    /// Stage name ("" for run-level events).
+    pub stage: String,
+    /// Stage kind ("" for run-level events).
+    pub kind: String,
+    /// Stage key ("" for run-level events).
+    pub key: String,
+    /// What happened.
+    #[serde(flatten)]
+    pub what: What,
+}
+
+/// Collects events in memory and appends them to a JSON-lines file (flushed per line, so a
+/// killed run's log is complete up to the kill).
+pub struct EventLog {
+    start: Instant,
+    events: Mutex<Vec<Event>>,
+    file: Mutex<Option<std::fs::File>>,
+    path: Option<PathBuf>,
+}
+
+impl EventLog {
+    /// A log kept in memory only.
+    pub fn in_memory() -> Self {
+        Self {
+            start: Instant::now(),
+            events: Mutex::new(Vec::new()),
+            file: Mutex::new(None),
+            path: None,
+        }
+    }
+
+    /// A log also written to `<dir>/<UTC time>-<pid>.jsonl`.
+    pub fn to_dir(dir: &Path) -> Result<Self> {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create `{}`", dir.display()))?;
+        let stamp = store::fsutil::utc_now_iso8601().replace(':', "");
+        let path = dir.join(format!("{stamp}-{}.jsonl", std::process::id()));
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&path)
+            .with_context(|| format!("cannot create event log `{}`", path.display()))?;
+        Ok(Self {
+            file: Mutex::new(Some(file)),
+            path: Some(path),
+            ..Self::in_memory()
+        })
+    }
+
+    /// The log file, if any.
+    pub fn path(&self) -> Option<&Path> {
+        self.path.as_deref()
+    }
+
+    /// Seconds since the log started.
+    pub fn elapsed(&self) -> f64 {
+        self.start.elapsed().as_secs_f64()
+    }
+
+    /// Records an event.
+    pub fn push(&self, stage: &str, kind: &str, key: &str, what: What) {
+        let e = Event {
+            t_s: (self.elapsed() * 1e3).round() / 1e3,
+            stage: stage.into(),
+            kind: kind.into(),
+            key: key.into(),
+            what,
+        };
+        if let Ok(mut f) = self.file.lock()
+            && let Some(f) = f.as_mut()
+            && let Ok(line) = serde_json::to_string(&e)
+        {
+            let _ = writeln!(f, "{line}");
+        }
+        if let Ok(mut v) = self.events.lock() {
+            v.push(e);
+        }
+    }
+
+    /// All events so far.
+    pub fn events(&self) -> Vec<Event> {
+        self.events.lock().map(|v| v.clone()).unwrap_or_default()
+    }
+}

@@ -1,0 +1,312 @@
+//! Stage kinds: what a stage computes. Kinds are registered from outside this crate (the
+//! physics kinds live in `crates/stages`); the orchestrator knows nothing about physics.
+
+use crate::schema::{ParamIssue, ParamSpec};
+use anyhow::{Context, Result, anyhow};
+use serde_json::{Map, Value};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use store::{ArtefactReader, ArtefactWriter};
+
+/// A stage's validated parameters (every default filled in), with typed getters whose errors
+/// name the parameter.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Params(pub Map<String, Value>);
+
+impl Params {
+    /// The raw value of `key`.
+    pub fn get(&self, key: &str) -> Result<&Value> {
+        self.0
+            .get(key)
+            .ok_or_else(|| anyhow!("parameter `{key}` is missing"))
+    }
+    /// A float parameter (integers convert).
+    pub fn f64(&self, key: &str) -> Result<f64> {
+        self.get(key)?
+            .as_f64()
+            .ok_or_else(|| anyhow!("parameter `{key}` is not a number"))
+    }
+    /// An integer parameter.
+    pub fn i64(&self, key: &str) -> Result<i64> {
+        self.get(key)?
+            .as_i64()
+            .ok_or_else(|| anyhow!("parameter `{key}` is not an integer"))
+    }
+    /// A boolean parameter.
+    pub fn bool(&self, key: &str) -> Result<bool> {
+        self.get(key)?
+            .as_bool()
+            .ok_or_else(|| anyhow!("parameter `{key}` is not a boolean"))
+    }
+    /// A string parameter.
+    pub fn str(&self, key: &str) -> Result<&str> {
+        self.get(key)?
+            .as_str()
+            .ok_or_else(|| anyhow!("parameter `{key}` is not a string"))
+    }
+    /// An array-of-floats parameter.
+    pub fn f64_array(&self, key: &str) -> Result<Vec<f64>> {
+        self.get(key)?
+            .as_array()
+            .ok_or_else(|| anyhow!("parameter `{key}` is not an array"))?
+            .iter()
+            .map(|v| {
+                v.as_f64()
+                    .ok_or_else(|| anyhow!("parameter `{key}` has a non-numeric element"))
+            })
+            .collect()
+    }
+    /// An array-of-strings parameter.
+    pub fn str_array(&self, key: &str) -> Result<Vec<String>> {
+        self.get(key)?
+            .as_array()
+            .ok_or_else(|| anyhow!("parameter `{key}` is not an array"))?
+            .iter()
+            .map(|v| {
+                v.as_str()
+                    .map(str::to_string)
+                    .ok_or_else(|| anyhow!("parameter `{key}` has a non-string element"))
+            })
+            .collect()
+    }
+    /// Deserialises the whole parameter set into a typed struct.
+    pub fn parse<T: serde::de::DeserializeOwned>(&self) -> Result<T> {
+        serde_json::from_value(Value::Object(self.0.clone())).context("parameters")
+    }
+    /// The parameters as a JSON value.
+    pub fn to_value(&self) -> Value {
+        Value::Object(self.0.clone())
+    }
+}
+
+/// One named input a kind expects.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputSpec {
+    /// Its name in the pipeline's `inputs` table.
+    pub name: String,
+    /// Kinds accepted (empty: any kind).
+    pub kinds: Vec<String>,
+    /// Whether it must be given.
+    pub required: bool,
+    /// Whether a list of stages may be given (otherwise exactly one).
+    pub many: bool,
+    /// One line of documentation.
+    pub doc: String,
+}
+
+impl InputSpec {
+    /// A required input taking exactly one stage of one of `kinds` (empty: any).
+    pub fn one(name: &str, kinds: &[&str]) -> Self {
+        Self {
+            name: name.into(),
+            kinds: kinds.iter().map(|s| s.to_string()).collect(),
+            required: true,
+            many: false,
+            doc: String::new(),
+        }
+    }
+    /// A required input taking a non-empty list of stages.
+    pub fn many(name: &str, kinds: &[&str]) -> Self {
+        Self {
+            many: true,
+            ..Self::one(name, kinds)
+        }
+    }
+    /// Makes it optional.
+    pub fn optional(mut self) -> Self {
+        self.required = false;
+        self
+    }
+    /// With documentation.
+    pub fn doc(mut self, doc: &str) -> Self {
+        self.doc = doc.into();
+        self
+    }
+}
+
+/// What a stage run reports besides its artefact; goes into the provenance.
+#[derive(Clone, Debug, Default)]
+pub struct StageReport {
+    /// Solver statistics: iterations, residuals, converged flags, ... (free-form JSON object).
+    pub stats: Value,
+    /// Warnings (also collected from [`StageContext::warn`]).
+    pub warnings: Vec<String>,
+}
+
+impl StageReport {
+    /// A report with the given statistics.
+    pub fn with_stats(stats: Value) -> Self {
+        Self {
+            stats,
+            warnings: Vec::new(),
+        }
+    }
+}
+
+/// The opened input artefacts of a stage, by input name.
+pub struct Inputs {
+    pub(crate) map: BTreeMap<String, Vec<ArtefactReader>>,
+}
+
+impl Inputs {
+    /// Inputs from already opened readers (for tests of stage kinds).
+    pub fn new(map: BTreeMap<String, Vec<ArtefactReader>>) -> Self {
+        Self { map }
+    }
+    /// The single artefact of input `name`.
+    pub fn one(&self, name: &str) -> Result<&ArtefactReader> {
+        match self.map.get(name).map(Vec::as_slice) {
+            Some([r]) => Ok(r),
+            Some(v) => Err(anyhow!(
+                "input `{name}` has {} artefacts, expected one",
+                v.len()
+            )),
+            None => Err(anyhow!("input `{name}` was not given")),
+        }
+    }
+    /// The artefacts of input `name`, in the order the pipeline lists them (empty if absent).
+    pub fn all(&self, name: &str) -> &[ArtefactReader] {
+        self.map.get(name).map(Vec::as_slice).unwrap_or(&[])
+    }
+    /// Input names given.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.map.keys().map(String::as_str)
+    }
+}
+
+/// Receives progress of a running stage (fraction in 0..=1 and a short message).
+pub trait ProgressSink: Send + Sync {
+    /// Called by [`StageContext::progress`].
+    fn progress(&self, fraction: f64, message: &str);
+}
+
+/// What a running stage may use besides its parameters and inputs.
+pub struct StageContext {
+    /// The stage's name in the pipeline.
+    pub stage: String,
+    /// Its key.
+    pub key: String,
+    /// The project root (side-output paths are relative to it).
+    pub root: std::path::PathBuf,
+    pub(crate) warnings: Vec<String>,
+    pub(crate) side_outputs: Vec<(String, Vec<u8>)>,
+    pub(crate) sink: Option<Arc<dyn ProgressSink>>,
+}
+
+impl StageContext {
+    /// A context for running a kind outside the runner (tests of stage kinds).
+    pub fn detached(stage: &str, root: impl Into<std::path::PathBuf>) -> Self {
+        Self {
+            stage: stage.into(),
+            key: String::new(),
+            root: root.into(),
+            warnings: Vec::new(),
+            side_outputs: Vec::new(),
+            sink: None,
+        }
+    }
+    /// Reports progress (fraction in 0..=1) for the progress bar and its ETA.
+    pub fn progress(&self, fraction: f64, message: &str) {
+        if let Some(s) = &self.sink {
+            s.progress(fraction.clamp(0.0, 1.0), message);
+        }
+    }
+    /// Records a warning; it is logged and stored in the provenance.
+    pub fn warn(&mut self, message: impl Into<String>) {
+        self.warnings.push(message.into());
+    }
+    /// Emits a side output (a figure, a CSV table) at `path` relative to the project root. It
+    /// must be one the kind declared in [`StageKind::side_outputs`]. The bytes are stored inside
+    /// the artefact and published atomically to `path` after the artefact (and restored from it
+    /// when the file is later deleted or edited).
+    pub fn emit_file(&mut self, path: &str, bytes: Vec<u8>) {
+        self.side_outputs.push((path.to_string(), bytes));
+    }
+    /// Side outputs emitted so far.
+    pub fn emitted(&self) -> impl Iterator<Item = (&str, &[u8])> {
+        self.side_outputs
+            .iter()
+            .map(|(p, b)| (p.as_str(), b.as_slice()))
+    }
+    /// Warnings recorded so far.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+}
+
+/// A kind of stage. Implementations live outside the orchestrator and are collected in a
+/// [`Registry`].
+///
+/// Contract: `run` is a pure function of the parameters and the inputs' content (no clocks, no
+/// randomness without a seed parameter, no reading of files other than its inputs). When its
+/// results change for the same parameters, bump [`code_version`](Self::code_version): every
+/// cached artefact of the kind (and everything downstream) is then recomputed.
+pub trait StageKind: Send + Sync {
+    /// The kind's name as written in pipeline files (`surface`, `sweep`, ...).
+    fn name(&self) -> &str;
+    /// A constant bumped whenever results change for the same parameters.
+    fn code_version(&self) -> u64;
+    /// One line of documentation.
+    fn doc(&self) -> &str {
+        ""
+    }
+    /// The parameters: names, types, ranges, defaults.
+    fn params(&self) -> Vec<ParamSpec>;
+    /// Checks across parameters (after types and ranges passed).
+    fn check(&self, _params: &Params) -> Result<(), ParamIssue> {
+        Ok(())
+    }
+    /// The inputs this kind takes (may depend on the parameters).
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        Vec::new()
+    }
+    /// Side outputs (paths relative to the project root, e.g. `figures/fig2.png`) this stage
+    /// publishes besides its HDF5 artefact.
+    fn side_outputs(&self, _params: &Params) -> Vec<String> {
+        Vec::new()
+    }
+    /// Relative cost, for the ETA of the overall progress bar (default 1).
+    fn cost(&self, _params: &Params) -> f64 {
+        1.0
+    }
+    /// Computes the stage: reads `inputs`, writes datasets and attributes into `out` (the
+    /// orchestrator adds provenance and publishes it), returns statistics and warnings.
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport>;
+}
+
+/// The stage kinds available to a pipeline, by name.
+#[derive(Clone, Default)]
+pub struct Registry {
+    kinds: BTreeMap<String, Arc<dyn StageKind>>,
+}
+
+impl Registry {
+    /// An empty registry.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Adds a kind; a later kind with the same name replaces the earlier one.
+    pub fn register(&mut self, kind: impl StageKind + 'static) -> &mut Self {
+        self.kinds.insert(kind.name().to_string(), Arc::new(kind));
+        self
+    }
+    /// Adds a shared kind.
+    pub fn register_arc(&mut self, kind: Arc<dyn StageKind>) -> &mut Self {
+        self.kinds.insert(kind.name().to_string(), kind);
+        self
+    }
+    /// The kind called `name`.
+    pub fn get(&self, name: &str) -> Option<&Arc<dyn StageKind>> {
+        self.kinds.get(name)
+    }
+    /// All kind names, sorted.
+    pub fn names(&self) -> Vec<&str> {
+        self.kinds.keys().map(String::as_str).collect()
+    }
+}

@@ -1,0 +1,636 @@
+//! Running a plan: decide what is cached and why the rest runs, run stages in topological order
+//! with up to `jobs` in parallel, publish atomically, log events.
+
+use crate::events::{Event, EventLog, What};
+use crate::kind::{Inputs, ProgressSink, StageContext};
+use crate::lock::{LockMode, acquire};
+use crate::plan::{Plan, PlannedStage};
+use crate::progress::{Progress, ProgressMode};
+use crate::util::{human_duration, short};
+use crate::workspace::{EntryState, Index, Reason, Workspace, file_size};
+use anyhow::{Context, Result, anyhow, bail};
+use std::collections::{BTreeMap, BTreeSet};
+use std::panic::AssertUnwindSafe;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::mpsc;
+use std::time::Instant;
+use store::{ArtefactReader, ArtefactWriter, Provenance, SideOutput};
+
+/// Options of [`run`].
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Scenes (or stages) to run with everything upstream; empty: every stage.
+    pub only: Vec<String>,
+    /// Stages to recompute even if cached.
+    pub force: Vec<String>,
+    /// Stages run in parallel (≥ 1).
+    pub jobs: usize,
+    /// Only decide and explain; write nothing.
+    pub dry_run: bool,
+    /// Wait for the results lock instead of failing.
+    pub wait: bool,
+    /// Progress display.
+    pub progress: ProgressMode,
+    /// Write the event log to `results/runs/`.
+    pub log_file: bool,
+    /// The command line, recorded in the lock file.
+    pub command: String,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self {
+            only: Vec::new(),
+            force: Vec::new(),
+            jobs: 1,
+            dry_run: false,
+            wait: false,
+            progress: ProgressMode::Auto,
+            log_file: true,
+            command: "saddleflow run".into(),
+        }
+    }
+}
+
+/// Whether a stage runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Action {
+    /// Its artefact is valid in the cache.
+    Cached,
+    /// It must be computed.
+    Run,
+}
+
+/// The decision for one selected stage.
+#[derive(Clone, Debug)]
+pub struct Decision {
+    /// Index in [`Plan::stages`].
+    pub index: usize,
+    /// Stage name.
+    pub name: String,
+    /// Kind.
+    pub kind: String,
+    /// Key.
+    pub key: String,
+    /// Cached or run.
+    pub action: Action,
+    /// Why it runs (empty when cached).
+    pub reasons: Vec<Reason>,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default)]
+pub struct RunSummary {
+    /// The decisions, in topological order.
+    pub decisions: Vec<Decision>,
+    /// All events.
+    pub events: Vec<Event>,
+    /// Stages computed.
+    pub ran: Vec<String>,
+    /// Stages found in the cache.
+    pub cached: Vec<String>,
+    /// Stages whose side outputs were restored from the cache.
+    pub restored: Vec<String>,
+    /// Failed stages: (name, key, error).
+    pub failed: Vec<(String, String, String)>,
+    /// Skipped stages: (name, failed upstream stage).
+    pub skipped: Vec<(String, String)>,
+    /// Wall time, seconds.
+    pub wall_s: f64,
+    /// The event log file, if written.
+    pub log: Option<PathBuf>,
+}
+
+impl RunSummary {
+    /// No failure and nothing skipped.
+    pub fn ok(&self) -> bool {
+        self.failed.is_empty() && self.skipped.is_empty()
+    }
+}
+
+/// Decides, for the selected stages, which are cached and why the others run.
+pub fn decide(
+    ws: &Workspace,
+    plan: &Plan,
+    selected: &[usize],
+    force: &[String],
+) -> Result<Vec<Decision>> {
+    let index = Index::load(ws);
+    for f in force {
+        let Some(i) = plan.index_of(f) else {
+            let names: Vec<&str> = plan.stages.iter().map(|s| s.name.as_str()).collect();
+            let hint = crate::util::did_you_mean(f, &names)
+                .map(|s| format!("did you mean `{s}`? "))
+                .unwrap_or_default();
+            bail!(
+                "--force {f}: no such stage in {}; {hint}stages: {}",
+                plan.pipeline,
+                names.join(", ")
+            );
+        };
+        if !selected.contains(&i) {
+            bail!("--force {f}: the stage is not part of the selected scenes");
+        }
+    }
+    Ok(selected
+        .iter()
+        .map(|&i| {
+            let s = &plan.stages[i];
+            let forced = force.iter().any(|f| f == &s.name);
+            let state = ws.entry_state(s);
+            let reasons = index.reasons(plan, s, state, forced);
+            Decision {
+                index: i,
+                name: s.name.clone(),
+                kind: s.kind.clone(),
+                key: s.key.clone(),
+                action: if reasons.is_empty() {
+                    Action::Cached
+                } else {
+                    Action::Run
+                },
+                reasons,
+            }
+        })
+        .collect())
+}
+
+fn planned_event(d: &Decision) -> What {
+    What::Planned {
+        action: match d.action {
+            Action::Cached => "cached".into(),
+            Action::Run => "run".into(),
+        },
+        reasons: d.reasons.iter().map(|r| r.tag().to_string()).collect(),
+        why: d.reasons.iter().map(|r| r.to_string()).collect(),
+    }
+}
+
+/// Runs the selected part of `plan` in `ws`.
+pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
+    let selected = plan.select(&opts.only)?;
+    let jobs = opts.jobs.max(1);
+    let _lock = if opts.dry_run {
+        None
+    } else {
+        Some(acquire(
+            &ws.lock_path(),
+            LockMode::Exclusive,
+            opts.wait,
+            &opts.command,
+        )?)
+    };
+    if !opts.dry_run {
+        let all_side: Vec<String> = selected
+            .iter()
+            .flat_map(|&i| plan.stages[i].side_outputs.clone())
+            .collect();
+        ws.remove_stale_temps(&all_side);
+    }
+    let decisions = decide(ws, plan, &selected, &opts.force)?;
+    let log = if opts.log_file && !opts.dry_run {
+        EventLog::to_dir(&ws.runs_dir())?
+    } else {
+        EventLog::in_memory()
+    };
+    log.push(
+        "",
+        "",
+        "",
+        What::RunStarted {
+            pipeline: plan.pipeline.clone(),
+            params: plan.params.clone(),
+            jobs,
+            only: opts.only.clone(),
+            dry_run: opts.dry_run,
+            host: store::fsutil::host_name(),
+            pid: std::process::id(),
+            utc: store::fsutil::utc_now_iso8601(),
+        },
+    );
+    for d in &decisions {
+        log.push(&d.name, &d.kind, &d.key, planned_event(d));
+    }
+    let mut summary = RunSummary {
+        log: log.path().map(PathBuf::from),
+        ..Default::default()
+    };
+    if opts.dry_run {
+        summary.events = log.events();
+        summary.decisions = decisions;
+        return Ok(summary);
+    }
+
+    let mut index = Index::load(ws);
+    let mut index_dirty = false;
+    let to_run: Vec<&Decision> = decisions
+        .iter()
+        .filter(|d| d.action == Action::Run)
+        .collect();
+    let total_cost: f64 = to_run.iter().map(|d| plan.stages[d.index].cost).sum();
+    let progress = Progress::new(opts.progress, to_run.len(), total_cost);
+
+    // cached stages: nothing to compute; restore side outputs that are missing or edited
+    for d in decisions.iter().filter(|d| d.action == Action::Cached) {
+        let s = &plan.stages[d.index];
+        log.push(&s.name, &s.kind, &s.key, What::Cached);
+        summary.cached.push(s.name.clone());
+        if index
+            .stages
+            .get(&Index::slot(plan, &s.name))
+            .map(|e| &e.key)
+            != Some(&s.key)
+        {
+            index.record(plan, s);
+            index_dirty = true;
+        }
+        if !s.side_outputs.is_empty() {
+            match restore_side_outputs(ws, s) {
+                Ok(files) if !files.is_empty() => {
+                    progress.log(&format!(
+                        "restored {} from the cache of {}",
+                        files.join(", "),
+                        s.name
+                    ));
+                    log.push(&s.name, &s.kind, &s.key, What::Restored { files });
+                    summary.restored.push(s.name.clone());
+                }
+                Ok(_) => {}
+                Err(e) => progress.log(&format!(
+                    "warning: cannot restore side outputs of {}: {e:#}",
+                    s.name
+                )),
+            }
+        }
+    }
+    if index_dirty {
+        index.save(ws)?;
+        index_dirty = false;
+    }
+
+    // stages to run: wait for the inputs that run too
+    let run_set: BTreeSet<usize> = to_run.iter().map(|d| d.index).collect();
+    let mut waiting_on: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
+    for &i in &run_set {
+        let deps: BTreeSet<usize> = plan.stages[i]
+            .inputs
+            .values()
+            .flatten()
+            .filter_map(|n| plan.index_of(n))
+            .filter(|j| run_set.contains(j))
+            .collect();
+        waiting_on.insert(i, deps);
+    }
+    let mut ready: BTreeSet<usize> = waiting_on
+        .iter()
+        .filter(|(_, d)| d.is_empty())
+        .map(|(i, _)| *i)
+        .collect();
+    let mut blocked: BTreeSet<usize> = BTreeSet::new();
+    let (tx, rx) = mpsc::channel::<(usize, Result<Executed>)>();
+    let started = Instant::now();
+
+    std::thread::scope(|scope| -> Result<()> {
+        let mut running = 0usize;
+        loop {
+            while running < jobs {
+                let Some(i) = ready.pop_first() else { break };
+                let s = &plan.stages[i];
+                log.push(&s.name, &s.kind, &s.key, What::Started);
+                let sink = progress.started(&s.name, &s.kind, s.cost);
+                let tx = tx.clone();
+                let ws = ws.clone();
+                scope.spawn(move || {
+                    let r = execute(&ws, plan, s, Some(sink));
+                    let _ = tx.send((i, r));
+                });
+                running += 1;
+            }
+            if running == 0 {
+                break;
+            }
+            let (i, result) = rx.recv().map_err(|_| anyhow!("a stage worker vanished"))?;
+            running -= 1;
+            let s = &plan.stages[i];
+            match result {
+                Ok(x) => {
+                    progress.finished(
+                        &s.name,
+                        s.cost,
+                        &format!(
+                            "ran {} ({} {}) in {}{}",
+                            s.name,
+                            s.kind,
+                            short(&s.key),
+                            human_duration(x.wall_s),
+                            if x.warnings.is_empty() {
+                                String::new()
+                            } else {
+                                format!("; warnings: {}", x.warnings.join("; "))
+                            }
+                        ),
+                    );
+                    log.push(
+                        &s.name,
+                        &s.kind,
+                        &s.key,
+                        What::Ran {
+                            wall_s: x.wall_s,
+                            warnings: x.warnings,
+                            bytes: x.bytes,
+                        },
+                    );
+                    summary.ran.push(s.name.clone());
+                    index.record(plan, s);
+                    if let Err(e) = index.save(ws) {
+                        progress.log(&format!("warning: {e:#}"));
+                        index_dirty = true;
+                    }
+                    for (j, deps) in waiting_on.iter_mut() {
+                        if deps.remove(&i) && deps.is_empty() && !blocked.contains(j) {
+                            ready.insert(*j);
+                        }
+                    }
+                }
+                Err(e) => {
+                    let msg = format!("{e:#}");
+                    progress.finished(
+                        &s.name,
+                        s.cost,
+                        &format!("FAILED {} ({} {}): {msg}", s.name, s.kind, short(&s.key)),
+                    );
+                    log.push(
+                        &s.name,
+                        &s.kind,
+                        &s.key,
+                        What::Failed { error: msg.clone() },
+                    );
+                    summary.failed.push((s.name.clone(), s.key.clone(), msg));
+                    for j in plan.downstream(i) {
+                        if run_set.contains(&j) && blocked.insert(j) {
+                            ready.remove(&j);
+                            let d = &plan.stages[j];
+                            progress.finished(
+                                &d.name,
+                                d.cost,
+                                &format!("skipped {} (upstream {} failed)", d.name, s.name),
+                            );
+                            log.push(
+                                &d.name,
+                                &d.kind,
+                                &d.key,
+                                What::Skipped {
+                                    because: s.name.clone(),
+                                },
+                            );
+                            summary.skipped.push((d.name.clone(), s.name.clone()));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    })?;
+    drop(tx);
+    progress.finish();
+    if index_dirty {
+        index.save(ws)?;
+    }
+    summary.wall_s = started.elapsed().as_secs_f64();
+    log.push(
+        "",
+        "",
+        "",
+        What::RunFinished {
+            ran: summary.ran.len(),
+            cached: summary.cached.len(),
+            failed: summary.failed.len(),
+            skipped: summary.skipped.len(),
+            wall_s: log.elapsed(),
+        },
+    );
+    summary.events = log.events();
+    summary.decisions = decisions;
+    Ok(summary)
+}
+
+/// Runs one stage, selected by (a prefix of) its key, as its own process would: inputs must be
+/// in the cache. Takes the results lock shared, so several `run-stage` processes may run at
+/// once. Does not update the index (concurrent writers would lose entries).
+pub fn run_stage(
+    ws: &Workspace,
+    plan: &Plan,
+    key: &str,
+    force: bool,
+    opts: &RunOptions,
+) -> Result<RunSummary> {
+    let s = plan.stage_by_key(key)?;
+    let _lock = acquire(&ws.lock_path(), LockMode::Shared, opts.wait, &opts.command)?;
+    let log = if opts.log_file {
+        EventLog::to_dir(&ws.runs_dir())?
+    } else {
+        EventLog::in_memory()
+    };
+    let mut summary = RunSummary {
+        log: log.path().map(PathBuf::from),
+        ..Default::default()
+    };
+    let state = ws.entry_state(s);
+    if state == EntryState::Valid && !force {
+        log.push(&s.name, &s.kind, &s.key, What::Cached);
+        summary.cached.push(s.name.clone());
+        if let Ok(files) = restore_side_outputs(ws, s)
+            && !files.is_empty()
+        {
+            log.push(&s.name, &s.kind, &s.key, What::Restored { files });
+            summary.restored.push(s.name.clone());
+        }
+        summary.events = log.events();
+        return Ok(summary);
+    }
+    let mut missing = Vec::new();
+    for (iname, names) in &s.inputs {
+        for n in names {
+            let Some(up) = plan.stage(n) else { continue };
+            if ws.entry_state(up) != EntryState::Valid {
+                missing.push(format!("input `{iname}` ← stage `{n}` (key {})", up.key));
+            }
+        }
+    }
+    if !missing.is_empty() {
+        bail!(
+            "cannot run stage `{}` ({}): inputs not in the cache:\n  {}\nrun them first (`saddleflow run-stage KEY` for each, or `saddleflow run --only {}`)",
+            s.name,
+            s.key,
+            missing.join("\n  "),
+            s.name
+        );
+    }
+    let progress = Progress::new(opts.progress, 1, s.cost);
+    log.push(&s.name, &s.kind, &s.key, What::Started);
+    let sink = progress.started(&s.name, &s.kind, s.cost);
+    let result = execute(ws, plan, s, Some(sink));
+    match result {
+        Ok(x) => {
+            progress.finished(
+                &s.name,
+                s.cost,
+                &format!(
+                    "ran {} ({} {}) in {}",
+                    s.name,
+                    s.kind,
+                    short(&s.key),
+                    human_duration(x.wall_s)
+                ),
+            );
+            log.push(
+                &s.name,
+                &s.kind,
+                &s.key,
+                What::Ran {
+                    wall_s: x.wall_s,
+                    warnings: x.warnings,
+                    bytes: x.bytes,
+                },
+            );
+            summary.ran.push(s.name.clone());
+        }
+        Err(e) => {
+            let msg = format!("{e:#}");
+            progress.finished(&s.name, s.cost, &format!("FAILED {}: {msg}", s.name));
+            log.push(
+                &s.name,
+                &s.kind,
+                &s.key,
+                What::Failed { error: msg.clone() },
+            );
+            summary.failed.push((s.name.clone(), s.key.clone(), msg));
+        }
+    }
+    progress.finish();
+    summary.events = log.events();
+    Ok(summary)
+}
+
+/// What [`execute`] returns.
+pub(crate) struct Executed {
+    wall_s: f64,
+    warnings: Vec<String>,
+    bytes: u64,
+}
+
+fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".into())
+}
+
+/// Computes one stage from cached inputs and publishes its artefact, then its side outputs.
+fn execute(
+    ws: &Workspace,
+    plan: &Plan,
+    s: &PlannedStage,
+    sink: Option<Arc<dyn ProgressSink>>,
+) -> Result<Executed> {
+    // open inputs
+    let mut map = BTreeMap::new();
+    for (iname, names) in &s.inputs {
+        let mut readers = Vec::new();
+        for n in names {
+            let up = plan
+                .stage(n)
+                .ok_or_else(|| anyhow!("input `{iname}`: unknown stage `{n}`"))?;
+            let path = ws.artefact_of(up);
+            let r = ArtefactReader::open_complete(&path)
+                .with_context(|| format!("input `{iname}` (stage `{n}`, key {})", up.key))?;
+            readers.push(r);
+        }
+        map.insert(iname.clone(), readers);
+    }
+    let inputs = Inputs::new(map);
+    let final_path = ws.artefact_of(s);
+    let mut out = ArtefactWriter::create(&final_path)?;
+    let mut ctx = StageContext {
+        stage: s.name.clone(),
+        key: s.key.clone(),
+        root: ws.root.clone(),
+        warnings: Vec::new(),
+        side_outputs: Vec::new(),
+        sink,
+    };
+    let t0 = Instant::now();
+    let report = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        s.imp.run(&mut ctx, &s.params, &inputs, &mut out)
+    }))
+    .map_err(|p| anyhow!("stage panicked: {}", panic_message(&*p)))??;
+    let wall_s = t0.elapsed().as_secs_f64();
+    drop(inputs);
+
+    // side outputs: exactly the declared ones
+    let declared: BTreeSet<&str> = s.side_outputs.iter().map(String::as_str).collect();
+    let emitted: BTreeSet<&str> = ctx.side_outputs.iter().map(|(p, _)| p.as_str()).collect();
+    if let Some(extra) = emitted.difference(&declared).next() {
+        bail!("the stage emitted `{extra}`, which its kind does not declare as a side output");
+    }
+    if let Some(missing) = declared.difference(&emitted).next() {
+        bail!("the stage did not emit its declared side output `{missing}`");
+    }
+    let mut records = Vec::new();
+    for (i, (path, bytes)) in ctx.side_outputs.iter().enumerate() {
+        let ds = format!("side_outputs/{i}");
+        out.write_u8_1d(&ds, bytes)?;
+        out.set_attr_at(&ds, "path", path.as_str())?;
+        records.push(SideOutput {
+            path: path.clone(),
+            blake3: store::hash_bytes(bytes),
+            bytes: bytes.len() as u64,
+        });
+    }
+    let mut warnings = ctx.warnings.clone();
+    warnings.extend(report.warnings.iter().cloned());
+    let mut prov = Provenance::new(s.key.clone(), &s.kind, s.code_version, s.params.to_value());
+    prov.inputs = s.input_keys.clone();
+    prov.wall_s = wall_s;
+    prov.stats = if report.stats.is_null() {
+        serde_json::json!({})
+    } else {
+        report.stats.clone()
+    };
+    prov.warnings = warnings.clone();
+    prov.side_outputs = records;
+    out.write_provenance(&prov)?;
+    let path = out.publish()?;
+    for (rel, bytes) in &ctx.side_outputs {
+        store::fsutil::write_atomic(&ws.side_output_path(rel), bytes)
+            .with_context(|| format!("cannot publish side output `{rel}`"))?;
+    }
+    Ok(Executed {
+        wall_s,
+        warnings,
+        bytes: file_size(&path),
+    })
+}
+
+/// Rewrites side outputs of a cached stage that are missing or differ from the cached bytes.
+/// Returns the files rewritten.
+pub fn restore_side_outputs(ws: &Workspace, s: &PlannedStage) -> Result<Vec<String>> {
+    let r = ArtefactReader::open_complete(ws.artefact_of(s))?;
+    let prov = r.provenance()?;
+    let mut restored = Vec::new();
+    for (i, rec) in prov.side_outputs.iter().enumerate() {
+        let target = ws.side_output_path(&rec.path);
+        let current = store::canonical::hash_file(&target).ok();
+        if current.as_deref() == Some(rec.blake3.as_str()) {
+            continue;
+        }
+        let bytes = r.read_u8_1d(&format!("side_outputs/{i}"))?;
+        if store::hash_bytes(&bytes) != rec.blake3 {
+            bail!("the cached copy of `{}` is corrupt", rec.path);
+        }
+        store::fsutil::write_atomic(&target, &bytes)?;
+        restored.push(rec.path.clone());
+    }
+    Ok(restored)
+}

@@ -1,0 +1,319 @@
+//! The results folder: cache layout, the index of last keys, and why a stage must run.
+
+use crate::plan::{Plan, PlannedStage};
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use store::ArtefactReader;
+
+/// A project root: `results/` (cache, runs, lock) and side outputs live under it.
+#[derive(Clone, Debug)]
+pub struct Workspace {
+    /// The project root.
+    pub root: PathBuf,
+}
+
+impl Workspace {
+    /// A workspace rooted at `root`.
+    pub fn new(root: impl Into<PathBuf>) -> Self {
+        Self { root: root.into() }
+    }
+    /// `results/`.
+    pub fn results(&self) -> PathBuf {
+        self.root.join("results")
+    }
+    /// `results/cache/`.
+    pub fn cache_dir(&self) -> PathBuf {
+        self.results().join("cache")
+    }
+    /// `results/cache/<kind>/<key>.h5`.
+    pub fn artefact_path(&self, kind: &str, key: &str) -> PathBuf {
+        self.cache_dir().join(kind).join(format!("{key}.h5"))
+    }
+    /// The artefact path of a planned stage.
+    pub fn artefact_of(&self, s: &PlannedStage) -> PathBuf {
+        self.artefact_path(&s.kind, &s.key)
+    }
+    /// `results/cache/index.json`.
+    pub fn index_path(&self) -> PathBuf {
+        self.cache_dir().join("index.json")
+    }
+    /// `results/runs/` (event logs).
+    pub fn runs_dir(&self) -> PathBuf {
+        self.results().join("runs")
+    }
+    /// `results/.lock`.
+    pub fn lock_path(&self) -> PathBuf {
+        self.results().join(".lock")
+    }
+    /// A side output's path.
+    pub fn side_output_path(&self, rel: &str) -> PathBuf {
+        self.root.join(rel)
+    }
+
+    /// The state of a stage's cache entry.
+    pub fn entry_state(&self, s: &PlannedStage) -> EntryState {
+        let p = self.artefact_of(s);
+        if !p.exists() {
+            EntryState::Missing
+        } else if ArtefactReader::is_valid(&p) {
+            EntryState::Valid
+        } else {
+            EntryState::Invalid
+        }
+    }
+
+    /// Removes stale temporary files (from killed runs) in the cache and in the folders of the
+    /// given side outputs. Call only while holding the exclusive lock.
+    pub fn remove_stale_temps(&self, side_outputs: &[String]) -> Vec<PathBuf> {
+        let mut dirs: Vec<PathBuf> = Vec::new();
+        if let Ok(rd) = std::fs::read_dir(self.cache_dir()) {
+            dirs.extend(rd.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
+        }
+        dirs.push(self.cache_dir());
+        for f in side_outputs {
+            if let Some(parent) = self.side_output_path(f).parent() {
+                dirs.push(parent.to_path_buf());
+            }
+        }
+        dirs.sort();
+        dirs.dedup();
+        let mut removed = Vec::new();
+        for d in dirs {
+            let Ok(rd) = std::fs::read_dir(&d) else {
+                continue;
+            };
+            for e in rd.flatten() {
+                let name = e.file_name().to_string_lossy().into_owned();
+                if store::fsutil::is_temp_name(&name) && std::fs::remove_file(e.path()).is_ok() {
+                    removed.push(e.path());
+                }
+            }
+        }
+        removed
+    }
+}
+
+/// A cache entry's state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EntryState {
+    /// Published, complete, readable.
+    Valid,
+    /// No file.
+    Missing,
+    /// A file that is truncated, unreadable or lacks the complete mark.
+    Invalid,
+}
+
+/// The last key computed for each stage of a (pipeline, params) pair, to explain why a stage
+/// reruns. Stored as `results/cache/index.json`, written atomically.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Index {
+    /// `"<pipeline>|<params>|<stage>"` → entry.
+    pub stages: BTreeMap<String, IndexEntry>,
+}
+
+/// One index entry.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IndexEntry {
+    /// Key of the last successful computation (or cache hit).
+    pub key: String,
+    /// Kind.
+    pub kind: String,
+    /// Code version.
+    pub code_version: u64,
+    /// Canonical parameters.
+    pub params: Value,
+    /// Input name → keys.
+    pub input_keys: BTreeMap<String, Vec<String>>,
+    /// Input name → stage names.
+    pub input_stages: BTreeMap<String, Vec<String>>,
+    /// When (UTC).
+    pub updated_utc: String,
+}
+
+impl Index {
+    /// Reads the index; a missing or unreadable index is empty (it only explains, it never
+    /// decides what is cached).
+    pub fn load(ws: &Workspace) -> Self {
+        std::fs::read(ws.index_path())
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .unwrap_or_default()
+    }
+    /// Writes it atomically.
+    pub fn save(&self, ws: &Workspace) -> Result<()> {
+        let bytes = serde_json::to_vec_pretty(self)?;
+        store::fsutil::write_atomic(&ws.index_path(), &bytes)
+            .context("cannot write the cache index")
+    }
+    /// The index slot of a stage of a plan.
+    pub fn slot(plan: &Plan, stage: &str) -> String {
+        format!("{}|{}|{}", plan.pipeline, plan.params, stage)
+    }
+    /// Records a stage's current identity.
+    pub fn record(&mut self, plan: &Plan, s: &PlannedStage) {
+        self.stages.insert(
+            Self::slot(plan, &s.name),
+            IndexEntry {
+                key: s.key.clone(),
+                kind: s.kind.clone(),
+                code_version: s.code_version,
+                params: s.params.to_value(),
+                input_keys: s.input_keys.clone(),
+                input_stages: s.inputs.clone(),
+                updated_utc: store::fsutil::utc_now_iso8601(),
+            },
+        );
+    }
+    /// Why `s` must run given its cache state (which is not valid) or a `--force`.
+    pub fn reasons(
+        &self,
+        plan: &Plan,
+        s: &PlannedStage,
+        state: EntryState,
+        forced: bool,
+    ) -> Vec<Reason> {
+        let mut out = Vec::new();
+        if forced {
+            out.push(Reason::Forced);
+        }
+        if state == EntryState::Valid {
+            return out;
+        }
+        match self.stages.get(&Self::slot(plan, &s.name)) {
+            None => out.push(Reason::New),
+            Some(last) if last.key == s.key => out.push(match state {
+                EntryState::Invalid => Reason::OutputInvalid,
+                _ => Reason::OutputMissing,
+            }),
+            Some(last) => {
+                if last.kind != s.kind {
+                    out.push(Reason::KindChanged {
+                        from: last.kind.clone(),
+                        to: s.kind.clone(),
+                    });
+                } else if last.code_version != s.code_version {
+                    out.push(Reason::CodeVersionChanged {
+                        from: last.code_version,
+                        to: s.code_version,
+                    });
+                }
+                let diffs = param_diffs(&last.params, &s.params.to_value());
+                if !diffs.is_empty() {
+                    out.push(Reason::ParamsChanged(diffs));
+                }
+                let changed: Vec<String> = s
+                    .input_keys
+                    .iter()
+                    .filter(|(k, v)| last.input_keys.get(*k) != Some(*v))
+                    .map(|(k, _)| format!("{k} ← {}", s.inputs[k].join(", ")))
+                    .chain(
+                        last.input_keys
+                            .keys()
+                            .filter(|k| !s.input_keys.contains_key(*k))
+                            .map(|k| format!("{k} (removed)")),
+                    )
+                    .collect();
+                if !changed.is_empty() {
+                    out.push(Reason::InputChanged(changed));
+                }
+                if out.is_empty() || (out.len() == 1 && forced) {
+                    out.push(Reason::OutputMissing);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Differences between two parameter objects: `name old → new`.
+pub fn param_diffs(old: &Value, new: &Value) -> Vec<String> {
+    let (Some(o), Some(n)) = (old.as_object(), new.as_object()) else {
+        return vec!["(all)".into()];
+    };
+    let mut keys: Vec<&String> = o.keys().chain(n.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    let show = |v: Option<&Value>| v.map_or("(none)".to_string(), |v| v.to_string());
+    keys.into_iter()
+        .filter(|k| o.get(*k) != n.get(*k))
+        .map(|k| format!("{k} {} → {}", show(o.get(k)), show(n.get(k))))
+        .collect()
+}
+
+/// Why a stage runs.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Reason {
+    /// Never computed for this pipeline and params file.
+    New,
+    /// `--force`.
+    Forced,
+    /// Parameters differ from the last computation (`name old → new`).
+    ParamsChanged(Vec<String>),
+    /// The kind's code version was bumped.
+    CodeVersionChanged {
+        /// Last version.
+        from: u64,
+        /// Current version.
+        to: u64,
+    },
+    /// The stage's kind was changed in the pipeline file.
+    KindChanged {
+        /// Last kind.
+        from: String,
+        /// Current kind.
+        to: String,
+    },
+    /// An input's key changed (`input ← stage`).
+    InputChanged(Vec<String>),
+    /// Same key as last time, but the artefact is gone (deleted, or gc'd).
+    OutputMissing,
+    /// Same key, but the artefact is truncated, unreadable or unfinished.
+    OutputInvalid,
+}
+
+impl Reason {
+    /// A short machine-readable tag.
+    pub fn tag(&self) -> &'static str {
+        match self {
+            Self::New => "new",
+            Self::Forced => "forced",
+            Self::ParamsChanged(_) => "params_changed",
+            Self::CodeVersionChanged { .. } => "code_version_changed",
+            Self::KindChanged { .. } => "kind_changed",
+            Self::InputChanged(_) => "input_changed",
+            Self::OutputMissing => "output_missing",
+            Self::OutputInvalid => "output_invalid",
+        }
+    }
+}
+
+impl fmt::Display for Reason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::New => write!(f, "new"),
+            Self::Forced => write!(f, "forced (--force)"),
+            Self::ParamsChanged(d) => write!(f, "parameters changed: {}", d.join(", ")),
+            Self::CodeVersionChanged { from, to } => {
+                write!(f, "code version changed: {from} → {to}")
+            }
+            Self::KindChanged { from, to } => write!(f, "kind changed: {from} → {to}"),
+            Self::InputChanged(d) => write!(f, "input changed: {}", d.join(", ")),
+            Self::OutputMissing => write!(f, "cached artefact missing (deleted or collected)"),
+            Self::OutputInvalid => write!(
+                f,
+                "cached artefact invalid (truncated, unreadable or unfinished)"
+            ),
+        }
+    }
+}
+
+/// Size of a file, 0 if unreadable.
+pub fn file_size(p: &Path) -> u64 {
+    std::fs::metadata(p).map(|m| m.len()).unwrap_or(0)
+}

@@ -1,0 +1,70 @@
+//! `mock`: a stage kind for testing the engine end to end (CLI, locking, interruption). Its
+//! value is its `value` parameter plus the values of its inputs; it can sleep and fail on
+//! purpose, and can write a side output.
+
+use anyhow::{Result, bail};
+use orchestrator::{
+    InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
+};
+use serde_json::json;
+use store::ArtefactWriter;
+
+/// The `mock` stage kind.
+pub struct MockKind;
+
+impl StageKind for MockKind {
+    fn name(&self) -> &str {
+        "mock"
+    }
+    fn code_version(&self) -> u64 {
+        1
+    }
+    fn doc(&self) -> &str {
+        "engine tests: value = `value` + the inputs' values; may sleep, fail, write a text file"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new("value", ParamType::float()).default(0.0),
+            ParamSpec::new("sleep_s", ParamType::float_range(0.0, 3600.0)).default(0.0),
+            ParamSpec::new("fail", ParamType::Bool).default(false),
+            ParamSpec::new("side_output", ParamType::string()).default(""),
+        ]
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        vec![InputSpec::many("inputs", &[]).optional()]
+    }
+    fn side_outputs(&self, params: &Params) -> Vec<String> {
+        match params.str("side_output") {
+            Ok(s) if !s.is_empty() => vec![s.to_string()],
+            _ => Vec::new(),
+        }
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let sleep = params.f64("sleep_s")?;
+        let steps = 20;
+        for i in 0..steps {
+            std::thread::sleep(std::time::Duration::from_secs_f64(sleep / steps as f64));
+            ctx.progress((i + 1) as f64 / steps as f64, "sleeping");
+        }
+        if params.bool("fail")? {
+            bail!("failing on purpose (fail = true)");
+        }
+        let mut v = params.f64("value")?;
+        for r in inputs.all("inputs") {
+            v += r.attr_f64("value")?;
+        }
+        out.set_attr("value", v)?;
+        out.write_f64_1d("value", &[v])?;
+        let side = params.str("side_output")?;
+        if !side.is_empty() {
+            ctx.emit_file(side, format!("value = {v}\n").into_bytes());
+        }
+        Ok(StageReport::with_stats(json!({ "value": v })))
+    }
+}

@@ -1,0 +1,122 @@
+//! `surface`: one of the three single-wavelength models sampled on a 2^n × 2^n grid.
+//!
+//! Parameters: `lattice` ("square", "triangular", "hexagonal"), `n` (3..=13).
+//! Artefact: dataset `height` (nx, ny); root attributes `lx`, `ly`, `lattice`, `n`, `nx`, `ny`,
+//! `dx`, `dy` and the statistics of the sampled heights (`h_min`, `h_max`, `h_mean`, `h_rms`,
+//! `skewness`, `excess_kurtosis`, `p_fc_grid`); group `critical` with the exact critical points
+//! (`kind` strings, `x`, `y`, `height`, `curvature_min`, `curvature_max`, `eta` (NaN except at
+//! saddles)).
+
+use anyhow::{Result, anyhow};
+use orchestrator::{Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport};
+use serde_json::json;
+use store::{ArtefactWriter, fields};
+use surface::{CriticalKind, Lattice, Surface};
+
+/// The `surface` stage kind.
+pub struct SurfaceKind;
+
+/// Bump when the artefact's content changes for the same parameters.
+pub const CODE_VERSION: u64 = 1;
+
+/// Parses a lattice name.
+pub fn lattice_from_name(name: &str) -> Result<Lattice> {
+    Lattice::ALL
+        .into_iter()
+        .find(|l| l.name() == name)
+        .ok_or_else(|| anyhow!("unknown lattice `{name}`; allowed: square, triangular, hexagonal"))
+}
+
+impl StageKind for SurfaceKind {
+    fn name(&self) -> &str {
+        "surface"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "one of the three models on a 2^n × 2^n grid, with statistics and critical points"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new(
+                "lattice",
+                ParamType::one_of(&["square", "triangular", "hexagonal"]),
+            )
+            .doc("which model"),
+            ParamSpec::new(
+                "n",
+                ParamType::int_range(surface::N_MIN as i64, surface::N_MAX as i64),
+            )
+            .doc("grid exponent: 2^n × 2^n nodes"),
+        ]
+    }
+    fn cost(&self, params: &Params) -> f64 {
+        // sampling is cheap; weight by nodes relative to a 512² contact solve
+        params
+            .i64("n")
+            .map_or(0.01, |n| 4f64.powi(n as i32) / 4f64.powi(9) * 0.01)
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        _inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let lattice = lattice_from_name(params.str("lattice")?)?;
+        let n = params.i64("n")? as u32;
+        let s = Surface::new(lattice, n).map_err(|e| anyhow!("{e}"))?;
+        ctx.progress(0.5, "sampled");
+        let st = s.statistics();
+        let g = &s.grid;
+        out.set_cell(g.lx, g.ly)?;
+        out.set_attr("lattice", lattice.name())?;
+        out.set_attr("n", n as i64)?;
+        out.set_attr("nx", g.nx as i64)?;
+        out.set_attr("ny", g.ny as i64)?;
+        out.set_attr("dx", g.dx())?;
+        out.set_attr("dy", g.dy())?;
+        out.set_attr("h_min", st.min)?;
+        out.set_attr("h_max", st.max)?;
+        out.set_attr("h_mean", st.mean)?;
+        out.set_attr("h_rms", st.rms)?;
+        out.set_attr("skewness", st.skewness)?;
+        out.set_attr("excess_kurtosis", st.excess_kurtosis)?;
+        out.set_attr("p_fc_grid", s.p_fc_grid())?;
+        out.write_f64_2d(fields::HEIGHT, s.heights.view())?;
+        let cps = s.critical_points();
+        let kind = |k: CriticalKind| match k {
+            CriticalKind::Maximum => "maximum",
+            CriticalKind::Minimum => "minimum",
+            CriticalKind::Saddle => "saddle",
+        };
+        let names: Vec<&str> = cps.iter().map(|c| kind(c.kind)).collect();
+        out.write_strings("critical/kind", &names)?;
+        out.write_f64_1d("critical/x", &cps.iter().map(|c| c.x).collect::<Vec<_>>())?;
+        out.write_f64_1d("critical/y", &cps.iter().map(|c| c.y).collect::<Vec<_>>())?;
+        out.write_f64_1d(
+            "critical/height",
+            &cps.iter().map(|c| c.height).collect::<Vec<_>>(),
+        )?;
+        out.write_f64_1d(
+            "critical/curvature_min",
+            &cps.iter().map(|c| c.curvatures[0]).collect::<Vec<_>>(),
+        )?;
+        out.write_f64_1d(
+            "critical/curvature_max",
+            &cps.iter().map(|c| c.curvatures[1]).collect::<Vec<_>>(),
+        )?;
+        out.write_f64_1d(
+            "critical/eta",
+            &cps.iter()
+                .map(|c| c.eta().unwrap_or(f64::NAN))
+                .collect::<Vec<_>>(),
+        )?;
+        ctx.progress(1.0, "written");
+        Ok(StageReport::with_stats(json!({
+            "nodes": g.nx * g.ny,
+            "critical_points": cps.len(),
+        })))
+    }
+}
