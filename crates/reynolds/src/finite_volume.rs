@@ -31,20 +31,36 @@ pub(crate) fn harmonic_mean(a: f64, b: f64) -> f64 {
     }
 }
 
-/// Couplings of the 5-point operator on the flowing (kept) nodes.
-pub(crate) struct Assembly {
+/// The discrete problem: the 5-point operator on the flowing (kept) nodes, with couplings
+/// `e = c dy/dx` on x-faces (node to `i + 1`) and `n = c dx/dy` on y-faces (node to `j + 1`),
+/// and the cut column (see the module docs).
+pub(crate) struct Assembly<'a> {
     pub nx: usize,
     pub ny: usize,
-    /// `c dy/dx` on x-faces (node to `i + 1`).
-    pub e: Vec<f64>,
-    /// `c dx/dy` on y-faces (node to `j + 1`).
-    pub n: Vec<f64>,
-    /// The cut column (see the module docs).
+    pub e: &'a [f64],
+    pub n: &'a [f64],
     pub cut: usize,
 }
 
-/// Builds the face couplings from `g³` on the nodes marked `keep` (all others are decoupled).
-pub(crate) fn assemble(g3: &[f64], keep: ArrayView2<bool>, dx: f64, dy: f64) -> Assembly {
+/// The cut column: the x-face column of least total conductance.
+pub(crate) fn cut_column(e: &[f64], ny: usize) -> usize {
+    let column_sum: Vec<f64> = e.par_chunks(ny).map(|r| r.iter().sum()).collect();
+    let mut cut = 0;
+    for (i, &s) in column_sum.iter().enumerate() {
+        if s < column_sum[cut] {
+            cut = i;
+        }
+    }
+    cut
+}
+
+/// Face couplings `(e, n)` from `g³` on the nodes marked `keep` (all others are decoupled).
+pub(crate) fn couplings(
+    g3: &[f64],
+    keep: ArrayView2<bool>,
+    dx: f64,
+    dy: f64,
+) -> (Vec<f64>, Vec<f64>) {
     let (nx, ny) = keep.dim();
     let (rx, ry) = (dy / dx, dx / dy);
     let keep = keep.as_standard_layout();
@@ -72,17 +88,10 @@ pub(crate) fn assemble(g3: &[f64], keep: ArrayView2<bool>, dx: f64, dy: f64) -> 
                 }
             }
         });
-    let column_sum: Vec<f64> = e.par_chunks(ny).map(|r| r.iter().sum()).collect();
-    let mut cut = 0;
-    for (i, &s) in column_sum.iter().enumerate() {
-        if s < column_sum[cut] {
-            cut = i;
-        }
-    }
-    Assembly { nx, ny, e, n, cut }
+    (e, n)
 }
 
-impl Assembly {
+impl Assembly<'_> {
     /// The right-hand side for a pressure drop `dp` across the cell: `−s dp` on the upstream
     /// node of every cut face and `+s dp` on the downstream one.
     pub fn rhs(&self, dp: f64) -> Vec<f64> {

@@ -271,13 +271,21 @@ pub fn solve(
         return Ok(not_percolating(start.elapsed().as_secs_f64()));
     }
 
-    let asm = finite_volume::assemble(&g3, keep.view(), dx, dy);
+    let (e, n) = finite_volume::couplings(&g3, keep.view(), dx, dy);
     drop(g3);
-    let b = asm.rhs(dp);
-    let op = stencil::Stencil::five_point(nx, ny, asm.e.clone(), asm.n.clone());
+    let cut = finite_volume::cut_column(&e, ny);
+    // The multigrid hierarchy owns a copy of the fine couplings (its finest operator).
+    let op = stencil::Stencil::five_point(nx, ny, e.clone(), n.clone());
     let mut mg = multigrid::Multigrid::new(op, options.smoothing_sweeps.max(1));
     let setup_seconds = start.elapsed().as_secs_f64();
-
+    let asm = finite_volume::Assembly {
+        nx,
+        ny,
+        e: &e,
+        n: &n,
+        cut,
+    };
+    let b = asm.rhs(dp);
     let bnorm = stencil::dot(&b, &b).sqrt();
     let mut u = vec![0.0; nx * ny];
     let true_residual = |x: &[f64]| {

@@ -169,21 +169,22 @@ impl Multigrid {
 
 fn vcycle(levels: &mut [Level], coarse: &CoarseSolver, sweeps: usize, b: &[f64], z: &mut [f64]) {
     let (cur, rest) = levels.split_first_mut().expect("non-empty hierarchy");
-    z.fill(0.0);
     if rest.is_empty() {
+        z.fill(0.0);
         match coarse {
             CoarseSolver::Dense(d) => d.solve(b, z),
             CoarseSolver::Relax => {
                 for _ in 0..COARSE_SWEEPS {
-                    cur.op.gauss_seidel(b, z, &cur.bounds, true);
-                    cur.op.gauss_seidel(b, z, &cur.bounds, false);
+                    cur.op.gauss_seidel(b, z, &cur.bounds, true, false);
+                    cur.op.gauss_seidel(b, z, &cur.bounds, false, false);
                 }
             }
         }
         return;
     }
-    for _ in 0..sweeps {
-        cur.op.gauss_seidel(b, z, &cur.bounds, true);
+    // The first sweep starts from z = 0 without reading z.
+    for s in 0..sweeps {
+        cur.op.gauss_seidel(b, z, &cur.bounds, true, s == 0);
     }
     cur.op.residual(b, z, &mut cur.r);
     let next = &mut rest[0];
@@ -203,7 +204,7 @@ fn vcycle(levels: &mut [Level], coarse: &CoarseSolver, sweeps: usize, b: &[f64],
     next.b = nb;
     next.z = nz;
     for _ in 0..sweeps {
-        cur.op.gauss_seidel(b, z, &cur.bounds, false);
+        cur.op.gauss_seidel(b, z, &cur.bounds, false, false);
     }
 }
 
@@ -358,41 +359,30 @@ fn galerkin(op: &Stencil, w: &[CellWeights]) -> Stencil {
     // Coarse couplings s = −A_c: E(I,J) from cells (I,J) [0,1] and (I,J−1) [2,3];
     // N(I,J) from (I,J) [0,2] and (I−1,J) [1,3]; NE from (I,J) [0,3]; SE (to (I+1,J−1)) from
     // cell (I,J−1), corners 2 = (I,J) and 1 = (I+1,J−1).
-    let mut e = vec![0.0; cx * cy];
-    let mut n = vec![0.0; cx * cy];
-    let mut ne = vec![0.0; cx * cy];
-    let mut se = vec![0.0; cx * cy];
-    let combine = |(ci, (((er, nr), ner), ser)): (
-        usize,
-        (((&mut [f64], &mut [f64]), &mut [f64]), &mut [f64]),
-    )| {
+    let mut out = vec![[0.0f64; 4]; cx * cy];
+    let combine = |(ci, row): (usize, &mut [[f64; 4]])| {
         let cim = down(ci, cx);
-        for cj in 0..cy {
+        for (cj, o) in row.iter_mut().enumerate() {
             let cjm = down(cj, cy);
             let here = &cell_energy[ci * cy + cj];
             let south = &cell_energy[ci * cy + cjm];
             let west = &cell_energy[cim * cy + cj];
-            er[cj] = -(here[0] + south[5]);
-            nr[cj] = -(here[1] + west[4]);
-            ner[cj] = -here[2];
-            ser[cj] = -south[3];
+            *o = [
+                -(here[0] + south[5]),
+                -(here[1] + west[4]),
+                -here[2],
+                -south[3],
+            ];
         }
     };
     if op.len() >= PARALLEL_MIN {
-        e.par_chunks_mut(cy)
-            .zip(n.par_chunks_mut(cy))
-            .zip(ne.par_chunks_mut(cy))
-            .zip(se.par_chunks_mut(cy))
-            .enumerate()
-            .for_each(combine);
+        out.par_chunks_mut(cy).enumerate().for_each(combine);
     } else {
-        e.chunks_mut(cy)
-            .zip(n.chunks_mut(cy))
-            .zip(ne.chunks_mut(cy))
-            .zip(se.chunks_mut(cy))
-            .enumerate()
-            .for_each(combine);
+        out.chunks_mut(cy).enumerate().for_each(combine);
     }
+    drop(cell_energy);
+    let take = |t: usize| out.iter().map(|o| o[t]).collect::<Vec<f64>>();
+    let (e, n, ne, se) = (take(0), take(1), take(2), take(3));
     Stencil::nine_point(cx, cy, e, n, ne, se)
 }
 

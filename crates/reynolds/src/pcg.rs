@@ -86,8 +86,7 @@ pub(crate) fn solve(
                     iterations,
                 };
             }
-            mg.fine().apply(&p, &mut q);
-            let pq = dot(&p, &q);
+            let pq = mg.fine().apply_dot(&p, &mut q);
             if pq <= 0.0 || !pq.is_finite() {
                 return Outcome {
                     stop: Stop::Breakdown,

@@ -139,8 +139,15 @@ impl Stencil {
     }
 
     /// `y = A x` (flux form).
+    #[cfg(test)]
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
         self.residual_impl(None, x, y);
+    }
+
+    /// `y = A x` (flux form); returns `x · y` (deterministic order).
+    pub fn apply_dot(&self, x: &[f64], y: &mut [f64]) -> f64 {
+        self.residual_impl(None, x, y);
+        dot(x, y)
     }
 
     /// `r = b − A x` (flux form).
@@ -212,17 +219,30 @@ impl Stencil {
     /// blocks first, each backwards), so a forward pre-sweep and a backward post-sweep make a
     /// symmetric multigrid cycle. The ordering is fixed by `bounds`, not by the number of
     /// threads: results do not depend on the thread count.
-    pub fn gauss_seidel(&self, b: &[f64], x: &mut [f64], bounds: &[usize], forward: bool) {
+    ///
+    /// `zero_start` (forward sweeps only): `x` is taken as zero on entry and its contents are
+    /// never read, which saves clearing and reading it.
+    pub fn gauss_seidel(
+        &self,
+        b: &[f64],
+        x: &mut [f64],
+        bounds: &[usize],
+        forward: bool,
+        zero_start: bool,
+    ) {
         let (nx, ny) = (self.nx, self.ny);
         let nblocks = bounds.len() - 1;
-        debug_assert!(nblocks >= 2 && nblocks % 2 == 0);
+        debug_assert!(nblocks >= 2 && nblocks.is_multiple_of(2));
+        debug_assert!(forward || !zero_start);
         let parities: [usize; 2] = if forward { [0, 1] } else { [1, 0] };
-        for parity in parities {
+        for (half, parity) in parities.into_iter().enumerate() {
+            // In a zero-start sweep the blocks relaxed first see zero neighbours.
+            let zero_halo = zero_start && half == 0;
             // Halo rows of the blocks of this parity: copies of the neighbouring rows, which
             // belong to blocks of the other parity and do not change in this half-sweep.
             let halos: Vec<(Vec<f64>, Vec<f64>)> = (0..nblocks)
                 .map(|k| {
-                    if k % 2 != parity {
+                    if k % 2 != parity || zero_halo {
                         return (Vec::new(), Vec::new());
                     }
                     let lo = wrap_prev(bounds[k], nx);
@@ -243,8 +263,12 @@ impl Stencil {
                 rest = tail;
             }
             let relax = |(k, part): (usize, &mut [f64])| {
-                let (lo, hi) = (&halos[k].0, &halos[k].1);
-                self.relax_block(b, part, bounds[k], bounds[k + 1], lo, hi, forward);
+                let (lo, hi) = if zero_halo {
+                    (None, None)
+                } else {
+                    (Some(halos[k].0.as_slice()), Some(halos[k].1.as_slice()))
+                };
+                self.relax_block(b, part, bounds[k], lo, hi, forward, zero_start);
             };
             if nx * ny >= PARALLEL_MIN {
                 parts.into_par_iter().for_each(relax);
@@ -254,89 +278,146 @@ impl Stencil {
         }
     }
 
+    /// Relaxes the rows of one block (`part`, starting at grid row `r0`). `halo_lo`/`halo_hi`:
+    /// the rows below and above the block (`None`: zero).
     #[allow(clippy::too_many_arguments)]
     fn relax_block(
         &self,
         b: &[f64],
         part: &mut [f64],
         r0: usize,
-        r1: usize,
-        halo_lo: &[f64],
-        halo_hi: &[f64],
+        halo_lo: Option<&[f64]>,
+        halo_hi: Option<&[f64]>,
         forward: bool,
+        zero_start: bool,
     ) {
         let (nx, ny) = (self.nx, self.ny);
-        let rows = r1 - r0;
+        let rows = part.len() / ny;
+        let mut t = vec![0.0; ny];
         for step in 0..rows {
             let local = if forward { step } else { rows - 1 - step };
             let i = r0 + local;
             let (before, after) = part.split_at_mut(local * ny);
             let (cur, after) = after.split_at_mut(ny);
-            let prev: &[f64] = if local > 0 {
-                &before[(local - 1) * ny..]
+            let prev: Option<&[f64]> = if local > 0 {
+                Some(&before[(local - 1) * ny..])
             } else {
                 halo_lo
             };
-            let next: &[f64] = if local + 1 < rows {
-                &after[..ny]
+            // Rows not yet relaxed in a zero-start sweep are zero.
+            let next: Option<&[f64]> = if local + 1 < rows {
+                if zero_start { None } else { Some(&after[..ny]) }
             } else {
                 halo_hi
             };
             let im = wrap_prev(i, nx);
             let row = i * ny..(i + 1) * ny;
             let rowm = im * ny..(im + 1) * ny;
-            let bb = &b[row.clone()];
-            let e = &self.e[row.clone()];
-            let ew = &self.e[rowm.clone()];
-            let n = &self.n[row.clone()];
-            let inv = &self.inv_diag[row.clone()];
-            if self.is_five_point() {
-                let update = |cur: &mut [f64], j: usize| {
-                    let jm = wrap_prev(j, ny);
-                    let jp = wrap_next(j, ny);
-                    let s =
-                        bb[j] + e[j] * next[j] + ew[j] * prev[j] + n[j] * cur[jp] + n[jm] * cur[jm];
-                    cur[j] = s * inv[j];
-                };
-                if forward {
-                    for j in 0..ny {
-                        update(cur, j);
-                    }
-                } else {
-                    for j in (0..ny).rev() {
-                        update(cur, j);
-                    }
-                }
-            } else {
-                let ne = &self.ne[row.clone()];
-                let nep = &self.ne[rowm.clone()];
-                let se = &self.se[row];
-                let sep = &self.se[rowm];
-                let update = |cur: &mut [f64], j: usize| {
-                    let jm = wrap_prev(j, ny);
-                    let jp = wrap_next(j, ny);
-                    let s = bb[j]
-                        + e[j] * next[j]
-                        + ew[j] * prev[j]
-                        + n[j] * cur[jp]
-                        + n[jm] * cur[jm]
-                        + ne[j] * next[jp]
-                        + nep[jm] * prev[jm]
-                        + se[j] * next[jm]
-                        + sep[jp] * prev[jp];
-                    cur[j] = s * inv[j];
-                };
-                if forward {
-                    for j in 0..ny {
-                        update(cur, j);
-                    }
-                } else {
-                    for j in (0..ny).rev() {
-                        update(cur, j);
-                    }
-                }
+            let coef = RowCoefficients {
+                b: &b[row.clone()],
+                e: &self.e[row.clone()],
+                ew: &self.e[rowm.clone()],
+                n: &self.n[row.clone()],
+                inv: &self.inv_diag[row.clone()],
+                nine: (!self.is_five_point()).then(|| {
+                    (
+                        &self.ne[row.clone()],
+                        &self.ne[rowm.clone()],
+                        &self.se[row.clone()],
+                        &self.se[rowm.clone()],
+                    )
+                }),
+            };
+            relax_row(&coef, cur, prev, next, &mut t, forward, zero_start);
+        }
+    }
+}
+
+/// The coefficient rows a row relaxation needs.
+struct RowCoefficients<'a> {
+    b: &'a [f64],
+    e: &'a [f64],
+    /// `e` of the row below (couplings to the west).
+    ew: &'a [f64],
+    n: &'a [f64],
+    inv: &'a [f64],
+    /// `ne`, `ne` of the row below, `se`, `se` of the row below.
+    nine: Option<(&'a [f64], &'a [f64], &'a [f64], &'a [f64])>,
+}
+
+/// Gauss–Seidel on one row: `x_j ← (b_j + Σ_m s_jm x_m) / d_j`, in the row's order.
+///
+/// Everything that does not depend on the values updated earlier in the same row is summed
+/// first into `t` (a vectorisable pass); the sequential recurrence then has a single
+/// fused multiply-add on its critical path.
+fn relax_row(
+    c: &RowCoefficients,
+    cur: &mut [f64],
+    prev: Option<&[f64]>,
+    next: Option<&[f64]>,
+    t: &mut [f64],
+    forward: bool,
+    zero_start: bool,
+) {
+    let ny = cur.len();
+    let (b, e, ew, n, inv) = (c.b, c.e, c.ew, c.n, c.inv);
+    let t = &mut t[..ny];
+    t.copy_from_slice(b);
+    if let Some(nx_) = next {
+        for ((t, &e), &x) in t.iter_mut().zip(e).zip(&nx_[..ny]) {
+            *t += e * x;
+        }
+    }
+    if let Some(pv) = prev {
+        for ((t, &w), &x) in t.iter_mut().zip(ew).zip(&pv[..ny]) {
+            *t += w * x;
+        }
+    }
+    if let Some((ne, nep, se, sep)) = c.nine {
+        // NE: next[j+1] via ne[j]; SE: next[j−1] via se[j]; SW: prev[j−1] via nep[j−1];
+        // NW: prev[j+1] via sep[j+1].
+        if let Some(nx_) = next {
+            for j in 0..ny {
+                let (jm, jp) = (wrap_prev(j, ny), wrap_next(j, ny));
+                t[j] += ne[j] * nx_[jp] + se[j] * nx_[jm];
             }
         }
+        if let Some(pv) = prev {
+            for j in 0..ny {
+                let (jm, jp) = (wrap_prev(j, ny), wrap_next(j, ny));
+                t[j] += nep[jm] * pv[jm] + sep[jp] * pv[jp];
+            }
+        }
+    }
+    // In-row couplings: x_j ↔ x_{j+1} through n[j]; x_j ↔ x_{j−1} through n[j−1].
+    if forward {
+        // Not yet updated: x_{j+1} for j < ny−1, and x_{ny−1} seen from j = 0.
+        if !zero_start {
+            for j in 0..ny - 1 {
+                t[j] += n[j] * cur[j + 1];
+            }
+            t[0] += n[ny - 1] * cur[ny - 1];
+        }
+        cur[0] = t[0] * inv[0];
+        for j in 1..ny - 1 {
+            let a = n[j - 1] * inv[j];
+            cur[j] = a.mul_add(cur[j - 1], t[j] * inv[j]);
+        }
+        let j = ny - 1;
+        cur[j] = (t[j] + n[j - 1] * cur[j - 1] + n[j] * cur[0]) * inv[j];
+    } else {
+        // Not yet updated: x_{j−1} for j > 0, and x_0 seen from j = ny−1.
+        for j in 1..ny {
+            t[j] += n[j - 1] * cur[j - 1];
+        }
+        t[ny - 1] += n[ny - 1] * cur[0];
+        let last = ny - 1;
+        cur[last] = t[last] * inv[last];
+        for j in (1..ny - 1).rev() {
+            let a = n[j] * inv[j];
+            cur[j] = a.mul_add(cur[j + 1], t[j] * inv[j]);
+        }
+        cur[0] = (t[0] + n[0] * cur[1] + n[ny - 1] * cur[ny - 1]) * inv[0];
     }
 }
 
@@ -437,9 +518,11 @@ mod tests {
             for q in 0..nn {
                 let mut b = vec![0.0; nn];
                 b[q] = 1.0;
-                let mut x = vec![0.0; nn];
-                s.gauss_seidel(&b, &mut x, &bounds, true);
-                s.gauss_seidel(&b, &mut x, &bounds, false);
+                // A zero-start sweep must not read x: give it garbage.
+                let zero_start = q % 2 == 0;
+                let mut x = vec![if zero_start { f64::NAN } else { 0.0 }; nn];
+                s.gauss_seidel(&b, &mut x, &bounds, true, zero_start);
+                s.gauss_seidel(&b, &mut x, &bounds, false, false);
                 for p in 0..nn {
                     sm[p][q] = x[p];
                 }
@@ -461,7 +544,7 @@ mod tests {
             let b = block_bounds(nx);
             assert_eq!(b[0], 0);
             assert_eq!(*b.last().unwrap(), nx);
-            assert!((b.len() - 1) % 2 == 0 && b.len() >= 3);
+            assert!((b.len() - 1).is_multiple_of(2) && b.len() >= 3);
             assert!(b.windows(2).all(|w| w[1] > w[0]));
         }
     }
