@@ -333,6 +333,10 @@ impl Stencil {
     }
 }
 
+/// Diagonal coupling rows of a 9-point operator: `ne`, `ne` of the row below, `se`, `se` of
+/// the row below.
+type DiagonalRows<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [f64]);
+
 /// The coefficient rows a row relaxation needs.
 struct RowCoefficients<'a> {
     b: &'a [f64],
@@ -342,7 +346,7 @@ struct RowCoefficients<'a> {
     n: &'a [f64],
     inv: &'a [f64],
     /// `ne`, `ne` of the row below, `se`, `se` of the row below.
-    nine: Option<(&'a [f64], &'a [f64], &'a [f64], &'a [f64])>,
+    nine: Option<DiagonalRows<'a>>,
 }
 
 /// Gauss–Seidel on one row: `x_j ← (b_j + Σ_m s_jm x_m) / d_j`, in the row's order.
