@@ -319,6 +319,8 @@ pub struct StageDecl {
     pub inputs: BTreeMap<String, InputDecl>,
     /// Parameters as written (may hold `$setting` references).
     pub params: BTreeMap<String, Located<Value>>,
+    /// Where each parameter's name is written.
+    pub param_keys: BTreeMap<String, Origin>,
     /// Documentation.
     pub doc: String,
     /// Where it was declared (its table header).
@@ -356,6 +358,8 @@ pub struct ParamsFile {
     pub path: PathBuf,
     /// Values by setting name.
     pub values: BTreeMap<String, Located<Value>>,
+    /// Where each setting's name is written.
+    pub keys: BTreeMap<String, Origin>,
     /// Where the file starts (for "missing setting" errors).
     pub origin: Origin,
 }
@@ -723,6 +727,7 @@ fn parse_stage(
     let mut kind = None;
     let mut inputs = BTreeMap::new();
     let mut params = BTreeMap::new();
+    let mut param_keys = BTreeMap::new();
     let mut doc = String::new();
     for (k, v) in t.iter() {
         match k.get_ref().as_ref() {
@@ -735,6 +740,7 @@ fn parse_stage(
             "params" => {
                 if let Some(pt) = as_table(src, &format!("stage `{n}`: `params`"), v, errs) {
                     for (pk, pv) in pt.iter() {
+                        param_keys.insert(pk.get_ref().to_string(), src.at(pk));
                         params.insert(
                             pk.get_ref().to_string(),
                             Located {
@@ -799,6 +805,7 @@ fn parse_stage(
         kind,
         inputs,
         params,
+        param_keys,
         doc,
         origin: src.at(name),
     })
@@ -823,6 +830,7 @@ impl ParamsFile {
         Self {
             path: PathBuf::from("<no params file>"),
             values: BTreeMap::new(),
+            keys: BTreeMap::new(),
             origin: Origin {
                 file: "<no params file>".into(),
                 line: 1,
@@ -835,8 +843,10 @@ impl ParamsFile {
         let root = parse_table(src)?;
         let mut errs = Vec::new();
         let mut values = BTreeMap::new();
+        let mut keys = BTreeMap::new();
         for (k, v) in root.get_ref().iter() {
             if check_name(src, k, "setting", &mut errs) {
+                keys.insert(k.get_ref().to_string(), src.at(k));
                 values.insert(
                     k.get_ref().to_string(),
                     Located {
@@ -850,6 +860,7 @@ impl ParamsFile {
             Ok(Self {
                 path: path.to_path_buf(),
                 values,
+                keys,
                 origin: src.origin(0),
             })
         } else {
@@ -873,7 +884,7 @@ impl ParamsFile {
                     .map(|s| format!("did you mean `{s}`? "))
                     .unwrap_or_default();
                 errs.push(ConfigError::at(
-                    &v.origin,
+                    self.keys.get(k).unwrap_or(&v.origin),
                     format!(
                         "unknown setting `{k}`: {} does not declare it; {hint}allowed: {}",
                         pipeline.path.display(),

@@ -211,6 +211,11 @@ impl Plan {
             let kind_name = imp.name().to_string();
             let locate = |issue: &crate::schema::ParamIssue| -> ConfigError {
                 let what = format!("stage `{name}` (kind `{kind_name}`): {issue}");
+                if issue.at_key
+                    && let Some(o) = issue.key.as_deref().and_then(|k| decl.param_keys.get(k))
+                {
+                    return ConfigError::at(o, what);
+                }
                 match issue.key.as_deref().and_then(|k| source.get(k)) {
                     Some((o, Some(via))) => {
                         ConfigError::at(o, format!("{what} (used via a `$` reference at {via})"))

@@ -290,6 +290,7 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
     let mut blocked: BTreeSet<usize> = BTreeSet::new();
     let (tx, rx) = mpsc::channel::<(usize, Result<Executed>)>();
     let started = Instant::now();
+    let mut last_index_save = Instant::now();
 
     std::thread::scope(|scope| -> Result<()> {
         let mut running = 0usize;
@@ -343,9 +344,15 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
                     );
                     summary.ran.push(s.name.clone());
                     index.record(plan, s);
-                    if let Err(e) = index.save(ws) {
-                        progress.log(&format!("warning: {e:#}"));
-                        index_dirty = true;
+                    index_dirty = true;
+                    // the index only explains reruns; saving it at most once a second keeps
+                    // two fsyncs per stage off the critical path
+                    if last_index_save.elapsed().as_secs_f64() >= 1.0 {
+                        match index.save(ws) {
+                            Ok(()) => index_dirty = false,
+                            Err(e) => progress.log(&format!("warning: {e:#}")),
+                        }
+                        last_index_save = Instant::now();
                     }
                     for (j, deps) in waiting_on.iter_mut() {
                         if deps.remove(&i) && deps.is_empty() && !blocked.contains(j) {

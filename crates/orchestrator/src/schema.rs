@@ -309,6 +309,8 @@ pub struct ParamIssue {
     pub key: Option<String>,
     /// What is wrong, including what is allowed.
     pub message: String,
+    /// Whether the name itself is wrong (report at the key, not at the value).
+    pub at_key: bool,
 }
 
 impl ParamIssue {
@@ -317,6 +319,7 @@ impl ParamIssue {
         Self {
             key: Some(key.into()),
             message: message.into(),
+            at_key: false,
         }
     }
 }
@@ -344,17 +347,20 @@ pub fn validate_params(
             let hint = crate::util::did_you_mean(k, &known)
                 .map(|s| format!("did you mean `{s}`? "))
                 .unwrap_or_default();
-            issues.push(ParamIssue::new(
-                k,
-                format!(
-                    "unknown parameter; {hint}allowed: {}",
-                    if known.is_empty() {
-                        "none".to_string()
-                    } else {
-                        known.join(", ")
-                    }
-                ),
-            ));
+            issues.push(ParamIssue {
+                at_key: true,
+                ..ParamIssue::new(
+                    k,
+                    format!(
+                        "unknown parameter; {hint}allowed: {}",
+                        if known.is_empty() {
+                            "none".to_string()
+                        } else {
+                            known.join(", ")
+                        }
+                    ),
+                )
+            });
         }
     }
     for s in specs {

@@ -13,6 +13,10 @@
 //!
 //! Bytes are reproducible: object time stamps are switched off on the file, every group and
 //! every dataset, so identical content gives identical files.
+//!
+//! HDF5's own file locking (1.10+, `flock` on every open file) is switched off: published files
+//! are immutable and temporaries private, so it protects nothing here, and its locks leak into
+//! child processes (HDF5 opens files without `O_CLOEXEC`) and fail on some network file systems.
 
 use crate::fsutil;
 use anyhow::{Context, Result, anyhow, bail};
@@ -151,6 +155,7 @@ impl ArtefactWriter {
         let tmp = fsutil::temp_path_for(&final_path)?;
         let file = hdf5::File::with_options()
             .with_fcpl(|p| p.obj_track_times(false))
+            .with_fapl(|p| p.file_locking(false))
             .create_excl(&tmp)
             .with_context(|| format!("cannot create HDF5 file `{}`", tmp.display()))?;
         Ok(Self {
@@ -348,12 +353,15 @@ impl ArtefactReader {
         if !path.is_file() {
             bail!("`{}` does not exist or is not a file", path.display());
         }
-        let file = hdf5::File::open(&path).map_err(|e| {
-            anyhow!(
-                "`{}` is not a readable HDF5 file (truncated or corrupt?): {e}",
-                path.display()
-            )
-        })?;
+        let file = hdf5::File::with_options()
+            .with_fapl(|p| p.file_locking(false))
+            .open(&path)
+            .map_err(|e| {
+                anyhow!(
+                    "`{}` is not a readable HDF5 file (truncated or corrupt?): {e}",
+                    path.display()
+                )
+            })?;
         Ok(Self { file, path })
     }
 

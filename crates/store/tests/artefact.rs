@@ -170,3 +170,30 @@ fn command_provenance_key_is_stable() {
     assert_eq!(a.key, b.key);
     assert!(store::is_key(&a.key));
 }
+
+fn open_fds_to(path: &std::path::Path) -> usize {
+    let Ok(rd) = std::fs::read_dir("/proc/self/fd") else {
+        return 0;
+    };
+    let name = path.file_name().unwrap().to_string_lossy().into_owned();
+    rd.flatten()
+        .filter_map(|e| std::fs::read_link(e.path()).ok())
+        .filter(|t| t.to_string_lossy().contains(&name))
+        .count()
+}
+
+#[test]
+fn no_file_stays_open_after_publish_or_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = sample(&dir.path().join("fds.h5"), &prov());
+    assert_eq!(open_fds_to(&path), 0, "the writer left the file open");
+    {
+        let r = ArtefactReader::open_complete(&path).unwrap();
+        assert_eq!(r.attr_f64("lx").unwrap(), 1.0);
+        let _ = r.provenance().unwrap();
+        let _ = r.read_f64_2d("gap").unwrap();
+    }
+    assert_eq!(open_fds_to(&path), 0, "the reader left the file open");
+    assert!(ArtefactReader::is_valid(&path));
+    assert_eq!(open_fds_to(&path), 0, "is_valid left the file open");
+}
