@@ -8,6 +8,28 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
 
+/// How many event logs `results/runs/` keeps.
+pub const KEEP_LOGS: usize = 200;
+
+/// Deletes all but the newest `keep` `*.jsonl` files of `dir` (names sort by time).
+fn prune(dir: &Path, keep: usize) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut logs: Vec<PathBuf> = rd
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "jsonl"))
+        .collect();
+    if logs.len() <= keep {
+        return;
+    }
+    logs.sort();
+    for p in &logs[..logs.len() - keep] {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
 /// What happened to a stage.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "event", rename_all = "snake_case")]
@@ -119,10 +141,12 @@ impl EventLog {
         }
     }
 
-    /// A log also written to `<dir>/<UTC time>-<pid>.jsonl`.
+    /// A log also written to `<dir>/<UTC time>-<pid>.jsonl`. Only the newest [`KEEP_LOGS`]
+    /// logs are kept.
     pub fn to_dir(dir: &Path) -> Result<Self> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create `{}`", dir.display()))?;
+        prune(dir, KEEP_LOGS.saturating_sub(1));
         let stamp = store::fsutil::utc_now_iso8601().replace(':', "");
         let path = dir.join(format!("{stamp}-{}.jsonl", std::process::id()));
         let file = std::fs::OpenOptions::new()

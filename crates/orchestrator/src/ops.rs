@@ -130,7 +130,7 @@ pub fn gc(ws: &Workspace, plans: &[Plan], dry_run: bool, wait: bool) -> Result<G
             .unwrap_or_default();
         let size = file_size(&path);
         let delete = if store::fsutil::is_temp_name(&name) {
-            true
+            store::fsutil::is_stale_temp(&name)
         } else if let Some(stem) = name.strip_suffix(".h5").filter(|s| store::is_key(s)) {
             !reachable.contains(&(kind, stem.to_string()))
         } else {

@@ -66,8 +66,9 @@ impl Workspace {
         }
     }
 
-    /// Removes stale temporary files (from killed runs) in the cache and in the folders of the
-    /// given side outputs. Call only while holding the exclusive lock.
+    /// Removes stale temporary files (from killed runs: their writer process is gone) in the
+    /// cache and in the folders of the given side outputs. Call while holding the exclusive
+    /// lock.
     pub fn remove_stale_temps(&self, side_outputs: &[String]) -> Vec<PathBuf> {
         let mut dirs: Vec<PathBuf> = Vec::new();
         if let Ok(rd) = std::fs::read_dir(self.cache_dir()) {
@@ -88,7 +89,7 @@ impl Workspace {
             };
             for e in rd.flatten() {
                 let name = e.file_name().to_string_lossy().into_owned();
-                if store::fsutil::is_temp_name(&name) && std::fs::remove_file(e.path()).is_ok() {
+                if store::fsutil::is_stale_temp(&name) && std::fs::remove_file(e.path()).is_ok() {
                     removed.push(e.path());
                 }
             }

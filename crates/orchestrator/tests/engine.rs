@@ -349,7 +349,7 @@ fn gc_keeps_what_the_plans_reach_and_deletes_the_rest() {
     p.run(&reg, &quiet());
     let plan = p.plan(&reg);
     // a stale temporary of a killed run
-    let stale = p.path("results/cache/add/.deadbeef.h5.tmp-1-0");
+    let stale = p.path("results/cache/add/.deadbeef.h5.tmp-4000000000-0");
     std::fs::write(&stale, b"partial").unwrap();
     let dry = orchestrator::ops::gc(&p.ws(), std::slice::from_ref(&plan), true, false).unwrap();
     assert_eq!(dry.deleted.len(), 4, "{:?}", dry.deleted); // old a, c, d + the temporary

@@ -27,6 +27,27 @@ pub fn is_temp_name(name: &str) -> bool {
     name.starts_with('.') && name.contains(".tmp-")
 }
 
+/// The pid that wrote a temporary (see [`temp_path_for`]), if the name has one.
+pub fn temp_owner(name: &str) -> Option<u32> {
+    let rest = &name[name.rfind(".tmp-")? + 5..];
+    rest.split('-').next()?.parse().ok()
+}
+
+/// Whether a temporary file is stale: its writer process no longer exists (on Linux, checked
+/// in /proc; elsewhere every temporary counts as stale, so call this only under the results
+/// lock).
+pub fn is_stale_temp(name: &str) -> bool {
+    if !is_temp_name(name) {
+        return false;
+    }
+    match temp_owner(name) {
+        Some(pid) if Path::new("/proc/self").exists() => {
+            pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists()
+        }
+        _ => true,
+    }
+}
+
 /// Makes the parent folder of `path` (and its ancestors).
 pub fn ensure_parent(path: &Path) -> Result<()> {
     if let Some(parent) = path.parent()
@@ -151,6 +172,17 @@ pub fn host_name() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn temp_names() {
+        let t = temp_path_for(Path::new("a/b.h5")).unwrap();
+        let name = t.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(is_temp_name(&name));
+        assert_eq!(temp_owner(&name), Some(std::process::id()));
+        assert!(!is_stale_temp(&name), "our own temporaries are not stale");
+        assert!(is_stale_temp(".b.h5.tmp-4000000000-0"));
+        assert!(!is_temp_name("b.h5"));
+    }
 
     #[test]
     fn iso_dates() {
