@@ -255,6 +255,23 @@ pub fn run(cmd: Command) -> Result<()> {
                         .collect::<String>()
                 );
             }
+            for (scene, doc) in &plan.scene_docs {
+                let members: Vec<&ops::StageStatus> =
+                    st.iter().filter(|s| s.scenes.contains(scene)).collect();
+                let ok = members
+                    .iter()
+                    .filter(|s| s.state == EntryState::Valid)
+                    .count();
+                println!(
+                    "scene {scene}: {ok}/{} stages cached{}",
+                    members.len(),
+                    if doc.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" ({doc})")
+                    }
+                );
+            }
             println!("{cached}/{} stages cached, {}", st.len(), human_size(bytes));
             Ok(())
         }

@@ -471,6 +471,13 @@ const SLOW_C: &str = "inputs = { inputs = [\"a\", \"b\"] }\nparams = { slow = tr
 
 #[test]
 fn interrupted_run_then_rerun_gives_the_uninterrupted_results() {
+    for signal in ["KILL", "INT"] {
+        interrupt_with(signal);
+    }
+}
+
+/// Runs the pipeline in a child process, sends it `signal` inside stage c, reruns, compares.
+fn interrupt_with(signal: &str) {
     let pipeline = PIPELINE.replace("inputs = { inputs = [\"a\", \"b\"] }", SLOW_C);
     // the reference: an uninterrupted run
     let reference = Project::new(&pipeline, "");
@@ -505,8 +512,16 @@ fn interrupted_run_then_rerun_gives_the_uninterrupted_results() {
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
     std::thread::sleep(std::time::Duration::from_millis(100));
-    child.kill().unwrap(); // SIGKILL
-    child.wait().unwrap();
+    let status = std::process::Command::new("kill")
+        .args([format!("-{signal}"), child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let exit = child.wait().unwrap();
+    assert!(
+        !exit.success(),
+        "SIG{signal}: the child finished instead of dying"
+    );
 
     // nothing half-written is visible at a final path: a and b (topological order a, b, c, d, e)
     // are complete; c left only a hidden temporary
