@@ -175,7 +175,7 @@ def main():
             print(f"RESULT solver={name} n={n} eps={float(eps):e} threads=1 build_s={tb} "
                   f"setup_s={r['setup']} solve_s={r['solve']} wall_s={r['wall']} cpu_s={r['cpu']} "
                   f"iterations={r['iters']} residual={r['rel']:e} conservation={r['cons']:e} "
-                  f"flux={r['flux']!r}", flush=True)
+                  f"flux={float(r['flux'])!r}", flush=True)
 
 
 if __name__ == "__main__":

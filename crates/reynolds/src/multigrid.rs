@@ -221,62 +221,57 @@ fn down(i: usize, n: usize) -> usize {
 fn interpolation_weights(op: &Stencil) -> Vec<CellWeights> {
     let (cx, cy) = (op.nx / 2, op.ny / 2);
     let pos = |v: f64| v.max(0.0);
-    // Pass 1: edges.
-    let mut w: Vec<CellWeights> = vec![[0.0; 8]; cx * cy];
-    let edges = |(ci, row): (usize, &mut [CellWeights])| {
-        for (cj, cell) in row.iter_mut().enumerate() {
-            let (i, j) = (2 * ci, 2 * cj);
-            // x-edge (2I+1, 2J): [W, E, S, N, SW, NE, SE, NW]
-            let c = op.couplings(i + 1, j);
-            let gw = pos(c[0]) + pos(c[4]) + pos(c[7]);
-            let ge = pos(c[1]) + pos(c[5]) + pos(c[6]);
-            let (a, b) = split(gw, ge);
-            cell[0] = a;
-            cell[1] = b;
-            // y-edge (2I, 2J+1)
-            let c = op.couplings(i, j + 1);
-            let gs = pos(c[2]) + pos(c[4]) + pos(c[6]);
-            let gn = pos(c[3]) + pos(c[5]) + pos(c[7]);
-            let (a, b) = split(gs, gn);
-            cell[2] = a;
-            cell[3] = b;
-        }
-    };
     let par = op.len() >= PARALLEL_MIN;
-    if par {
-        w.par_chunks_mut(cy).enumerate().for_each(edges);
+    // Pass 1: edges, [w_W, w_E, w_S, w_N] per cell.
+    let edge = |cell: usize| -> [f64; 4] {
+        let (i, j) = (2 * (cell / cy), 2 * (cell % cy));
+        // x-edge (2I+1, 2J); couplings [W, E, S, N, SW, NE, SE, NW]
+        let c = op.couplings(i + 1, j);
+        let (a, b) = split(
+            pos(c[0]) + pos(c[4]) + pos(c[7]),
+            pos(c[1]) + pos(c[5]) + pos(c[6]),
+        );
+        // y-edge (2I, 2J+1)
+        let c = op.couplings(i, j + 1);
+        let (s, n) = split(
+            pos(c[2]) + pos(c[4]) + pos(c[6]),
+            pos(c[3]) + pos(c[5]) + pos(c[7]),
+        );
+        [a, b, s, n]
+    };
+    let edges: Vec<[f64; 4]> = if par {
+        (0..cx * cy).into_par_iter().map(edge).collect()
     } else {
-        w.chunks_mut(cy).enumerate().for_each(edges);
-    }
+        (0..cx * cy).map(edge).collect()
+    };
     // Pass 2: centres, from the edge weights of this and the neighbouring cells.
-    let edge_w = w.clone();
-    let centres = |(ci, row): (usize, &mut [CellWeights])| {
-        for (cj, cell) in row.iter_mut().enumerate() {
-            let (i, j) = (2 * ci + 1, 2 * cj + 1);
-            let c = op.couplings(i, j);
-            let [sw, se, ss, sn, ssw, sne, sse, snw] = c.map(pos);
-            let total = sw + se + ss + sn + ssw + sne + sse + snw;
-            let here = &edge_w[ci * cy + cj];
-            let east = &edge_w[up(ci, cx) * cy + cj];
-            let north = &edge_w[ci * cy + up(cj, cy)];
-            // W = y-edge of this cell, E = y-edge of cell (I+1, J), S = x-edge of this cell,
-            // N = x-edge of cell (I, J+1).
-            if total > 0.0 {
-                cell[4] = (ssw + sw * here[2] + ss * here[0]) / total;
-                cell[5] = (sse + se * east[2] + ss * here[1]) / total;
-                cell[6] = (snw + sw * here[3] + sn * north[0]) / total;
-                cell[7] = (sne + se * east[3] + sn * north[1]) / total;
-            } else {
-                cell[4..8].fill(0.25);
-            }
-        }
+    let centre = |cell: usize| -> CellWeights {
+        let (ci, cj) = (cell / cy, cell % cy);
+        let c = op.couplings(2 * ci + 1, 2 * cj + 1);
+        let [sw, se, ss, sn, ssw, sne, sse, snw] = c.map(pos);
+        let total = sw + se + ss + sn + ssw + sne + sse + snw;
+        let here = &edges[cell];
+        let east = &edges[up(ci, cx) * cy + cj];
+        let north = &edges[ci * cy + up(cj, cy)];
+        // W = y-edge of this cell, E = y-edge of cell (I+1, J), S = x-edge of this cell,
+        // N = x-edge of cell (I, J+1).
+        let m = if total > 0.0 {
+            [
+                (ssw + sw * here[2] + ss * here[0]) / total,
+                (sse + se * east[2] + ss * here[1]) / total,
+                (snw + sw * here[3] + sn * north[0]) / total,
+                (sne + se * east[3] + sn * north[1]) / total,
+            ]
+        } else {
+            [0.25; 4]
+        };
+        [here[0], here[1], here[2], here[3], m[0], m[1], m[2], m[3]]
     };
     if par {
-        w.par_chunks_mut(cy).enumerate().for_each(centres);
+        (0..cx * cy).into_par_iter().map(centre).collect()
     } else {
-        w.chunks_mut(cy).enumerate().for_each(centres);
+        (0..cx * cy).map(centre).collect()
     }
-    w
 }
 
 #[inline]
