@@ -126,44 +126,51 @@ impl Assembly<'_> {
     /// Post-processing of a solution `u` for pressure drop `dp`.
     pub fn evaluate(&self, u: &[f64], dp: f64) -> Evaluation {
         let (nx, ny) = (self.nx, self.ny);
-        // Per row i: dissipation of its x- and y-faces, flux through its x-face column, and
-        // squared residual (the net outflow of each node, computed face by face).
-        let rows: Vec<(f64, f64, f64, f64)> = (0..nx)
+        let eps = f64::EPSILON;
+        // Per row i: dissipation of its x- and y-faces, flux through its x-face column and the
+        // rounding noise of that flux, squared residual (the net outflow of each node, computed
+        // face by face), its rounding floor, and the dissipation of rounding noise.
+        let rows: Vec<[f64; 6]> = (0..nx)
             .into_par_iter()
             .map(|i| {
                 let im = if i == 0 { nx - 1 } else { i - 1 };
-                let mut diss = 0.0;
-                let mut flux = 0.0;
-                let mut res2 = 0.0;
-                let mut floor2 = 0.0;
+                let ip = if i + 1 == nx { 0 } else { i + 1 };
+                let mut acc = [0.0; 6];
                 for j in 0..ny {
                     let jm = if j == 0 { ny - 1 } else { j - 1 };
+                    let jp = if j + 1 == ny { 0 } else { j + 1 };
                     let k = i * ny + j;
-                    let fe = self.e[k] * self.drop_x(u, i, j, dp);
+                    let (dxe, dyn_) = (self.drop_x(u, i, j, dp), self.drop_y(u, i, j));
+                    let fe = self.e[k] * dxe;
                     let fw = self.e[im * ny + j] * self.drop_x(u, im, j, dp);
-                    let fnn = self.n[k] * self.drop_y(u, i, j);
+                    let fnn = self.n[k] * dyn_;
                     let fs = self.n[i * ny + jm] * self.drop_y(u, i, jm);
-                    diss += fe * self.drop_x(u, i, j, dp) + fnn * self.drop_y(u, i, j);
-                    flux += fe;
+                    acc[0] += fe * dxe + fnn * dyn_;
+                    acc[1] += fe;
+                    // Rounding u to doubles perturbs a face's drop by ≈ ε(|u_k| + |u_m|).
+                    let ne = eps * (u[k].abs() + u[ip * ny + j].abs());
+                    let nn = eps * (u[k].abs() + u[i * ny + jp].abs());
+                    acc[2] += self.e[k] * ne;
                     // Net outflow; zero for the exact solution.
                     let r = (fe - fw) + (fnn - fs);
-                    res2 += r * r;
+                    acc[3] += r * r;
                     // Residual that rounding u_k to the nearest double alone can cause.
                     let d = self.e[k] + self.e[im * ny + j] + self.n[k] + self.n[i * ny + jm];
-                    let f = d * u[k].abs() * f64::EPSILON;
-                    floor2 += f * f;
+                    let f = d * u[k].abs() * eps;
+                    acc[4] += f * f;
+                    acc[5] += self.e[k] * ne * ne + self.n[k] * nn * nn;
                 }
-                (diss, flux, res2, floor2)
+                acc
             })
             .collect();
-        let dissipation: f64 = rows.iter().map(|r| r.0).sum();
-        let residual_norm = rows.iter().map(|r| r.2).sum::<f64>().sqrt();
-        let column_flux: Vec<f64> = rows.iter().map(|r| r.1).collect();
+        let sum = |t: usize| rows.iter().map(|r| r[t]).sum::<f64>();
         Evaluation {
-            flux: dissipation / dp,
-            column_flux,
-            residual_norm,
-            rounding_floor: ROUNDING_SAFETY * rows.iter().map(|r| r.3).sum::<f64>().sqrt(),
+            flux: sum(0) / dp,
+            column_flux: rows.iter().map(|r| r[1]).collect(),
+            column_noise: rows.iter().map(|r| r[2]).collect(),
+            residual_norm: sum(3).sqrt(),
+            rounding_floor: ROUNDING_SAFETY * sum(4).sqrt(),
+            flux_rounding: sum(5) / dp,
         }
     }
 
@@ -217,6 +224,11 @@ pub(crate) struct Evaluation {
     pub flux: f64,
     /// Flux through each x-face column (the cross-sections perpendicular to the flow).
     pub column_flux: Vec<f64>,
+    /// Rounding noise of each column flux, `Σ s ε (|u_k| + |u_m|)`.
+    pub column_noise: Vec<f64>,
+    /// Dissipation (as a flux) of the pressure's rounding noise, `Σ s ε² (|u_k| + |u_m|)² / ΔP`:
+    /// the resolution of the dissipation flux in double precision.
+    pub flux_rounding: f64,
     /// `‖b − A u‖₂`, computed as the net outflow of each node.
     pub residual_norm: f64,
     /// The residual norm below which rounding of the unknowns themselves dominates:

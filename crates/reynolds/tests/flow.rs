@@ -437,6 +437,41 @@ fn thirty_decades_of_conductivity_converge_fast() {
     }
 }
 
+#[test]
+fn ponds_in_series_behind_tiny_throats_are_either_right_or_flagged() {
+    // Two throat columns (x = 1/4, 3/4) of gap g_t (1 + 0.1 cos 2πy) in an otherwise uniform
+    // gap 1: two ponds in series, the second at pressure ≈ ΔP/2, where doubles cannot resolve
+    // the pressure differences that carry a flux ~g_t³ through the pond. For g_t → 0 the ponds
+    // are equipotential and every throat node sits at the mean pressure (by symmetry), so
+    // K → Σ_j g_j³ / 2, with a relative correction K × (pond resistance) < 10 K (the ponds'
+    // resistance in these units is O(1)). The solver must either get that or say that it did
+    // not converge.
+    let n = 64;
+    for (gt, expect_converged) in [(1e-3, true), (1e-5, true), (1e-10, false)] {
+        let gj = |j: usize| gt * (1.0 + 0.1 * (TAU * j as f64 / n as f64).cos());
+        let g = Array2::from_shape_fn((n, n), |(i, j)| {
+            if i == n / 4 || i == 3 * n / 4 {
+                gj(j)
+            } else {
+                1.0
+            }
+        });
+        let limit = (0..n).map(|j| gj(j).powi(3)).sum::<f64>() / 2.0;
+        let r = solve(g.view(), 1.0, 1.0, FlowAxis::X, &opts()).unwrap();
+        assert_eq!(r.converged, expect_converged, "g_t = {gt}: {r:?}");
+        if r.converged {
+            // 3e-7 at g_t = 1e-3; at g_t = 1e-5 the flux must be right to ~1e-12.
+            assert!(
+                rel(r.conductivity, limit) < 10.0 * limit + 1e-12,
+                "{} vs {limit}",
+                r.conductivity
+            );
+        } else {
+            assert_ne!(r.termination, Termination::Converged);
+        }
+    }
+}
+
 /// Independent reference: assemble the system from scratch (cut on column 0, not where the
 /// crate puts it; pools found by breadth-first search on the doubled cell), pin one node per
 /// flowing cluster, solve densely by Gaussian elimination with partial pivoting, and return
