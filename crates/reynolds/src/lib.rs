@@ -16,7 +16,7 @@
 //!   `g < 1e-108`.)
 //!
 //! # Discretisation
-//! Cell-centred finite volumes ([`finite_volume`](crate) module docs): face conductance the
+//! Cell-centred finite volumes (see the `finite_volume` module): face conductance the
 //! harmonic mean of `g³` of its two nodes, zero if either is in contact. Fluid pools that are not
 //! part of a cluster winding around the cell along the flow axis (4-connected fluid, periodic
 //! labelling by the `percolation` crate) carry no flux and are removed before solving. If no
