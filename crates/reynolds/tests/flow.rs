@@ -710,3 +710,45 @@ fn iteration_cap_is_flagged_not_hidden() {
     assert!(r.relative_residual > 1e-14);
     assert!(r.flux.is_finite() && r.flux > 0.0);
 }
+
+#[test]
+fn results_do_not_depend_on_the_number_of_threads() {
+    // 256² is above the size at which the kernels go parallel; the block ordering of
+    // Gauss–Seidel and the reductions are fixed by the grid, not by the pool, so the
+    // results must be bit-identical.
+    let n = 256;
+    let g = Array2::from_shape_fn((n, n), |(i, j)| {
+        let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+        (1e-3 + (TAU * x).cos() + (TAU * y).cos()).max(0.0)
+    });
+    let o = FlowOptions {
+        return_fields: true,
+        ..opts()
+    };
+    let results: Vec<FlowResult> = [1, 2, 3]
+        .iter()
+        .map(|&t| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap();
+            pool.install(|| solve(g.view(), 1.0, 1.0, FlowAxis::X, &o).unwrap())
+        })
+        .collect();
+    for r in &results[1..] {
+        assert_eq!(r.flux.to_bits(), results[0].flux.to_bits());
+        assert_eq!(r.iterations, results[0].iterations);
+        assert_eq!(r.relative_residual, results[0].relative_residual);
+        let (a, b) = (
+            r.fields.as_ref().unwrap(),
+            results[0].fields.as_ref().unwrap(),
+        );
+        assert!(
+            a.current_x
+                .iter()
+                .zip(b.current_x.iter())
+                .all(|(p, q)| p == q)
+        );
+    }
+    assert!(results[0].converged && results[0].iterations <= 15);
+}
