@@ -1,1 +1,530 @@
-//! contact
+//! Force-controlled Green's-function (GFMD) contact mechanics of a flat elastic half-space
+//! against a rigid periodic surface, with hard-wall, adhesive and repulsive interactions.
+//!
+//! Conventions: see [`elastic`] for the one place the sign convention is fixed (gap
+//! `g = u − h ≥ 0`, `u` the elastic surface's height). Units: E* = 1, λ = 1, h0 = 1; pressures in
+//! E* h0/λ, energies per area in E* h0²/λ.
+//!
+//! Two minimisers implement [`Minimizer`]:
+//! - [`polonsky_keer::PolonskyKeer`]: constrained conjugate gradients in the contact pressure
+//!   (Polonsky & Keer 1999) for the convex hard-wall problem. Converges to a bound on the
+//!   constraint violation (gap on the contact set, penetration off it).
+//! - [`fire::Fire`]: FIRE relaxation of the displacement with Fourier-space mass weighting
+//!   (masses ∝ modal stiffness, Zhou, Moseler & Müser 2019) and the hard wall as a projection;
+//!   handles any interaction and follows metastable branches from warm starts. Converges to a
+//!   bound on the force residual.
+//!
+//! [`Model::solve`] picks one, warm-starts from a previous [`Solution`] if given, and always
+//! returns the iterations, residuals and a converged flag; [`path`] runs quasi-static loading and
+//! unloading branches.
+
+pub mod elastic;
+pub mod fire;
+pub mod interaction;
+pub mod path;
+pub mod polonsky_keer;
+pub mod spectral;
+
+pub use interaction::Interaction;
+pub use surface::{Grid, Lattice, Surface};
+
+use elastic::ElasticKernel;
+use ndarray::{Array2, ArrayView2};
+use std::fmt;
+use std::time::Instant;
+
+/// Errors of the contact solver.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ContactError {
+    /// A parameter outside its allowed range.
+    #[error("invalid {name} = {value}: allowed {allowed}")]
+    Parameter {
+        /// Parameter name.
+        name: &'static str,
+        /// Offending value, as given.
+        value: String,
+        /// Allowed range, in words.
+        allowed: &'static str,
+    },
+    /// Heights that are not finite.
+    #[error("height field has a non-finite value {value} at node ({i}, {j})")]
+    Heights {
+        /// Offending value.
+        value: f64,
+        /// x index.
+        i: usize,
+        /// y index.
+        j: usize,
+    },
+    /// A warm start for a different grid.
+    #[error("warm start has {got} nodes but the grid has {want}")]
+    WarmStart {
+        /// Nodes in the warm start.
+        got: usize,
+        /// Nodes in the grid.
+        want: usize,
+    },
+    /// The body lost all contact under a tensile or zero load: there is no equilibrium.
+    #[error(
+        "the surfaces separated at mean pressure {pressure} (no contact, minimum gap {min_gap} > 20ρ): \
+         there is no equilibrium under force control beyond pull-off"
+    )]
+    Detached {
+        /// Imposed mean pressure.
+        pressure: f64,
+        /// Smallest gap when separation was detected.
+        min_gap: f64,
+    },
+}
+
+impl ContactError {
+    pub(crate) fn parameter(name: &'static str, value: f64, allowed: &'static str) -> Self {
+        ContactError::Parameter {
+            name,
+            value: format!("{value}"),
+            allowed,
+        }
+    }
+}
+
+/// Which minimiser to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Polonsky–Keer for the hard wall, FIRE otherwise.
+    #[default]
+    Auto,
+    /// Constrained conjugate gradients (hard wall only).
+    PolonskyKeer,
+    /// Mass-weighted FIRE (any interaction).
+    Fire,
+}
+
+impl std::str::FromStr for Method {
+    type Err = ContactError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "auto" => Ok(Method::Auto),
+            "polonsky-keer" | "pk" => Ok(Method::PolonskyKeer),
+            "fire" => Ok(Method::Fire),
+            _ => Err(ContactError::Parameter {
+                name: "method",
+                value: s.to_string(),
+                allowed: "\"auto\", \"polonsky-keer\" (hard wall only) or \"fire\"",
+            }),
+        }
+    }
+}
+
+/// Convergence criteria and limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverOptions {
+    /// Bound on the constraint violation (h0): the largest |gap| on the contact set and the
+    /// largest penetration off it. Polonsky–Keer stops on this.
+    pub tol_gap: f64,
+    /// Bound on the force-balance residual (E* h0/λ): the largest unbalanced pressure at a
+    /// non-contact node, or the largest pull-off pressure at a contact node. FIRE stops on this.
+    pub tol_force: f64,
+    /// Iteration cap.
+    pub max_iter: usize,
+    /// Minimiser.
+    pub method: Method,
+    /// Record the objective at every iteration in [`SolveStats::trace`].
+    pub trace: bool,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        SolverOptions {
+            tol_gap: 1e-10,
+            tol_force: 1e-8,
+            max_iter: 200_000,
+            method: Method::Auto,
+            trace: false,
+        }
+    }
+}
+
+impl SolverOptions {
+    /// Checks the options.
+    pub fn validate(&self) -> Result<(), ContactError> {
+        if !(self.tol_gap.is_finite() && self.tol_gap > 0.0) {
+            return Err(ContactError::parameter(
+                "tol_gap",
+                self.tol_gap,
+                "finite and > 0 (h0)",
+            ));
+        }
+        if !(self.tol_force.is_finite() && self.tol_force > 0.0) {
+            return Err(ContactError::parameter(
+                "tol_force",
+                self.tol_force,
+                "finite and > 0 (E* h0/λ)",
+            ));
+        }
+        if self.max_iter == 0 {
+            return Err(ContactError::parameter("max_iter", 0.0, "≥ 1"));
+        }
+        Ok(())
+    }
+}
+
+/// Why a minimiser stopped without meeting its tolerance.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StopReason {
+    /// Hit the iteration cap while still improving.
+    IterationCap,
+    /// No progress for many iterations: the tolerance is below what rounding allows, or the state
+    /// sits at an instability.
+    Stagnation,
+    /// The residual grew by orders of magnitude.
+    ResidualGrowth,
+}
+
+impl fmt::Display for StopReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            StopReason::IterationCap => {
+                "iteration cap reached while the residual was still falling: raise max_iter, or warm-start \
+                 from a nearby solution"
+            }
+            StopReason::Stagnation => {
+                "residual stagnated: the tolerance is likely below rounding for this grid (loosen tol_gap / \
+                 tol_force), or the state is at an instability (use smaller load steps)"
+            }
+            StopReason::ResidualGrowth => {
+                "residual grew by orders of magnitude (diverging): reduce the load step, check ρ against the \
+                 grid spacing, or use FIRE"
+            }
+        })
+    }
+}
+
+/// Statistics of one solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolveStats {
+    /// Minimiser used.
+    pub method: &'static str,
+    /// Iterations (each costs one or two FFT pairs).
+    pub iterations: usize,
+    /// Whether the tolerance was met.
+    pub converged: bool,
+    /// Why it stopped, if not converged.
+    pub reason: Option<StopReason>,
+    /// Final constraint violation (h0), see [`SolverOptions::tol_gap`].
+    pub max_violation: f64,
+    /// Final force residual (E* h0/λ), see [`SolverOptions::tol_force`].
+    pub force_residual: f64,
+    /// Wall time (s).
+    pub wall_s: f64,
+    /// Objective per iteration if requested (Polonsky–Keer: complementary energy; FIRE:
+    /// potential plus kinetic energy), per unit area.
+    pub trace: Vec<f64>,
+}
+
+/// A solved contact state.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// Grid of the fields.
+    pub grid: Grid,
+    /// Interaction used.
+    pub interaction: Interaction,
+    /// Imposed mean pressure p̄ (E* h0/λ).
+    pub mean_pressure: f64,
+    /// Elastic surface height u (h0), shape (nx, ny); the gap is u − h.
+    pub displacement: Array2<f64>,
+    /// Gap g = u − h ≥ 0 (h0); exactly 0 at contact nodes.
+    pub gap: Array2<f64>,
+    /// Pressure the substrate exerts on the body, σ + p̄ (E* h0/λ; compressive positive, negative
+    /// in adhesive necks).
+    pub pressure: Array2<f64>,
+    /// Fraction of nodes in contact (g = 0).
+    pub contact_area: f64,
+    /// Mean gap (h0).
+    pub mean_gap: f64,
+    /// Mean of u (h0): the body's rigid position.
+    pub mean_displacement: f64,
+    /// Total energy per area: elastic + load + interaction (E* h0²/λ).
+    pub energy: f64,
+    /// Solver statistics.
+    pub stats: SolveStats,
+}
+
+/// A contact problem's fixed part: grid, heights and elastic kernel (with its FFT plans and
+/// buffers). Build once per surface and solve many loads on it.
+pub struct Model {
+    grid: Grid,
+    heights: Vec<f64>,
+    h_max: f64,
+    kernel: ElasticKernel,
+}
+
+impl Model {
+    /// Model for a sampled surface.
+    pub fn new(surface: &Surface) -> Result<Self, ContactError> {
+        Self::from_heights(surface.grid, surface.heights.view())
+    }
+
+    /// Model for any height field of shape (nx, ny) on `grid` (nx, ny even).
+    pub fn from_heights(grid: Grid, heights: ArrayView2<f64>) -> Result<Self, ContactError> {
+        if heights.dim() != (grid.nx, grid.ny) {
+            return Err(ContactError::Parameter {
+                name: "heights",
+                value: format!("shape {:?}", heights.dim()),
+                allowed: "shape (nx, ny) of the grid",
+            });
+        }
+        if grid.nx < 2 || grid.ny < 2 || grid.nx % 2 == 1 || grid.ny % 2 == 1 {
+            return Err(ContactError::Parameter {
+                name: "grid",
+                value: format!("{} × {}", grid.nx, grid.ny),
+                allowed: "even node counts ≥ 2 along both axes",
+            });
+        }
+        if !(grid.lx.is_finite() && grid.lx > 0.0 && grid.ly.is_finite() && grid.ly > 0.0) {
+            return Err(ContactError::Parameter {
+                name: "cell",
+                value: format!("{} × {}", grid.lx, grid.ly),
+                allowed: "finite and > 0",
+            });
+        }
+        if let Some(((i, j), &value)) = heights.indexed_iter().find(|(_, v)| !v.is_finite()) {
+            return Err(ContactError::Heights { value, i, j });
+        }
+        let heights: Vec<f64> = heights.iter().copied().collect();
+        let h_max = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Ok(Model {
+            kernel: ElasticKernel::new(&grid, 1.0),
+            grid,
+            heights,
+            h_max,
+        })
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Heights, row-major (first index x).
+    pub fn heights(&self) -> &[f64] {
+        &self.heights
+    }
+
+    /// Solves for mean pressure `pressure`, warm-starting from `warm` if given, with the
+    /// minimiser `opts.method` selects.
+    pub fn solve(
+        &mut self,
+        interaction: Interaction,
+        pressure: f64,
+        opts: &SolverOptions,
+        warm: Option<&Solution>,
+    ) -> Result<Solution, ContactError> {
+        match opts.method {
+            Method::Auto if interaction.is_hard_wall() && pressure > 0.0 => self.solve_with(
+                &polonsky_keer::PolonskyKeer,
+                interaction,
+                pressure,
+                opts,
+                warm,
+            ),
+            Method::PolonskyKeer => self.solve_with(
+                &polonsky_keer::PolonskyKeer,
+                interaction,
+                pressure,
+                opts,
+                warm,
+            ),
+            Method::Auto | Method::Fire => {
+                self.solve_with(&fire::Fire::default(), interaction, pressure, opts, warm)
+            }
+        }
+    }
+
+    /// Solves with a given minimiser.
+    pub fn solve_with(
+        &mut self,
+        minimizer: &dyn Minimizer,
+        interaction: Interaction,
+        pressure: f64,
+        opts: &SolverOptions,
+        warm: Option<&Solution>,
+    ) -> Result<Solution, ContactError> {
+        self.check(interaction, pressure, opts, minimizer.name())?;
+        let mut state = match warm {
+            Some(w) => {
+                let u = w.displacement.as_slice().expect("standard layout");
+                if u.len() != self.heights.len() {
+                    return Err(ContactError::WarmStart {
+                        got: u.len(),
+                        want: self.heights.len(),
+                    });
+                }
+                State {
+                    u: u.to_vec(),
+                    p: w.pressure.as_slice().expect("standard layout").to_vec(),
+                }
+            }
+            None => self.cold_start(interaction, pressure),
+        };
+        let t0 = Instant::now();
+        let mut stats = minimizer.relax(self, interaction, pressure, opts, &mut state)?;
+        // Every result is judged by the same measures, whichever minimiser produced it: the
+        // minimiser's own (taken before it cleans up its final state) and an independent
+        // evaluation of the state it returns.
+        let (violation, force) = residuals(self, interaction, pressure, &state.u, opts.tol_gap);
+        stats.max_violation = stats.max_violation.max(violation);
+        stats.force_residual = stats.force_residual.max(force);
+        stats.wall_s = t0.elapsed().as_secs_f64();
+        Ok(self.finish(interaction, pressure, state, stats))
+    }
+
+    fn check(
+        &self,
+        interaction: Interaction,
+        pressure: f64,
+        opts: &SolverOptions,
+        method: &str,
+    ) -> Result<(), ContactError> {
+        interaction.validate()?;
+        opts.validate()?;
+        if !pressure.is_finite() {
+            return Err(ContactError::parameter(
+                "pressure",
+                pressure,
+                "a finite mean pressure (E* h0/λ)",
+            ));
+        }
+        let adhesive = matches!(interaction, Interaction::Adhesion { gamma0, .. } if gamma0 > 0.0);
+        if pressure <= 0.0 && !adhesive {
+            return Err(ContactError::parameter(
+                "pressure",
+                pressure,
+                "> 0 without adhesion (under force control a non-positive load has no equilibrium)",
+            ));
+        }
+        if method == "polonsky-keer" && !interaction.is_hard_wall() {
+            return Err(ContactError::Parameter {
+                name: "method",
+                value: "polonsky-keer".into(),
+                allowed: "\"fire\" or \"auto\" for adhesion and repulsion (Polonsky–Keer solves the hard wall only)",
+            });
+        }
+        Ok(())
+    }
+
+    /// Initial state without a warm start: a flat body touching the highest node (hard wall,
+    /// adhesion) or resting 3ρ above it, outside the repulsive barrier; uniform pressure.
+    fn cold_start(&self, interaction: Interaction, pressure: f64) -> State {
+        let lift = match interaction {
+            Interaction::Repulsion { rho, .. } => 3.0 * rho,
+            _ => 0.0,
+        };
+        let n = self.heights.len();
+        State {
+            u: vec![self.h_max + lift; n],
+            p: vec![pressure; n],
+        }
+    }
+
+    fn finish(
+        &mut self,
+        interaction: Interaction,
+        pressure: f64,
+        state: State,
+        stats: SolveStats,
+    ) -> Solution {
+        let n = self.heights.len();
+        let shape = (self.grid.nx, self.grid.ny);
+        let gap: Vec<f64> = state
+            .u
+            .iter()
+            .zip(&self.heights)
+            .map(|(u, h)| (u - h).max(0.0))
+            .collect();
+        let contact = gap.iter().filter(|&&g| g == 0.0).count();
+        let mean_u = state.u.iter().sum::<f64>() / n as f64;
+        let mean_gap = gap.iter().sum::<f64>() / n as f64;
+        let energy = self.energy(interaction, pressure, &state.u, &state.p);
+        Solution {
+            grid: self.grid,
+            interaction,
+            mean_pressure: pressure,
+            displacement: Array2::from_shape_vec(shape, state.u).expect("shape"),
+            gap: Array2::from_shape_vec(shape, gap).expect("shape"),
+            pressure: Array2::from_shape_vec(shape, state.p).expect("shape"),
+            contact_area: contact as f64 / n as f64,
+            mean_gap,
+            mean_displacement: mean_u,
+            energy,
+            stats,
+        }
+    }
+
+    /// Energy per area: elastic ½⟨(u − ū)(p − p̄)⟩ + load p̄ ū + interaction ⟨γ(g)⟩, using that
+    /// the pressure field minus its mean is the elastic stress K u.
+    fn energy(&self, interaction: Interaction, pressure: f64, u: &[f64], p: &[f64]) -> f64 {
+        let n = u.len() as f64;
+        let mean_u = u.iter().sum::<f64>() / n;
+        let mean_p = p.iter().sum::<f64>() / n;
+        let mut e = 0.0;
+        for ((&ui, &pi), &hi) in u.iter().zip(p).zip(&self.heights) {
+            e += 0.5 * (ui - mean_u) * (pi - mean_p) + interaction.energy((ui - hi).max(0.0));
+        }
+        e / n + pressure * mean_u
+    }
+}
+
+/// The state a minimiser updates: surface heights `u` and the interfacial pressure `p`
+/// (row-major, first index x).
+pub struct State {
+    /// Elastic surface height (h0).
+    pub u: Vec<f64>,
+    /// Pressure on the body (E* h0/λ).
+    pub p: Vec<f64>,
+}
+
+/// A minimiser of the total energy at fixed mean pressure.
+pub trait Minimizer {
+    /// Name used in statistics and files.
+    fn name(&self) -> &'static str;
+    /// Relaxes `state` in place to equilibrium under `pressure`. On return `state.u` and
+    /// `state.p` are consistent: `p − mean(p) = K u` and `mean(p) = pressure`.
+    fn relax(
+        &self,
+        model: &mut Model,
+        interaction: Interaction,
+        pressure: f64,
+        opts: &SolverOptions,
+        state: &mut State,
+    ) -> Result<SolveStats, ContactError>;
+}
+
+/// Largest constraint violation and force residual of a state, evaluated the same way for every
+/// minimiser: contact nodes are those with g ≤ `contact_tol`.
+///
+/// - violation: max |g| over nodes carrying positive contact pressure, max(0, −g) elsewhere;
+/// - force residual: at a non-contact node, |σ + p̄ + γ'(g)| (must vanish); at a contact node the
+///   wall may push but not pull, so max(0, −(σ + p̄ + γ'(g))).
+pub fn residuals(
+    model: &mut Model,
+    interaction: Interaction,
+    pressure: f64,
+    u: &[f64],
+    contact_tol: f64,
+) -> (f64, f64) {
+    let n = u.len();
+    let mut sigma = vec![0.0; n];
+    model.kernel.stress(u, &mut sigma);
+    let (mut viol, mut force) = (0.0f64, 0.0f64);
+    for i in 0..n {
+        let g = u[i] - model.heights[i];
+        let wall = sigma[i] + pressure + interaction.derivative(g.max(0.0));
+        if g <= contact_tol {
+            viol = viol.max(-g).max(if wall > 0.0 { g.abs() } else { 0.0 });
+            force = force.max(-wall);
+        } else {
+            force = force.max(wall.abs());
+        }
+    }
+    (viol, force)
+}
