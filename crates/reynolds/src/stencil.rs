@@ -359,8 +359,9 @@ struct RowCoefficients<'a> {
 /// Gauss–Seidel on one row: `x_j ← (b_j + Σ_m s_jm x_m) / d_j`, in the row's order.
 ///
 /// Everything that does not depend on the values updated earlier in the same row is summed
-/// first into `t` (a vectorisable pass); the sequential recurrence then has a single
-/// fused multiply-add on its critical path.
+/// first into `t` (a vectorisable pass); the sequential recurrence then has one multiply and
+/// one add on its critical path. (Not `mul_add`: without `-C target-cpu` supporting FMA it
+/// compiles to a call into a software routine.)
 fn relax_row(
     c: &RowCoefficients,
     cur: &mut [f64],
@@ -412,7 +413,7 @@ fn relax_row(
         cur[0] = t[0] * inv[0];
         for j in 1..ny - 1 {
             let a = n[j - 1] * inv[j];
-            cur[j] = a.mul_add(cur[j - 1], t[j] * inv[j]);
+            cur[j] = a * cur[j - 1] + t[j] * inv[j];
         }
         let j = ny - 1;
         cur[j] = (t[j] + n[j - 1] * cur[j - 1] + n[j] * cur[0]) * inv[j];
@@ -426,7 +427,7 @@ fn relax_row(
         cur[last] = t[last] * inv[last];
         for j in (1..ny - 1).rev() {
             let a = n[j] * inv[j];
-            cur[j] = a.mul_add(cur[j + 1], t[j] * inv[j]);
+            cur[j] = a * cur[j + 1] + t[j] * inv[j];
         }
         cur[0] = (t[0] + n[0] * cur[1] + n[ny - 1] * cur[ny - 1]) * inv[0];
     }
