@@ -598,13 +598,30 @@ impl<'a, DB: DrawingBackend> Canvas<'a, DB> {
             if o.rotated {
                 style = style.transform(FontTransform::Rotate270);
             }
-            // SVG strips leading and trailing blanks of a <text>: keep them as no-break spaces
-            let text = match self.kind {
-                BackendKind::Bitmap => std::borrow::Cow::Borrowed(run.text.as_str()),
-                BackendKind::Svg => std::borrow::Cow::Owned(svg_spaces(&run.text)),
+            // SVG renderers strip leading and trailing blanks of a <text>: draw the trimmed
+            // text, shifted by the width of the leading blanks
+            let trimmed = run.text.trim_start_matches(' ');
+            let lead = run.text.len() - trimmed.len();
+            let trimmed = trimmed.trim_end_matches(' ');
+            if trimmed.is_empty() {
+                continue;
+            }
+            let shift = if lead > 0 {
+                let blank = Run {
+                    text: " ".repeat(lead),
+                    ..run.clone()
+                };
+                self.run_width(&blank, o.size, o.bold) * self.s
+            } else {
+                0.0
+            };
+            let (x, y) = if o.rotated {
+                (x, y - shift)
+            } else {
+                (x + shift, y)
             };
             self.area
-                .draw_text(&text, &style, (x.round() as i32, y.round() as i32))
+                .draw_text(trimmed, &style, (x.round() as i32, y.round() as i32))
                 .map_err(err)?;
         }
         Ok(())
@@ -632,20 +649,6 @@ impl<'a, DB: DrawingBackend> Canvas<'a, DB> {
             .ok_or_else(|| anyhow!("image buffer of the wrong size"))?;
         self.area.draw(&elem).map_err(err)
     }
-}
-
-/// Replaces leading and trailing spaces with no-break spaces.
-fn svg_spaces(s: &str) -> String {
-    let body = s.trim_matches(' ');
-    if body.len() == s.len() {
-        return s.to_string();
-    }
-    let lead = s.len() - s.trim_start_matches(' ').len();
-    let trail = s.len() - s.trim_end_matches(' ').len();
-    if body.is_empty() {
-        return "\u{a0}".repeat(s.len());
-    }
-    format!("{}{body}{}", "\u{a0}".repeat(lead), "\u{a0}".repeat(trail))
 }
 
 /// Clips the segment a–b to `r` (Liang–Barsky); `None` when it lies outside.

@@ -156,7 +156,7 @@ pub fn with_suffix(stem: &Path, ext: &str) -> PathBuf {
 fn downsample(big: &[u8], bw: u32, bh: u32, f: u32) -> Vec<u8> {
     let (w, h) = (bw / f, bh / f);
     let mut out = vec![0u8; (w * h * 3) as usize];
-    let n = (f * f) as u32;
+    let n = f * f;
     for y in 0..h {
         for x in 0..w {
             for ch in 0..3 {

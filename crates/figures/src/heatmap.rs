@@ -320,7 +320,7 @@ impl HeatmapPanel {
                         let q = to((o.0 + v.0, o.1 + v.1));
                         if img.contains(p) {
                             let len = ((q.0 - p.0).powi(2) + (q.1 - p.1).powi(2)).sqrt();
-                            c.arrow(p, q, *color, *width, (len * 0.4).min(4.5))?;
+                            c.arrow(p, q, *color, *width, (len * 0.45).clamp(2.5, 5.0))?;
                         }
                     }
                 }
@@ -422,16 +422,23 @@ impl HeatmapPanel {
         // the map
         let (nx, ny) = self.field.dim();
         let (dx, dy) = (self.lx / nx as f64, self.ly / ny as f64);
+        // one colour per node, looked up per device pixel
+        let lut: Vec<Rgb> = (0..nx * ny)
+            .map(|k| {
+                let (i, j) = (k / ny, k % ny);
+                if self.masked(i, j) {
+                    self.mask_color
+                } else {
+                    self.colormap.eval(self.t_of(self.field[[i, j]], lo, hi))
+                }
+            })
+            .collect();
         c.image(img, |u, v| {
             let x = x0 + u * (x1 - x0);
             let y = y1 - v * (y1 - y0);
             let i = ((x / dx).round() as i64).rem_euclid(nx as i64) as usize;
             let j = ((y / dy).round() as i64).rem_euclid(ny as i64) as usize;
-            if self.masked(i, j) {
-                self.mask_color
-            } else {
-                self.colormap.eval(self.t_of(self.field[[i, j]], lo, hi))
-            }
+            lut[i * ny + j]
         })?;
 
         // overlays

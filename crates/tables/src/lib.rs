@@ -601,7 +601,7 @@ mod tests {
         assert_eq!(lines[2], "| hexagonal    |  0.178 |  256 | true       |");
         assert_eq!(lines[4], "| tri\\|angular | −0.333 | 1024 | true       |");
         assert_eq!(FloatFormat::Significant(3).apply(1.234e-7), "1.23e-7");
-        assert_eq!(FloatFormat::Fixed(2).apply(3.14159), "3.14");
+        assert_eq!(FloatFormat::Fixed(2).apply(1.23456), "1.23");
         assert_eq!(FloatFormat::Shortest.apply(0.1), "0.1");
         assert_eq!(FloatFormat::Significant(2).apply(f64::NAN), "–");
     }

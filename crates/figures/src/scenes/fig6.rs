@@ -276,8 +276,8 @@ fn bottom_right(m: &CurrentMap) -> Result<HeatmapPanel> {
                 if !(v.is_finite() && v > 1e-3 * max) {
                     continue;
                 }
-                // length grows with √|j| so that weak currents still show a direction
-                let len = 0.85 * step * (v / max).sqrt().max(0.4);
+                // length grows weakly with |j| so that weak currents still show a direction
+                let len = 0.85 * step * (v / max).powf(0.3).max(0.5);
                 let (ux, uy) = (m.jx[[i, j]] / v, m.jy[[i, j]] / v);
                 origins.push((x - ux * len / 2.0, y - uy * len / 2.0));
                 vectors.push((ux * len, uy * len));
