@@ -26,6 +26,11 @@ fn main() -> anyhow::Result<()> {
     timed("fig2", &|| {
         scenes::fig2::render(&demo::fig2(), &dir.join("fig2"))
     })?;
+    timed("fig2-log", &|| {
+        let mut d = demo::fig2();
+        d.log_area = true;
+        scenes::fig2::render(&d, &dir.join("fig2-log"))
+    })?;
     timed("fig3", &|| {
         scenes::fig3::render(&demo::fig3(), &dir.join("fig3"))
     })?;

@@ -85,6 +85,8 @@ pub fn fig2() -> Fig2Data {
         repulsion_label: String::new(),
         p_fc: Some(pfc),
         a_p: Some(0.40185),
+        log_area: false,
+        pressure_range: None,
     }
 }
 

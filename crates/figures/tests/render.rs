@@ -82,6 +82,18 @@ fn fig2_renders_with_labels_and_legend() {
 }
 
 #[test]
+fn fig2_log_area_variant_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let stem = dir.path().join("fig2-log");
+    let mut data = demo::fig2();
+    data.log_area = true;
+    data.pressure_range = Some((-1.0, 3.0));
+    let fig = fig2::figure(&data).unwrap();
+    let c = check(&fig2::render(&data, &stem).unwrap(), &stem, &fig);
+    contains_all(&c.svg, &["relative contact area", ">10"]);
+}
+
+#[test]
 fn fig2_rejects_ragged_data_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let mut data = demo::fig2();

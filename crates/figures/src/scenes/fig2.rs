@@ -69,6 +69,11 @@ pub struct Fig2Data {
     pub p_fc: Option<f64>,
     /// Percolation contact area a_p, drawn as a horizontal reference line if given.
     pub a_p: Option<f64>,
+    /// Logarithmic area axis (10⁻³ … 1; zero areas are not drawn): shows the small-area
+    /// hysteresis of contact formation.
+    pub log_area: bool,
+    /// Pressure range shown; `None` fits the data.
+    pub pressure_range: Option<(f64, f64)>,
 }
 
 /// Line style of each interaction.
@@ -112,10 +117,14 @@ pub fn figure(d: &Fig2Data) -> Result<Figure> {
         l.loading.validate(&format!("{name} loading"))?;
         l.unloading.validate(&format!("{name} unloading"))?;
     }
-    let mut p = XyPanel::new(
-        Axis::linear("mean pressure $p$ / ($E$^*$h$_0/$λ$)"),
-        Axis::linear("relative contact area $a$").range(0.0, 1.02),
-    );
+    let mut x = Axis::linear("mean pressure $p$ / ($E$^*$h$_0/$λ$)");
+    x.range = d.pressure_range;
+    let y = if d.log_area {
+        Axis::log("relative contact area $a$").range(1e-3, 1.3)
+    } else {
+        Axis::linear("relative contact area $a$").range(0.0, 1.02)
+    };
+    let mut p = XyPanel::new(x, y);
     // hard wall first (underneath), thinner; unloading before loading so red stays visible
     for (l, dash, w) in [
         (&d.hard_wall, HARD_WALL_DASH, 1.3),
@@ -132,7 +141,7 @@ pub fn figure(d: &Fig2Data) -> Result<Figure> {
             label: None,
         });
         p.annotations.push(Annotation::Text {
-            at: (pfc, 0.6),
+            at: (pfc, if d.log_area { 0.1 } else { 0.6 }),
             text: "$p$_{fc} ".into(),
             h: HAlign::Right,
             v: VAlign::Bottom,
