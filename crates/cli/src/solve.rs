@@ -1,8 +1,135 @@
-//! `saddleflow solve`: one contact solve. (Owner: contact core.)
+//! `saddleflow solve`: one contact problem at a fixed mean pressure; prints one JSON object.
+
+use anyhow::{Context, Result, bail};
+use contact::{Interaction, Lattice, Method, Model, SolverOptions, Surface};
+use serde_json::json;
+use stages::io;
+use std::path::PathBuf;
+use store::{ArtefactWriter, Provenance};
+
+/// Version of what `solve` writes; bump when its results change.
+const CODE_VERSION: u64 = 1;
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Surface model: square, triangular or hexagonal.
+    #[arg(long)]
+    lattice: String,
+    /// Grid exponent: 2^n × 2^n nodes (3..=13).
+    #[arg(long)]
+    n: u32,
+    /// Mean pressure in E* h0/λ; with `--relative`, in units of the full-contact pressure p_fc.
+    #[arg(long, allow_hyphen_values = true)]
+    pressure: f64,
+    /// Read --pressure as a fraction of the grid's full-contact pressure p_fc.
+    #[arg(long)]
+    relative: bool,
+    /// hardwall, adhesion or repulsion (the latter two on top of the hard wall).
+    #[arg(long, default_value = "hardwall")]
+    interaction: String,
+    /// Interaction strength γ0 (adhesion) or γr (repulsion), E* h0²/λ.
+    #[arg(long, default_value_t = 0.2, allow_hyphen_values = true)]
+    gamma0: f64,
+    /// Interaction range ρ, h0.
+    #[arg(long, default_value_t = 0.04, allow_hyphen_values = true)]
+    rho: f64,
+    /// Tolerance: constraint violation bound (h0) for Polonsky–Keer, force residual bound
+    /// (E* h0/λ) for FIRE. Defaults 1e-10 and 1e-8.
+    #[arg(long)]
+    tol: Option<f64>,
+    /// Minimiser: auto, polonsky-keer or fire.
+    #[arg(long, default_value = "auto")]
+    method: String,
+    /// Iteration cap.
+    #[arg(long, default_value_t = 200_000)]
+    max_iter: usize,
+    /// Threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Write the fields (height, displacement, gap, pressure) and the summary to this HDF5 file.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`solve` is under construction")
+pub fn run(a: Args) -> Result<()> {
+    let lattice: Lattice = a.lattice.parse().context("--lattice")?;
+    let surface = Surface::new(lattice, a.n).context("--n")?;
+    let interaction = match a.interaction.as_str() {
+        "hardwall" => Interaction::HardWall,
+        "adhesion" => Interaction::Adhesion {
+            gamma0: a.gamma0,
+            rho: a.rho,
+        },
+        "repulsion" => Interaction::Repulsion {
+            gamma_r: a.gamma0,
+            rho: a.rho,
+        },
+        other => bail!("--interaction {other:?}: allowed values are hardwall, adhesion, repulsion"),
+    };
+    interaction.validate().context("--gamma0/--rho")?;
+    let method: Method = a.method.parse().context("--method")?;
+    let mut opts = SolverOptions {
+        method,
+        max_iter: a.max_iter,
+        ..Default::default()
+    };
+    if let Some(t) = a.tol {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--tol {t}: allowed a finite value > 0");
+        }
+        opts.tol_gap = t;
+        opts.tol_force = t;
+    }
+    if !a.pressure.is_finite() {
+        bail!("--pressure {}: allowed a finite number", a.pressure);
+    }
+    let p_fc = surface.p_fc_grid();
+    let pressure = if a.relative {
+        a.pressure * p_fc
+    } else {
+        a.pressure
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()?;
+    let sol = pool.install(|| -> Result<_> {
+        let mut model = Model::new(&surface)?;
+        Ok(model.solve(interaction, pressure, &opts, None)?)
+    })?;
+    if !sol.stats.converged {
+        eprintln!(
+            "warning: not converged after {} iterations: {}",
+            sol.stats.iterations,
+            sol.stats
+                .reason
+                .as_ref()
+                .map(|r| r.to_string())
+                .unwrap_or_default()
+        );
+    }
+    let mut summary = io::solution_json(&sol);
+    let obj = summary.as_object_mut().expect("object");
+    obj.insert("lattice".into(), json!(lattice.name()));
+    obj.insert("n".into(), json!(a.n));
+    obj.insert("p_fc".into(), json!(p_fc));
+    obj.insert("pressure_over_p_fc".into(), json!(pressure / p_fc));
+    if let Some(path) = &a.out {
+        let params = json!({
+            "lattice": lattice.name(), "n": a.n, "pressure": pressure, "tol_gap": opts.tol_gap,
+            "tol_force": opts.tol_force, "method": a.method, "interaction": io::interaction_json(&interaction),
+        });
+        let mut prov = Provenance::for_command("solve", CODE_VERSION, params)?;
+        prov.wall_s = sol.stats.wall_s;
+        prov.stats = io::stats_json(&sol.stats);
+        let mut w =
+            ArtefactWriter::create(path).with_context(|| format!("creating {}", path.display()))?;
+        io::write_solution(&mut w, surface.heights.view(), &sol)?;
+        w.set_attr("lattice", lattice.name())?;
+        w.set_attr("p_fc", p_fc)?;
+        w.write_provenance(&prov)?;
+        let written = w.publish()?;
+        obj.insert("out".into(), json!(written.display().to_string()));
+    }
+    println!("{}", serde_json::to_string(&summary)?);
+    Ok(())
 }

@@ -1,0 +1,56 @@
+# saddleflow tasks. `./bootstrap` installs just and the HDF5 library first.
+
+bin := "target/release/saddleflow"
+
+# List the recipes.
+default:
+    @just --list
+
+# Build the command-line tool (release: numerics are ~200x slower in debug builds).
+build:
+    cargo build --release -p saddleflow
+
+# Main job: every scene at draft fidelity (minutes on 2 cores).
+draft *ARGS: build
+    {{bin}} run --params params/draft.toml {{ARGS}}
+    {{bin}} status
+
+# Every scene at the paper's fidelity.
+paper *ARGS: build
+    {{bin}} run --params params/paper.toml {{ARGS}}
+    {{bin}} status
+
+# Tiny grids: checks that every stage runs, not that numbers match the paper.
+smoke *ARGS: build
+    {{bin}} run --params params/smoke.toml {{ARGS}}
+
+# The test suite (release mode; includes the smoke pipeline and checks its outputs).
+test *ARGS:
+    cargo test --release --workspace {{ARGS}}
+
+# One contact solve written to HDF5, summary printed as JSON.
+demo: build
+    mkdir -p results/demo
+    {{bin}} solve --lattice square --n 9 --pressure 0.3 --relative --out results/demo/square-n9.h5
+
+# Benchmarks (timings, iterations, peak memory) of the contact and flow solvers.
+bench:
+    cargo bench -p contact --bench hardwall
+    cargo bench -p reynolds --bench flow
+
+# Side-by-side benchmarks against tamaas, ContactMechanics and PyAMG in a Python venv.
+bench-peers: build
+    bench/peers/setup-venv.sh
+    bench/peers/contact.sh
+    bench/peers/flow.sh
+
+# Formatting and lints as CI would want them.
+lint:
+    cargo fmt --all -- --check
+    cargo clippy --release --workspace --all-targets -- -D warnings
+
+# Remove cached results, figures and tables (not the code's build).
+clean:
+    rm -rf results/cache results/runs results/demo
+    find figures -maxdepth 1 -type f \( -name '*.png' -o -name '*.svg' \) -delete
+    find results/tables -maxdepth 1 -type f -name '*.csv' -delete
