@@ -8,21 +8,26 @@
 //! compressive), where p̄ is the imposed mean pressure. The q = 0 mode of `u` is the body's mean
 //! position, fixed by the load.
 
-use crate::spectral::Spectral;
+use crate::spectral::{RowSums, Spectral};
+use rayon::prelude::*;
 use surface::Grid;
 
 /// Stiffness and compliance multipliers for one grid, plus the FFT plan that applies them.
 pub struct ElasticKernel {
     spectral: Spectral,
-    /// k(q)/(nx·ny) in half-spectrum layout; 0 at q = 0.
+    /// k(q)/(nx·ny) in the spectral module's multiplier order; 0 at q = 0.
     stiffness: Vec<f64>,
-    /// 1/(k(q)·nx·ny); 0 at q = 0.
+    /// 1/(k(q)·nx·ny) in the same order; 0 at q = 0.
     compliance: Vec<f64>,
+    /// Real-space periodic Green's function (displacement of a unit point pressure at node 0,
+    /// zero mean), built on first use by [`ElasticKernel::add_point_displacements`].
+    green: Option<Vec<f64>>,
     /// Smallest non-zero stiffness q_min E*/2.
     k_min: f64,
     /// Largest stiffness.
     k_max: f64,
-    n: usize,
+    nx: usize,
+    ny: usize,
 }
 
 impl ElasticKernel {
@@ -55,23 +60,35 @@ impl ElasticKernel {
             }
         }
         ElasticKernel {
+            stiffness: spectral.multiplier(&stiffness),
+            compliance: spectral.multiplier(&compliance),
             spectral,
-            stiffness,
-            compliance,
+            green: None,
             k_min,
             k_max,
-            n,
+            nx,
+            ny,
         }
     }
 
     /// Number of grid nodes.
     pub fn len(&self) -> usize {
-        self.n
+        self.nx * self.ny
     }
 
     /// True if the grid has no nodes.
     pub fn is_empty(&self) -> bool {
-        self.n == 0
+        self.len() == 0
+    }
+
+    /// Grid shape (nx, ny).
+    pub fn shape(&self) -> (usize, usize) {
+        (self.nx, self.ny)
+    }
+
+    /// Whether transforms on this grid use several threads (see [`Spectral::parallel`]).
+    pub fn parallel(&self) -> bool {
+        self.spectral.parallel()
     }
 
     /// Smallest non-zero modal stiffness (E*/λ).
@@ -86,29 +103,89 @@ impl ElasticKernel {
 
     /// Elastic stress `σ = K u` (zero mean) for a displacement field `u`.
     pub fn stress(&mut self, u: &[f64], sigma: &mut [f64]) {
-        self.spectral.convolve(u, &self.stiffness, sigma);
+        self.spectral.convolve_with(u, &self.stiffness, sigma);
     }
 
     /// Displacement `u = G p` (zero mean) for a pressure field `p`; the mean of `p` is ignored.
     pub fn displacement(&mut self, p: &[f64], u: &mut [f64]) {
-        self.spectral.convolve(p, &self.compliance, u);
+        self.spectral.convolve_with(p, &self.compliance, u);
     }
 
     /// In-place `u = G u`.
     pub fn displacement_in_place(&mut self, field: &mut [f64]) {
-        self.spectral.convolve_in_place(field, &self.compliance);
+        self.spectral
+            .convolve_with_in_place(field, &self.compliance);
+    }
+
+    /// `G` applied with row callbacks: see [`Spectral::convolve_fused`].
+    pub fn displacement_fused<P, F>(
+        &mut self,
+        input: &mut [f64],
+        prepare: P,
+        output: Option<&mut [f64]>,
+        finish: F,
+    ) -> (RowSums, RowSums)
+    where
+        P: Fn(usize, &mut [f64]) -> RowSums + Sync,
+        F: Fn(usize, &[f64], &mut [f64]) -> RowSums + Sync,
+    {
+        self.spectral
+            .convolve_fused(input, prepare, &self.compliance, output, finish)
+    }
+
+    /// `u += G c` for a pressure `c` that is zero except at a few nodes, `sources` = (node index,
+    /// value), summed directly with the real-space Green's function: k sources cost k streaming
+    /// passes over the grid, cheaper than an FFT pair for a handful of nodes (the Polonsky–Keer
+    /// corrections of late iterations). The mean of `c` is ignored, as in
+    /// [`ElasticKernel::displacement`].
+    pub fn add_point_displacements(&mut self, sources: &[(usize, f64)], u: &mut [f64]) {
+        let (nx, ny) = (self.nx, self.ny);
+        assert_eq!(u.len(), nx * ny, "field length");
+        if self.green.is_none() {
+            let mut e = vec![0.0; nx * ny];
+            e[0] = 1.0;
+            self.spectral
+                .convolve_with_in_place(&mut e, &self.compliance);
+            self.green = Some(e);
+        }
+        let green = self.green.as_deref().expect("built above");
+        let row = |(i, out): (usize, &mut [f64])| {
+            for &(k, c) in sources {
+                let (si, sj) = (k / ny, k % ny);
+                let gi = (i + nx - si) % nx;
+                let src = &green[gi * ny..(gi + 1) * ny];
+                // out[j] += c G[gi, (j − sj) mod ny]: two contiguous runs.
+                let (lo, hi) = out.split_at_mut(sj);
+                for (o, g) in hi.iter_mut().zip(&src[..ny - sj]) {
+                    *o += c * g;
+                }
+                for (o, g) in lo.iter_mut().zip(&src[ny - sj..]) {
+                    *o += c * g;
+                }
+            }
+        };
+        if self.spectral.parallel() {
+            u.par_chunks_mut(ny)
+                .enumerate()
+                .with_min_len(8)
+                .for_each(row);
+        } else {
+            u.chunks_mut(ny).enumerate().for_each(row);
+        }
     }
 
     /// `out = IFFT(w(q) · FFT(input))` with `w(q) = 1/(k(q) + c)` for q ≠ 0 and `1/c0` at q = 0:
-    /// the mass-weighting preconditioner of FIRE.
+    /// the mass-weighting preconditioner of FIRE. `weights` comes from
+    /// [`ElasticKernel::weights`].
     pub fn precondition(&mut self, input: &[f64], weights: &[f64], out: &mut [f64]) {
-        self.spectral.convolve(input, weights, out);
+        self.spectral.convolve_with(input, weights, out);
     }
 
-    /// Builds the half-spectrum multiplier `1/(nx·ny·mass(k))` for a given modal mass function,
-    /// where `k` is the modal stiffness (0 for the mean mode).
+    /// Builds the multiplier `1/(nx·ny·mass(k))` for a given modal mass function, where `k` is
+    /// the modal stiffness (0 for the mean mode), in the order [`ElasticKernel::precondition`]
+    /// expects (the spectral module's internal order).
     pub fn weights(&self, mass: impl Fn(f64) -> f64) -> Vec<f64> {
-        let n = self.n as f64;
+        let n = self.len() as f64;
         self.stiffness
             .iter()
             .map(|&s| 1.0 / (n * mass(s * n)))

@@ -9,9 +9,17 @@
 //! imposed mean.
 //!
 //! Cost: one FFT pair for G t per iteration. The displacement G p is updated from G t and the
-//! rescaling without another transform; only when clipping or re-opening changed p off the line
-//! does the correction need a second pair, and the displacement is recomputed from scratch every
-//! [`REFRESH`] iterations and before convergence is accepted, so rounding cannot accumulate.
+//! rescaling without another transform. Clipping or re-opening changes p off the line by a
+//! correction c; G c is summed directly from the real-space Green's function when c has at most
+//! [`DIRECT_CORRECTIONS`] non-zero nodes (all but the first iterations), with a second FFT pair
+//! otherwise. The displacement is recomputed from scratch every [`REFRESH`] iterations and before
+//! convergence is accepted, so rounding cannot accumulate.
+//!
+//! Memory traffic: every iteration makes two passes over the grid besides the transform — one
+//! that applies the pending rescaling and measures the gap statistics, one that steps — and
+//! builds the direction t and the line-search sums inside the transform's row passes (see
+//! [`crate::spectral::Spectral::convolve_fused`]). Grid passes run over fixed chunks whose
+//! partial sums are added in chunk order, so results do not depend on the number of threads.
 //!
 //! Stops when the constraint violation (max |g| on S, max penetration off S) is at most
 //! `tol_gap`. Force balance is exact by construction (u = G p, mean p = p̄, p ≥ 0).
@@ -19,15 +27,405 @@
 use crate::{
     ContactError, Interaction, Minimizer, Model, SolveStats, SolverOptions, State, StopReason,
 };
+use rayon::prelude::*;
 
 /// Iterations between exact recomputations of G p.
 pub const REFRESH: usize = 50;
+/// Largest number of corrected nodes whose displacement is summed directly (each costs about
+/// one streaming pass over the grid; an FFT pair costs about as much as 20–40 such passes).
+pub const DIRECT_CORRECTIONS: usize = 12;
 /// Iterations without a 1 % improvement of the violation after which the solve is stagnant.
 const STAGNATION: usize = 3000;
+/// Nodes per chunk of the grid passes (fixed, so partial sums do not depend on threads).
+const CHUNK: usize = 1 << 14;
 
 /// The Polonsky–Keer minimiser (hard wall only).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PolonskyKeer;
+
+/// Lanes of the vectorised grid passes: partial sums are kept per lane so that the reductions
+/// vectorise instead of forming one serial chain of additions; lanes and chunks are combined in
+/// a fixed order, so results do not depend on the number of threads.
+const L: usize = 4;
+
+/// Statistics of the gap d = σU − h (true units) on and off the contact set S = {P > 0}.
+#[derive(Debug, Clone, Copy)]
+struct GapStats {
+    /// Σ_S (d − ref), Σ_S (d − ref)², |S|, with ref the previous shift.
+    sum: f64,
+    sum2: f64,
+    count: f64,
+    /// max_S d, min_S d, min off S of d.
+    max_s: f64,
+    min_s: f64,
+    min_off: f64,
+    /// Σ_S t of the last direction (to project it onto Σ_S t = 0).
+    t_on: f64,
+    /// Σ p (u/2 − h): the complementary energy (trace only).
+    energy: f64,
+}
+
+impl GapStats {
+    const EMPTY: GapStats = GapStats {
+        sum: 0.0,
+        sum2: 0.0,
+        count: 0.0,
+        max_s: f64::NEG_INFINITY,
+        min_s: f64::INFINITY,
+        min_off: f64::INFINITY,
+        t_on: 0.0,
+        energy: 0.0,
+    };
+
+    fn merge(self, o: GapStats) -> GapStats {
+        GapStats {
+            sum: self.sum + o.sum,
+            sum2: self.sum2 + o.sum2,
+            count: self.count + o.count,
+            max_s: self.max_s.max(o.max_s),
+            min_s: self.min_s.min(o.min_s),
+            min_off: self.min_off.min(o.min_off),
+            t_on: self.t_on + o.t_on,
+            energy: self.energy + o.energy,
+        }
+    }
+}
+
+/// Per-lane accumulators of [`GapStats`].
+struct GapLanes {
+    sum: [f64; L],
+    sum2: [f64; L],
+    count: [f64; L],
+    max_s: [f64; L],
+    min_s: [f64; L],
+    min_off: [f64; L],
+    t_on: [f64; L],
+    energy: [f64; L],
+}
+
+impl GapLanes {
+    fn new() -> Self {
+        GapLanes {
+            sum: [0.0; L],
+            sum2: [0.0; L],
+            count: [0.0; L],
+            max_s: [f64::NEG_INFINITY; L],
+            min_s: [f64::INFINITY; L],
+            min_off: [f64::INFINITY; L],
+            t_on: [0.0; L],
+            energy: [0.0; L],
+        }
+    }
+
+    /// One node with stored values U, P (true u = σU, p = σP), height h, direction t.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn node<const TRACE: bool, const WITH_T: bool>(
+        &mut self,
+        l: usize,
+        uu: f64,
+        pp: f64,
+        h: f64,
+        t: f64,
+        sigma: f64,
+        reference: f64,
+    ) {
+        let u = sigma * uu;
+        let d = u - h;
+        let on = pp > 0.0;
+        let e = if on { d - reference } else { 0.0 };
+        self.sum[l] += e;
+        self.sum2[l] += e * e;
+        self.count[l] += if on { 1.0 } else { 0.0 };
+        if WITH_T {
+            self.t_on[l] += if on { t } else { 0.0 };
+        }
+        let hi = if on { d } else { f64::NEG_INFINITY };
+        let lo = if on { d } else { f64::INFINITY };
+        let off = if on { f64::INFINITY } else { d };
+        self.max_s[l] = if hi > self.max_s[l] {
+            hi
+        } else {
+            self.max_s[l]
+        };
+        self.min_s[l] = if lo < self.min_s[l] {
+            lo
+        } else {
+            self.min_s[l]
+        };
+        self.min_off[l] = if off < self.min_off[l] {
+            off
+        } else {
+            self.min_off[l]
+        };
+        if TRACE {
+            self.energy[l] += sigma * pp * (0.5 * u - h);
+        }
+    }
+
+    fn total(&self) -> GapStats {
+        let mut s = GapStats::EMPTY;
+        for l in 0..L {
+            s = s.merge(GapStats {
+                sum: self.sum[l],
+                sum2: self.sum2[l],
+                count: self.count[l],
+                max_s: self.max_s[l],
+                min_s: self.min_s[l],
+                min_off: self.min_off[l],
+                t_on: self.t_on[l],
+                energy: self.energy[l],
+            });
+        }
+        s
+    }
+}
+
+/// Pass A over one chunk (read-only): statistics of the gap.
+fn gap_pass<const TRACE: bool>(
+    u: &[f64],
+    p: &[f64],
+    h: &[f64],
+    t: &[f64],
+    sigma: f64,
+    reference: f64,
+) -> GapStats {
+    let mut acc = GapLanes::new();
+    let (mut uc, mut pc) = (u.chunks_exact(L), p.chunks_exact(L));
+    let (mut hc, mut tc) = (h.chunks_exact(L), t.chunks_exact(L));
+    for (((u, p), h), t) in (&mut uc).zip(&mut pc).zip(&mut hc).zip(&mut tc) {
+        for l in 0..L {
+            acc.node::<TRACE, true>(l, u[l], p[l], h[l], t[l], sigma, reference);
+        }
+    }
+    let (u, p, h, t) = (
+        uc.remainder(),
+        pc.remainder(),
+        hc.remainder(),
+        tc.remainder(),
+    );
+    for l in 0..u.len() {
+        acc.node::<TRACE, true>(l, u[l], p[l], h[l], t[l], sigma, reference);
+    }
+    acc.total()
+}
+
+/// Pass B over one row: the conjugate direction (true units) t = g + β (t − m) on S, 0 off it,
+/// with g = σU − h − shift and m the mean of the old t on S (so that Σ_S t = 0 and the step
+/// keeps the load); returns Σ t and Σ g t.
+#[allow(clippy::too_many_arguments)]
+fn direction_row(
+    t: &mut [f64],
+    u: &[f64],
+    p: &[f64],
+    h: &[f64],
+    sigma: f64,
+    shift: f64,
+    beta: f64,
+    m: f64,
+) -> [f64; 4] {
+    let (mut st, mut sgt) = ([0.0; L], [0.0; L]);
+    let node =
+        |l: usize, t: &mut f64, u: f64, p: f64, h: f64, st: &mut [f64; L], sgt: &mut [f64; L]| {
+            let g = sigma * u - h - shift;
+            let tj = if p > 0.0 { g + beta * (*t - m) } else { 0.0 };
+            *t = tj;
+            st[l] += tj;
+            sgt[l] += g * tj;
+        };
+    let mut tc = t.chunks_exact_mut(L);
+    let (mut uc, mut pc, mut hc) = (u.chunks_exact(L), p.chunks_exact(L), h.chunks_exact(L));
+    for (((t, u), p), h) in (&mut tc).zip(&mut uc).zip(&mut pc).zip(&mut hc) {
+        for l in 0..L {
+            node(l, &mut t[l], u[l], p[l], h[l], &mut st, &mut sgt);
+        }
+    }
+    let (t, u, p, h) = (
+        tc.into_remainder(),
+        uc.remainder(),
+        pc.remainder(),
+        hc.remainder(),
+    );
+    for l in 0..t.len() {
+        node(l, &mut t[l], u[l], p[l], h[l], &mut st, &mut sgt);
+    }
+    [st.iter().sum(), sgt.iter().sum(), 0.0, 0.0]
+}
+
+/// Line-search sums over one row of r = G t: Σ_S r and Σ r t (t vanishes off S).
+fn line_row(r: &[f64], t: &[f64], p: &[f64]) -> [f64; 4] {
+    let (mut sr, mut srt) = ([0.0; L], [0.0; L]);
+    let (mut rc, mut tc, mut pc) = (r.chunks_exact(L), t.chunks_exact(L), p.chunks_exact(L));
+    for ((r, t), p) in (&mut rc).zip(&mut tc).zip(&mut pc) {
+        for l in 0..L {
+            sr[l] += if p[l] > 0.0 { r[l] } else { 0.0 };
+            srt[l] += r[l] * t[l];
+        }
+    }
+    let (r, t, p) = (rc.remainder(), tc.remainder(), pc.remainder());
+    for l in 0..r.len() {
+        sr[l] += if p[l] > 0.0 { r[l] } else { 0.0 };
+        srt[l] += r[l] * t[l];
+    }
+    [sr.iter().sum(), srt.iter().sum(), 0.0, 0.0]
+}
+
+/// Result of the step pass (pass D).
+#[derive(Debug, Clone)]
+struct StepStats {
+    psum: f64,
+    corrected: usize,
+    overlap: bool,
+    /// Corrected nodes (index, correction), kept only while few.
+    sparse: Vec<(usize, f64)>,
+    /// Gap statistics of the stepped state at the old σ (without `t_on`).
+    gap: GapStats,
+}
+
+impl StepStats {
+    fn merge(mut self, o: StepStats) -> StepStats {
+        self.psum += o.psum;
+        self.corrected += o.corrected;
+        self.overlap |= o.overlap;
+        self.sparse.extend(o.sparse);
+        self.gap = self.gap.merge(o.gap);
+        self
+    }
+}
+
+/// Pass D over one chunk starting at node `offset`, in stored units (true = σ × stored):
+/// P ← max(P − τ' t, 0) with τ' = τ/σ, re-opening nodes that penetrate (P = −τ' g);
+/// U ← U − τ' r; corrections off the line go to `c` (zero on entry, and left zero where there
+/// is none). Also takes the gap statistics of the new state at the same σ (pass A of the next
+/// iteration, valid when nothing was corrected and the rescaling is negligible).
+#[allow(clippy::too_many_arguments)]
+fn step_pass<const TRACE: bool>(
+    offset: usize,
+    p: &mut [f64],
+    u: &mut [f64],
+    c: &mut [f64],
+    t: &[f64],
+    r: &[f64],
+    h: &[f64],
+    tau: f64,
+    sigma: f64,
+    shift: f64,
+) -> StepStats {
+    let mut psum = [0.0; L];
+    let mut acc = GapLanes::new();
+    let mut s = StepStats {
+        psum: 0.0,
+        corrected: 0,
+        overlap: false,
+        sparse: Vec::new(),
+        gap: GapStats::EMPTY,
+    };
+    // One node: returns the correction and whether the node re-opened.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn node<const TRACE: bool>(
+        l: usize,
+        p: &mut f64,
+        u: &mut f64,
+        t: f64,
+        r: f64,
+        h: f64,
+        tau: f64,
+        sigma: f64,
+        shift: f64,
+        psum: &mut [f64; L],
+        acc: &mut GapLanes,
+    ) -> (f64, bool) {
+        let g = sigma * *u - h - shift;
+        let target = *p - tau * t;
+        let clipped = if target > 0.0 { target } else { 0.0 };
+        let reopen = clipped == 0.0 && g < 0.0;
+        let new = if reopen { -tau * g } else { clipped };
+        let un = *u - tau * r;
+        *p = new;
+        *u = un;
+        psum[l] += new;
+        acc.node::<TRACE, false>(l, un, new, h, t, sigma, shift);
+        (new - target, reopen)
+    }
+    let base = p.len() - p.len() % L;
+    let record = |i: usize, cv: f64, reopen: bool, c: &mut f64, s: &mut StepStats| {
+        *c = cv;
+        s.corrected += 1;
+        s.overlap |= reopen;
+        if s.corrected <= DIRECT_CORRECTIONS {
+            s.sparse.push((offset + i, cv));
+        }
+    };
+    let (mut pc, mut uc, mut cc) = (
+        p.chunks_exact_mut(L),
+        u.chunks_exact_mut(L),
+        c.chunks_exact_mut(L),
+    );
+    let (mut tc, mut rc, mut hc) = (t.chunks_exact(L), r.chunks_exact(L), h.chunks_exact(L));
+    for (b, (((((p, u), c), t), r), h)) in (&mut pc)
+        .zip(&mut uc)
+        .zip(&mut cc)
+        .zip(&mut tc)
+        .zip(&mut rc)
+        .zip(&mut hc)
+        .enumerate()
+    {
+        let p: &mut [f64; L] = p.try_into().expect("chunk of L");
+        let u: &mut [f64; L] = u.try_into().expect("chunk of L");
+        let (t, r, h): (&[f64; L], &[f64; L], &[f64; L]) = (
+            t.try_into().expect("chunk of L"),
+            r.try_into().expect("chunk of L"),
+            h.try_into().expect("chunk of L"),
+        );
+        let mut cv = [0.0; L];
+        let mut reopen = [false; L];
+        for l in 0..L {
+            (cv[l], reopen[l]) = node::<TRACE>(
+                l, &mut p[l], &mut u[l], t[l], r[l], h[l], tau, sigma, shift, &mut psum, &mut acc,
+            );
+        }
+        // Corrections are rare after the first iterations: test the block once.
+        if cv.iter().any(|&x| x != 0.0) {
+            for l in 0..L {
+                if cv[l] != 0.0 {
+                    record(b * L + l, cv[l], reopen[l], &mut c[l], &mut s);
+                }
+            }
+        }
+    }
+    let (p, u, c) = (
+        pc.into_remainder(),
+        uc.into_remainder(),
+        cc.into_remainder(),
+    );
+    let (t, r, h) = (tc.remainder(), rc.remainder(), hc.remainder());
+    for l in 0..p.len() {
+        let (cv, reopen) = node::<TRACE>(
+            l, &mut p[l], &mut u[l], t[l], r[l], h[l], tau, sigma, shift, &mut psum, &mut acc,
+        );
+        if cv != 0.0 {
+            record(base + l, cv, reopen, &mut c[l], &mut s);
+        }
+    }
+    s.psum = psum.iter().sum();
+    s.gap = acc.total();
+    s
+}
+
+/// Runs `f` on fixed chunks of the grid, in parallel if asked, and returns the per-chunk results
+/// in chunk order.
+fn chunked<J: Send, R: Send>(
+    jobs: Vec<J>,
+    parallel: bool,
+    f: impl Fn(J) -> R + Sync + Send,
+) -> Vec<R> {
+    if parallel {
+        jobs.into_par_iter().map(f).collect()
+    } else {
+        jobs.into_iter().map(f).collect()
+    }
+}
 
 impl Minimizer for PolonskyKeer {
     fn name(&self) -> &'static str {
@@ -43,171 +441,241 @@ impl Minimizer for PolonskyKeer {
         state: &mut State,
     ) -> Result<SolveStats, ContactError> {
         debug_assert!(interaction.is_hard_wall());
-        let Model {
-            heights: h, kernel, ..
-        } = model;
-        let n = h.len();
-        let nf = n as f64;
-        let State { u, p } = state;
-
-        // Start: the given pressure, clipped and rescaled; uniform if it carries no load.
-        p.iter_mut().for_each(|v| *v = v.max(0.0));
-        let sum: f64 = p.iter().sum();
-        if sum > 0.0 && sum.is_finite() {
-            let s = pressure * nf / sum;
-            p.iter_mut().for_each(|v| *v *= s);
+        if opts.trace {
+            relax::<true>(self.name(), model, pressure, opts, state)
         } else {
-            p.iter_mut().for_each(|v| *v = pressure);
+            relax::<false>(self.name(), model, pressure, opts, state)
         }
-        kernel.displacement(p, u);
-
-        let mut g = vec![0.0; n];
-        let mut t = vec![0.0; n];
-        let mut r = vec![0.0; n];
-        let (mut conjugate, mut g_old) = (false, 1.0);
-        let mut since_refresh = 0usize;
-        let mut stats = SolveStats {
-            method: self.name(),
-            iterations: 0,
-            converged: false,
-            reason: None,
-            max_violation: f64::INFINITY,
-            force_residual: 0.0,
-            wall_s: 0.0,
-            trace: Vec::new(),
-        };
-        let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
-        let mut shift;
-
-        loop {
-            // Gap up to the rigid shift, and its mean on the contact set.
-            let (mut sum_g, mut count) = (0.0, 0usize);
-            let mut pi_energy = 0.0;
-            for i in 0..n {
-                let gi = u[i] - h[i];
-                g[i] = gi;
-                if p[i] > 0.0 {
-                    sum_g += gi;
-                    count += 1;
-                }
-                if opts.trace {
-                    pi_energy += p[i] * (0.5 * u[i] - h[i]);
-                }
-            }
-            shift = sum_g / count as f64;
-            let (mut norm, mut viol) = (0.0, 0.0f64);
-            for i in 0..n {
-                let gi = g[i] - shift;
-                g[i] = gi;
-                if p[i] > 0.0 {
-                    norm += gi * gi;
-                    viol = viol.max(gi.abs());
-                } else {
-                    viol = viol.max(-gi);
-                }
-            }
-            stats.max_violation = viol;
-            if opts.trace {
-                stats.trace.push(pi_energy / nf);
-            }
-            if viol <= opts.tol_gap {
-                if since_refresh == 0 {
-                    stats.converged = true;
-                    break;
-                }
-                // Accept only on an exactly recomputed displacement.
-                kernel.displacement(p, u);
-                since_refresh = 0;
-                continue;
-            }
-            if viol < 0.99 * best {
-                best = viol;
-                best_iter = stats.iterations;
-            } else if stats.iterations - best_iter > STAGNATION {
-                stats.reason = Some(StopReason::Stagnation);
-                break;
-            }
-            if viol > 1e8 * best.max(opts.tol_gap) {
-                stats.reason = Some(StopReason::ResidualGrowth);
-                break;
-            }
-            if stats.iterations >= opts.max_iter {
-                stats.reason = Some(StopReason::IterationCap);
-                break;
-            }
-            stats.iterations += 1;
-
-            // Conjugate direction on the contact set.
-            let beta = if conjugate { norm / g_old } else { 0.0 };
-            g_old = norm;
-            for i in 0..n {
-                t[i] = if p[i] > 0.0 { g[i] + beta * t[i] } else { 0.0 };
-            }
-            kernel.displacement(&t, &mut r);
-            let (mut sr, mut st, mut sgt, mut srt) = (0.0, 0.0, 0.0, 0.0);
-            for i in 0..n {
-                if p[i] > 0.0 {
-                    sr += r[i];
-                    st += t[i];
-                    sgt += g[i] * t[i];
-                    srt += r[i] * t[i];
-                }
-            }
-            let denom = srt - sr / count as f64 * st;
-            let tau = sgt / denom;
-            if !(denom > 0.0 && tau.is_finite()) {
-                stats.reason = Some(StopReason::Stagnation);
-                break;
-            }
-
-            // Step, clip, re-open penetrating nodes; g now holds the correction off the line.
-            let (mut psum, mut corrected, mut overlap) = (0.0, 0usize, false);
-            for i in 0..n {
-                let target = p[i] - tau * t[i];
-                let mut new = target.max(0.0);
-                if new == 0.0 && g[i] < 0.0 {
-                    new = -tau * g[i];
-                    overlap = true;
-                }
-                let c = new - target;
-                if c != 0.0 {
-                    corrected += 1;
-                }
-                g[i] = c;
-                p[i] = new;
-                psum += new;
-            }
-            conjugate = !overlap;
-            let s = pressure * nf / psum;
-            if corrected > 0 {
-                kernel.displacement_in_place(&mut g);
-                for i in 0..n {
-                    u[i] = s * (u[i] - tau * r[i] + g[i]);
-                    p[i] *= s;
-                }
-            } else {
-                for i in 0..n {
-                    u[i] = s * (u[i] - tau * r[i]);
-                    p[i] *= s;
-                }
-            }
-            since_refresh += 1;
-            if since_refresh >= REFRESH {
-                kernel.displacement(p, u);
-                since_refresh = 0;
-            }
-        }
-
-        // Total surface height: the zero-mean G p plus the rigid approach that closes the contact
-        // set on average. Nodes carrying pressure are in contact: their gap (within the tolerance
-        // of zero) is set to exactly zero, and no node is left below the substrate.
-        for i in 0..n {
-            u[i] = if p[i] > 0.0 {
-                h[i]
-            } else {
-                (u[i] - shift).max(h[i])
-            };
-        }
-        Ok(stats)
     }
+}
+
+fn relax<const TRACE: bool>(
+    name: &'static str,
+    model: &mut Model,
+    pressure: f64,
+    opts: &SolverOptions,
+    state: &mut State,
+) -> Result<SolveStats, ContactError> {
+    let Model {
+        heights: h, kernel, ..
+    } = model;
+    let h: &[f64] = h;
+    let n = h.len();
+    let nf = n as f64;
+    let (_, ny) = kernel.shape();
+    // p and u hold the stored values P, U; the true fields are σP and σU, with σ = p̄N/ΣP
+    // keeping the imposed mean without a pass over the grid.
+    let State { u, p } = state;
+    let parallel = kernel.parallel();
+
+    // Start: the given pressure, clipped and rescaled; uniform if it carries no load.
+    p.iter_mut().for_each(|v| *v = v.max(0.0));
+    let sum: f64 = p.iter().sum();
+    if sum > 0.0 && sum.is_finite() {
+        let s = pressure * nf / sum;
+        p.iter_mut().for_each(|v| *v *= s);
+    } else {
+        p.iter_mut().for_each(|v| *v = pressure);
+    }
+    kernel.displacement(p, u);
+    let mut sigma = 1.0;
+
+    let mut t = vec![0.0; n];
+    let mut r = vec![0.0; n];
+    // Corrections off the line; all zero between iterations.
+    let mut c = vec![0.0; n];
+    let (mut conjugate, mut g_old) = (false, 1.0);
+    let mut since_refresh = 0usize;
+    let mut stats = SolveStats {
+        method: name,
+        iterations: 0,
+        converged: false,
+        reason: None,
+        max_violation: f64::INFINITY,
+        force_residual: 0.0,
+        wall_s: 0.0,
+        trace: Vec::new(),
+    };
+    let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
+    let mut shift = 0.0;
+    // Gap statistics of the current state if the step pass could take them.
+    let mut ready: Option<GapStats> = None;
+
+    loop {
+        let reference = shift;
+        let gs = match ready.take() {
+            Some(gs) => gs,
+            None => {
+                let (uu, pp, tt): (&[f64], &[f64], &[f64]) = (u, p, &t);
+                let jobs: Vec<_> = uu
+                    .chunks(CHUNK)
+                    .zip(pp.chunks(CHUNK))
+                    .zip(h.chunks(CHUNK).zip(tt.chunks(CHUNK)))
+                    .collect();
+                chunked(jobs, parallel, |((u, p), (h, t))| {
+                    gap_pass::<TRACE>(u, p, h, t, sigma, reference)
+                })
+                .into_iter()
+                .fold(GapStats::EMPTY, GapStats::merge)
+            }
+        };
+        let count = gs.count;
+        let mean_e = gs.sum / count;
+        shift = reference + mean_e;
+        // Σ_S (d − shift)², from sums taken about the previous shift (close to this one, so the
+        // difference does not cancel).
+        let norm = (gs.sum2 - gs.sum * mean_e).max(0.0);
+        // The violation exactly as max_S |d − shift| and max_{not S} (shift − d) would give it:
+        // rounding of d − shift is monotone in d.
+        let viol = (gs.max_s - shift)
+            .max(shift - gs.min_s)
+            .max(if gs.min_off.is_finite() {
+                shift - gs.min_off
+            } else {
+                0.0
+            });
+        stats.max_violation = viol;
+        if TRACE {
+            stats.trace.push(gs.energy / nf);
+        }
+        if viol <= opts.tol_gap {
+            if since_refresh == 0 {
+                stats.converged = true;
+                break;
+            }
+            // Accept only on an exactly recomputed displacement.
+            refresh(kernel, p, u, sigma);
+            sigma = 1.0;
+            since_refresh = 0;
+            continue;
+        }
+        if viol < 0.99 * best {
+            best = viol;
+            best_iter = stats.iterations;
+        } else if stats.iterations - best_iter > STAGNATION {
+            stats.reason = Some(StopReason::Stagnation);
+            break;
+        }
+        if viol > 1e8 * best.max(opts.tol_gap) {
+            stats.reason = Some(StopReason::ResidualGrowth);
+            break;
+        }
+        if stats.iterations >= opts.max_iter {
+            stats.reason = Some(StopReason::IterationCap);
+            break;
+        }
+        stats.iterations += 1;
+
+        // Conjugate direction on the contact set, built row by row as the transform reads it;
+        // r = G t, with the line-search sums taken as its rows come out.
+        let beta = if conjugate { norm / g_old } else { 0.0 };
+        let m = gs.t_on / count;
+        g_old = norm;
+        let (uu, pp): (&[f64], &[f64]) = (u, p);
+        let ([st, sgt, _, _], [sr, srt, _, _]) = kernel.displacement_fused(
+            &mut t,
+            |i, t| {
+                let o = i * ny..(i + 1) * ny;
+                direction_row(
+                    t,
+                    &uu[o.clone()],
+                    &pp[o.clone()],
+                    &h[o],
+                    sigma,
+                    shift,
+                    beta,
+                    m,
+                )
+            },
+            Some(&mut r),
+            |i, t, r| line_row(r, t, &pp[i * ny..(i + 1) * ny]),
+        );
+        let denom = srt - sr / count * st;
+        let tau = sgt / denom;
+        if !(denom > 0.0 && tau.is_finite()) {
+            stats.reason = Some(StopReason::Stagnation);
+            break;
+        }
+
+        // Step, clip, re-open penetrating nodes; U follows along the line and c holds the
+        // correction off it.
+        let step = {
+            let jobs: Vec<_> = p
+                .chunks_mut(CHUNK)
+                .zip(u.chunks_mut(CHUNK))
+                .zip(c.chunks_mut(CHUNK))
+                .zip(t.chunks(CHUNK).zip(r.chunks(CHUNK)).zip(h.chunks(CHUNK)))
+                .enumerate()
+                .collect();
+            let tau_s = tau / sigma;
+            chunked(jobs, parallel, |(k, (((p, u), c), ((t, r), h)))| {
+                step_pass::<TRACE>(k * CHUNK, p, u, c, t, r, h, tau_s, sigma, shift)
+            })
+            .into_iter()
+            .reduce(StepStats::merge)
+            .expect("at least one chunk")
+        };
+        conjugate = !step.overlap;
+        let sigma_new = pressure * nf / step.psum;
+        if step.corrected > DIRECT_CORRECTIONS {
+            kernel.displacement_in_place(&mut c);
+            let jobs: Vec<_> = u.chunks_mut(CHUNK).zip(c.chunks_mut(CHUNK)).collect();
+            chunked(jobs, parallel, |(u, c)| {
+                for (ui, ci) in u.iter_mut().zip(c.iter_mut()) {
+                    *ui += *ci;
+                    *ci = 0.0;
+                }
+            });
+        } else if step.corrected > 0 {
+            kernel.add_point_displacements(&step.sparse, u);
+            for &(i, _) in &step.sparse {
+                c[i] = 0.0;
+            }
+        }
+        // The step pass measured the gap at the old σ; use that if nothing was corrected and
+        // σ is unchanged up to rounding (as it is while the direction keeps Σ_S t = 0): the
+        // statistics are then off by ~1e-12 |u|, and they only steer the iteration — the
+        // convergence decision is always taken on an exact recomputation (since_refresh == 0).
+        if step.corrected == 0 && (sigma_new / sigma - 1.0).abs() <= 1e-12 {
+            // Without corrections the contact set is unchanged, so Σ_S t is the st above.
+            ready = Some(GapStats {
+                t_on: st,
+                ..step.gap
+            });
+        }
+        sigma = sigma_new;
+        since_refresh += 1;
+        if since_refresh >= REFRESH {
+            refresh(kernel, p, u, sigma);
+            sigma = 1.0;
+            since_refresh = 0;
+            ready = None;
+        }
+    }
+
+    // Total surface height: the zero-mean G p plus the rigid approach that closes the contact
+    // set on average. Nodes carrying pressure are in contact: their gap (within the tolerance
+    // of zero) is set to exactly zero, and no node is left below the substrate.
+    for i in 0..n {
+        p[i] *= sigma;
+        u[i] = if p[i] > 0.0 {
+            h[i]
+        } else {
+            (sigma * u[i] - shift).max(h[i])
+        };
+    }
+    Ok(stats)
+}
+
+/// Exact recomputation: P ← σP, U ← G P (so σ becomes 1).
+fn refresh(kernel: &mut crate::elastic::ElasticKernel, p: &mut [f64], u: &mut [f64], sigma: f64) {
+    kernel.displacement_fused(
+        p,
+        |_, row| {
+            row.iter_mut().for_each(|v| *v *= sigma);
+            [0.0; 4]
+        },
+        Some(u),
+        |_, _, _| [0.0; 4],
+    );
 }

@@ -1,10 +1,22 @@
 //! Periodic 2-D convolution with a diagonal Fourier multiplier, on real fields.
 //!
-//! Fields are row-major `nx × ny` slices (first index x). A forward transform is a real-to-complex
-//! FFT along each row (y, contiguous) followed by complex FFTs along x, done on blocks of columns
-//! gathered into contiguous buffers (no full transpose, so the only full-size work array is the
-//! half spectrum, `nx × (ny/2 + 1)` complex values ≈ one f64 per node). Both passes are
-//! parallelised with rayon when the grid is large enough to pay for it.
+//! Fields are row-major `nx × ny` slices (first index x). A convolution is: a real-to-complex FFT
+//! along each row (y, contiguous) into the half spectrum `nx × (ny/2 + 1)`; then, for each block
+//! of [`BLOCK`] spectral columns, gather the block into a contiguous buffer, FFT along x, multiply,
+//! inverse FFT along x and scatter back (one gather/scatter per convolution and the multiply done
+//! while the block is in cache, instead of separate forward, multiply and inverse passes over the
+//! whole spectrum); then a complex-to-real FFT along each row. The only full-size work array is
+//! the half spectrum (≈ one f64 per node). Rows and column blocks are spread over rayon threads
+//! when the grid is large enough to pay for it; the arithmetic does not depend on the number of
+//! threads, so results are bit-identical for any pool size.
+//!
+//! Multipliers are stored in the column-block order the fused pass reads them in (spectral
+//! column outer, x-wave index inner); [`Spectral::multiplier`] builds one from the natural
+//! half-spectrum layout.
+//!
+//! [`Spectral::convolve_fused`] additionally lets the caller prepare each input row just before
+//! it is transformed and reduce over each output row right after it is produced, while both are
+//! in cache: the Polonsky–Keer iteration uses it to fold its vector passes into the transform.
 
 use ndarray::{ArrayViewMut2, Axis};
 use num_complex::Complex64;
@@ -13,10 +25,20 @@ use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustfft::{Fft, FftPlanner};
 use std::sync::Arc;
 
-/// Columns gathered per block in the x pass (8 complex values = two cache lines per row).
+/// Spectral columns per block in the x pass (8 complex values = two cache lines per row).
 const BLOCK: usize = 8;
 /// Grids with fewer nodes than this run single-threaded (thread hand-off costs more than it saves).
-const PARALLEL_MIN_NODES: usize = 1 << 14;
+pub const PARALLEL_MIN_NODES: usize = 1 << 14;
+
+/// Per-row partial sums returned by the callbacks of [`Spectral::convolve_fused`].
+pub type RowSums = [f64; 4];
+
+/// One row of a row pass: (index, (spectrum row, field row)) and its partial-sum slot.
+type RowJob<'a, F> = ((usize, (&'a mut [Complex64], F)), &'a mut RowSums);
+
+fn add(a: RowSums, b: RowSums) -> RowSums {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]]
+}
 
 /// A planned 2-D real FFT for one grid size, with its half-spectrum work array.
 pub struct Spectral {
@@ -28,6 +50,8 @@ pub struct Spectral {
     fwd: Arc<dyn Fft<f64>>,
     inv: Arc<dyn Fft<f64>>,
     spec: Vec<Complex64>,
+    /// Per-row partial sums (reduced in row order, so independent of the thread count).
+    sums: Vec<RowSums>,
 }
 
 impl Spectral {
@@ -45,6 +69,7 @@ impl Spectral {
             fwd: cp.plan_fft_forward(nx),
             inv: cp.plan_fft_inverse(nx),
             spec: vec![Complex64::new(0.0, 0.0); nx * m],
+            sums: vec![[0.0; 4]; nx],
         }
     }
 
@@ -53,18 +78,129 @@ impl Spectral {
         self.m
     }
 
-    fn parallel(&self) -> bool {
+    /// Whether this grid is processed by several threads (large grid, pool of more than one).
+    pub fn parallel(&self) -> bool {
         self.nx * self.ny >= PARALLEL_MIN_NODES && rayon::current_num_threads() > 1
     }
 
-    /// Forward transform of `input` (length nx·ny) into the internal half spectrum, unnormalised.
-    fn forward(&mut self, input: &[f64]) {
+    /// Converts a multiplier from the natural half-spectrum layout (`nx × (ny/2+1)`, x-wave index
+    /// outer) into the internal order used by [`Spectral::convolve_with`].
+    pub fn multiplier(&self, half_spectrum: &[f64]) -> Vec<f64> {
+        assert_eq!(half_spectrum.len(), self.nx * self.m, "multiplier length");
+        let mut out = vec![0.0; half_spectrum.len()];
+        for b in 0..self.m {
+            for a in 0..self.nx {
+                out[b * self.nx + a] = half_spectrum[a * self.m + b];
+            }
+        }
+        out
+    }
+
+    /// `output = IFFT(multiplier ⊙ FFT(input))`, where `multiplier` has the natural half-spectrum
+    /// layout (`nx × (ny/2+1)`, x-wave index outer) and already includes the 1/(nx·ny)
+    /// normalisation. Converts the multiplier on every call: for repeated use convert it once
+    /// with [`Spectral::multiplier`] and call [`Spectral::convolve_with`].
+    pub fn convolve(&mut self, input: &[f64], multiplier: &[f64], output: &mut [f64]) {
+        let mult = self.multiplier(multiplier);
+        self.convolve_with(input, &mult, output);
+    }
+
+    /// In-place version of [`Spectral::convolve`].
+    pub fn convolve_in_place(&mut self, field: &mut [f64], multiplier: &[f64]) {
+        let mult = self.multiplier(multiplier);
+        self.convolve_with_in_place(field, &mult);
+    }
+
+    /// `output = IFFT(multiplier ⊙ FFT(input))` with a multiplier from [`Spectral::multiplier`].
+    pub fn convolve_with(&mut self, input: &[f64], multiplier: &[f64], output: &mut [f64]) {
         assert_eq!(input.len(), self.nx * self.ny, "field length");
-        let (ny, m) = (self.ny, self.m);
-        let r2c = &self.r2c;
-        let row = |(out, inp): (&mut [Complex64], &[f64]),
+        self.forward(input.len(), |i, buf| {
+            buf.copy_from_slice(&input[i * buf.len()..(i + 1) * buf.len()]);
+            [0.0; 4]
+        });
+        self.columns(multiplier);
+        self.inverse(output, |_, _| [0.0; 4]);
+    }
+
+    /// In-place version of [`Spectral::convolve_with`].
+    pub fn convolve_with_in_place(&mut self, field: &mut [f64], multiplier: &[f64]) {
+        self.convolve_fused(field, |_, _| [0.0; 4], multiplier, None, |_, _, _| [0.0; 4]);
+    }
+
+    /// Convolution with callbacks, all rows visited in parallel when [`Spectral::parallel`]:
+    ///
+    /// 1. for every row `i`, `prepare(i, row)` may rewrite row `i` of `input` in place; the row
+    ///    as it then is, is transformed. `input` keeps the prepared values;
+    /// 2. the spectrum is multiplied by `multiplier` (from [`Spectral::multiplier`]);
+    /// 3. for every row `i`, the inverse transform is written to row `i` of `output` (of `input`
+    ///    itself if `output` is `None`), then `finish(i, input_row, output_row)` is called with
+    ///    the prepared input row (an empty slice in place, where it has been overwritten).
+    ///
+    /// Returns the sums over rows, in row order, of what `prepare` and `finish` return.
+    pub fn convolve_fused<P, F>(
+        &mut self,
+        input: &mut [f64],
+        prepare: P,
+        multiplier: &[f64],
+        output: Option<&mut [f64]>,
+        finish: F,
+    ) -> (RowSums, RowSums)
+    where
+        P: Fn(usize, &mut [f64]) -> RowSums + Sync,
+        F: Fn(usize, &[f64], &mut [f64]) -> RowSums + Sync,
+    {
+        let (nx, ny) = (self.nx, self.ny);
+        assert_eq!(input.len(), nx * ny, "field length");
+        let parallel = self.parallel();
+        // Forward rows: prepare in place, then transform a copy (r2c overwrites its input).
+        {
+            let (r2c, m) = (&self.r2c, self.m);
+            let row = |((i, (out, inp)), sum): RowJob<&mut [f64]>,
+                       (buf, scratch): &mut (Vec<f64>, Vec<Complex64>)| {
+                *sum = prepare(i, inp);
+                buf.copy_from_slice(inp);
+                r2c.process_with_scratch(buf, out, scratch)
+                    .expect("r2c lengths are planned");
+            };
+            let init = || (vec![0.0; ny], r2c.make_scratch_vec());
+            if parallel {
+                self.spec
+                    .par_chunks_mut(m)
+                    .zip(input.par_chunks_mut(ny))
+                    .enumerate()
+                    .zip(self.sums.par_iter_mut())
+                    .with_min_len(8)
+                    .for_each_init(init, |s, x| row(x, s));
+            } else {
+                let mut s = init();
+                self.spec
+                    .chunks_mut(m)
+                    .zip(input.chunks_mut(ny))
+                    .enumerate()
+                    .zip(self.sums.iter_mut())
+                    .for_each(|x| row(x, &mut s));
+            }
+        }
+        let before = self.sums.iter().fold([0.0; 4], |a, &b| add(a, b));
+        self.columns(multiplier);
+        let after = match output {
+            Some(out) => {
+                assert_eq!(out.len(), nx * ny, "field length");
+                let inp: &[f64] = input;
+                self.inverse(out, |i, row| finish(i, &inp[i * ny..(i + 1) * ny], row))
+            }
+            None => self.inverse(input, |i, row| finish(i, &[], row)),
+        };
+        (before, after)
+    }
+
+    /// Forward row transforms: `fill(i, buf)` writes row `i` into `buf`.
+    fn forward(&mut self, len: usize, fill: impl Fn(usize, &mut [f64]) -> RowSums + Sync) {
+        assert_eq!(len, self.nx * self.ny, "field length");
+        let (r2c, ny, m) = (&self.r2c, self.ny, self.m);
+        let row = |(i, out): (usize, &mut [Complex64]),
                    (buf, scratch): &mut (Vec<f64>, Vec<Complex64>)| {
-            buf.copy_from_slice(inp);
+            fill(i, buf);
             r2c.process_with_scratch(buf, out, scratch)
                 .expect("r2c lengths are planned");
         };
@@ -72,37 +208,41 @@ impl Spectral {
         if self.parallel() {
             self.spec
                 .par_chunks_mut(m)
-                .zip(input.par_chunks(ny))
+                .enumerate()
                 .with_min_len(8)
                 .for_each_init(init, |s, x| row(x, s));
         } else {
             let mut s = init();
             self.spec
                 .chunks_mut(m)
-                .zip(input.chunks(ny))
+                .enumerate()
                 .for_each(|x| row(x, &mut s));
         }
-        self.columns(true);
     }
 
-    /// Inverse transform of the internal spectrum into `output`, normalised by 1/(nx·ny). The
-    /// spectrum is consumed.
-    fn inverse(&mut self, output: &mut [f64]) {
-        assert_eq!(output.len(), self.nx * self.ny, "field length");
-        self.columns(false);
+    /// Inverse row transforms of the spectrum into `output` (normalisation is in the
+    /// multiplier), then `finish(i, row)` on each output row; returns the row-ordered sum.
+    fn inverse(
+        &mut self,
+        output: &mut [f64],
+        finish: impl Fn(usize, &mut [f64]) -> RowSums + Sync,
+    ) -> RowSums {
         let (ny, m) = (self.ny, self.m);
         let c2r = &self.c2r;
-        let row = |(inp, out): (&mut [Complex64], &mut [f64]), scratch: &mut Vec<Complex64>| {
+        let row = |((i, (inp, out)), sum): RowJob<&mut [f64]>, scratch: &mut Vec<Complex64>| {
             // The DC and Nyquist bins of a real signal's spectrum are real; remove rounding noise.
             inp[0].im = 0.0;
             inp[m - 1].im = 0.0;
             c2r.process_with_scratch(inp, out, scratch)
                 .expect("c2r lengths are planned");
+            *sum = finish(i, out);
         };
         if self.parallel() {
             self.spec
                 .par_chunks_mut(m)
                 .zip(output.par_chunks_mut(ny))
+                .enumerate()
+                .zip(self.sums.par_iter_mut())
                 .with_min_len(8)
                 .for_each_init(|| c2r.make_scratch_vec(), |s, x| row(x, s));
         } else {
@@ -110,32 +250,52 @@ impl Spectral {
             self.spec
                 .chunks_mut(m)
                 .zip(output.chunks_mut(ny))
+                .enumerate()
+                .zip(self.sums.iter_mut())
                 .for_each(|x| row(x, &mut s));
         }
+        self.sums.iter().fold([0.0; 4], |a, &b| add(a, b))
     }
 
-    /// FFT along x of every column of the half spectrum, in blocks of `BLOCK` columns.
-    fn columns(&mut self, forward: bool) {
-        let nx = self.nx;
-        let fft = if forward { &self.fwd } else { &self.inv };
+    /// For every block of `BLOCK` spectral columns: gather, FFT along x, multiply, inverse FFT
+    /// along x, scatter back.
+    fn columns(&mut self, multiplier: &[f64]) {
+        let (nx, m) = (self.nx, self.m);
+        assert_eq!(multiplier.len(), nx * m, "multiplier length");
+        let (fwd, inv) = (&self.fwd, &self.inv);
         let parallel = self.parallel();
-        let mut view = ArrayViewMut2::from_shape((nx, self.m), &mut self.spec).expect("shape");
+        let mut view = ArrayViewMut2::from_shape((nx, m), &mut self.spec).expect("shape");
+        let scratch_len = fwd
+            .get_inplace_scratch_len()
+            .max(inv.get_inplace_scratch_len());
         let init = || {
             (
                 vec![Complex64::new(0.0, 0.0); BLOCK * nx],
-                vec![Complex64::new(0.0, 0.0); fft.get_inplace_scratch_len()],
+                vec![Complex64::new(0.0, 0.0); scratch_len],
             )
         };
-        let block = |mut cols: ArrayViewMut2<Complex64>,
+        let block = |(k, mut cols): (usize, ArrayViewMut2<Complex64>),
                      (buf, scratch): &mut (Vec<Complex64>, Vec<Complex64>)| {
             let b = cols.ncols();
-            for (i, row) in cols.outer_iter().enumerate() {
+            let buf = &mut buf[..b * nx];
+            for (i, row) in cols.rows().into_iter().enumerate() {
+                let row = row
+                    .to_slice()
+                    .expect("rows of a column block are contiguous");
                 for (c, v) in row.iter().enumerate() {
                     buf[c * nx + i] = *v;
                 }
             }
-            fft.process_with_scratch(&mut buf[..b * nx], scratch);
-            for (i, mut row) in cols.outer_iter_mut().enumerate() {
+            fwd.process_with_scratch(buf, scratch);
+            let mult = &multiplier[k * BLOCK * nx..(k * BLOCK + b) * nx];
+            for (v, &w) in buf.iter_mut().zip(mult) {
+                *v *= w;
+            }
+            inv.process_with_scratch(buf, scratch);
+            for (i, mut row) in cols.rows_mut().into_iter().enumerate() {
+                let row = row
+                    .as_slice_mut()
+                    .expect("rows of a column block are contiguous");
                 for (c, v) in row.iter_mut().enumerate() {
                     *v = buf[c * nx + i];
                 }
@@ -144,44 +304,13 @@ impl Spectral {
         if parallel {
             view.axis_chunks_iter_mut(Axis(1), BLOCK)
                 .into_par_iter()
-                .for_each_init(init, |s, cols| block(cols, s));
+                .enumerate()
+                .for_each_init(init, |s, x| block(x, s));
         } else {
             let mut s = init();
-            for cols in view.axis_chunks_iter_mut(Axis(1), BLOCK) {
-                block(cols, &mut s);
+            for x in view.axis_chunks_iter_mut(Axis(1), BLOCK).enumerate() {
+                block(x, &mut s);
             }
-        }
-    }
-
-    /// `output = IFFT(multiplier ⊙ FFT(input))`, where `multiplier` has the half-spectrum layout
-    /// (`nx × (ny/2+1)`, x-wave index outer) and already includes the 1/(nx·ny) normalisation.
-    /// `input` and `output` may be the same buffer only through [`Spectral::convolve_in_place`].
-    pub fn convolve(&mut self, input: &[f64], multiplier: &[f64], output: &mut [f64]) {
-        self.forward(input);
-        self.multiply(multiplier);
-        self.inverse(output);
-    }
-
-    /// In-place version of [`Spectral::convolve`].
-    pub fn convolve_in_place(&mut self, field: &mut [f64], multiplier: &[f64]) {
-        self.forward(field);
-        self.multiply(multiplier);
-        self.inverse(field);
-    }
-
-    fn multiply(&mut self, multiplier: &[f64]) {
-        assert_eq!(multiplier.len(), self.spec.len(), "multiplier length");
-        if self.parallel() {
-            self.spec
-                .par_iter_mut()
-                .zip(multiplier.par_iter())
-                .with_min_len(1 << 12)
-                .for_each(|(s, &k)| *s *= k);
-        } else {
-            self.spec
-                .iter_mut()
-                .zip(multiplier)
-                .for_each(|(s, &k)| *s *= k);
         }
     }
 }
