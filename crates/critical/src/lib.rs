@@ -50,9 +50,14 @@ pub mod warm;
 
 pub use bracket::{Bracket, Criterion, Prober, SearchOptions, bracket_transitions};
 pub use saddle::{SaddleFit, SaddleGroup, SaddleSample, Subgrid};
-pub use shifts::{ShiftAverage, ShiftStudy, find_critical_shifted, shift_set};
+pub use shifts::{
+    ShiftAverage, ShiftStudy, Stat, TransitionAverage, find_critical_shifted, shift_set,
+};
 pub use state::{FlowState, axis_name, contact_mask};
-pub use study::{Extrapolated, LevelSummary, ResolutionOptions, ResolutionStudy, resolution_study};
+pub use study::{
+    Extrapolated, FALLBACK_ORDER, LevelSummary, ResolutionOptions, ResolutionStudy,
+    resolution_study,
+};
 
 use contact::{Interaction, Method, Model, Solution, SolverOptions};
 use percolation::ContactArea;
@@ -182,12 +187,14 @@ impl Default for CriticalOptions {
     }
 }
 
-/// Reduced loads of the saddle-gap samples: eight values, logarithmically spaced from −0.05 to
-/// −0.003 (the paper's ladder spans 0.002 … 0.02; the wider window gives the three-parameter fit
-/// some leverage, and the smallest |l| stays resolvable at n = 7).
+/// Reduced loads of the saddle-gap samples: six values, logarithmically spaced from −0.02 to
+/// −0.002 (the span of the paper's load ladder). The smallest |l| needs the channel resolved by
+/// a few nodes: about n ≥ 8 for the square model, n ≥ 9 for the hexagonal one; samples whose
+/// interpolation stencil touches contact are dropped, and groups with fewer than four open
+/// samples are not fitted.
 pub fn default_saddle_loads() -> Vec<f64> {
-    (0..8)
-        .map(|k| -0.05 * (0.003f64 / 0.05).powf(k as f64 / 7.0))
+    (0..6)
+        .map(|k| -0.02 * 0.1f64.powf(k as f64 / 5.0))
         .collect()
 }
 
@@ -305,6 +312,8 @@ pub struct CriticalResult {
     pub sample_solves: usize,
     /// Polonsky–Keer iterations over all solves (each about one FFT pair).
     pub iterations: usize,
+    /// Solves repeated from another start because the first did not converge.
+    pub retries: usize,
     /// Wall time (s), including any coarse pre-search.
     pub wall_s: f64,
     /// Fields at the `any` bracket ends, if requested.
@@ -337,6 +346,7 @@ struct SolveProber<'a> {
     store: Vec<(f64, Solution)>,
     initial: Option<&'a Solution>,
     iterations: usize,
+    retries: usize,
 }
 
 impl SolveProber<'_> {
@@ -371,34 +381,64 @@ impl SolveProber<'_> {
         }
     }
 
+    /// Solves at `load` from the interpolated or nearest warm start ([`Self::warm_for`]).
     fn solve(&mut self, load: f64) -> Result<Solution, CriticalError> {
-        let warm = Self::warm_for(&self.store, self.initial, load);
-        let warm = warm.as_deref();
-        let sol = self
-            .model
-            .solve(Interaction::HardWall, load, &self.opts, warm)
-            .map_err(|e| CriticalError::Solver {
-                load,
-                detail: e.to_string(),
-            })?;
-        self.iterations += sol.stats.iterations;
-        if !sol.stats.converged {
-            return Err(CriticalError::Solver {
-                load,
-                detail: format!(
-                    "not converged after {} iterations (violation {:.3e} > tol_gap {:.1e}): {}",
-                    sol.stats.iterations,
-                    sol.stats.max_violation,
-                    self.opts.tol_gap,
-                    sol.stats
-                        .reason
-                        .as_ref()
-                        .map(|r| r.to_string())
-                        .unwrap_or_default()
-                ),
-            });
+        let first = Self::warm_for(&self.store, self.initial, load).map(|w| w.into_owned());
+        self.solve_from(load, first)
+    }
+
+    /// Solves at `load` from `first`, and, if the solver does not converge from it, again from
+    /// the nearest stored solution and then from a cold start (counted in `retries`).
+    fn solve_from(
+        &mut self,
+        load: f64,
+        first: Option<Solution>,
+    ) -> Result<Solution, CriticalError> {
+        let nearest = |store: &[(f64, Solution)]| {
+            store
+                .iter()
+                .min_by(|a, b| (a.0 - load).abs().total_cmp(&(b.0 - load).abs()))
+                .map(|(_, s)| s.clone())
+        };
+        let mut last = String::new();
+        let mut first = Some(first);
+        for attempt in 0..3 {
+            let start: Option<Solution> = match attempt {
+                0 => first.take().flatten(),
+                1 => nearest(&self.store),
+                _ => None,
+            };
+            if attempt == 1 && start.is_none() {
+                continue;
+            }
+            let sol = self
+                .model
+                .solve(Interaction::HardWall, load, &self.opts, start.as_ref())
+                .map_err(|e| CriticalError::Solver {
+                    load,
+                    detail: e.to_string(),
+                })?;
+            self.iterations += sol.stats.iterations;
+            if sol.stats.converged {
+                return Ok(sol);
+            }
+            self.retries += 1;
+            last = format!(
+                "not converged after {} iterations (violation {:.3e} > tol_gap {:.1e}): {}",
+                sol.stats.iterations,
+                sol.stats.max_violation,
+                self.opts.tol_gap,
+                sol.stats
+                    .reason
+                    .as_ref()
+                    .map(|r| r.to_string())
+                    .unwrap_or_default()
+            );
         }
-        Ok(sol)
+        Err(CriticalError::Solver {
+            load,
+            detail: format!("{last} (also from the nearest solution and from a cold start)"),
+        })
     }
 
     fn get(&self, load: f64) -> &Solution {
@@ -484,6 +524,7 @@ pub fn find_critical(
         store: Vec::new(),
         initial: coarse_warm.as_ref(),
         iterations: coarse_iterations,
+        retries: 0,
     };
     let search = SearchOptions {
         guess: guess.clamp(1e-6 * p_fc, p_fc),
@@ -516,23 +557,7 @@ pub fn find_critical(
             Some(p) => p,
             None => prober.get(any.bracket.lo).clone(),
         };
-        let sol = prober
-            .model
-            .solve(Interaction::HardWall, load, &prober.opts, Some(&start))
-            .map_err(|e| CriticalError::Solver {
-                load,
-                detail: e.to_string(),
-            })?;
-        prober.iterations += sol.stats.iterations;
-        if !sol.stats.converged {
-            return Err(CriticalError::Solver {
-                load,
-                detail: format!(
-                    "saddle sample not converged after {} iterations",
-                    sol.stats.iterations
-                ),
-            });
-        }
+        let sol = prober.solve_from(load, Some(start))?;
         let gap = saddle::sample_groups(surface, &groups, sol.displacement.view(), sol.gap.view());
         samples.push(SaddleSample {
             load,
@@ -567,6 +592,7 @@ pub fn find_critical(
         notes,
         probes,
         iterations: prober.iterations,
+        retries: prober.retries,
         wall_s: t0.elapsed().as_secs_f64(),
         fields,
     })

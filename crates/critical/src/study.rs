@@ -108,7 +108,12 @@ pub struct Extrapolated {
 pub const FALLBACK_ORDER: f64 = 2.0;
 
 impl Extrapolated {
-    fn new(name: &str, h: &[f64], stats: &[Stat], order: Order) -> Self {
+    /// Extrapolates shift-averaged values `stats` at spacings `h` to zero spacing with the model
+    /// `v0 + c h^p` of the given order. A fitted order ([`Order::Free`]) outside [0.5, 4] or with
+    /// an error above half its value (non-monotone convergence) is replaced by
+    /// [`FALLBACK_ORDER`], with a note. The standard errors over shifts are the σ of the fit when
+    /// all are positive (several shifts), else the misfit sets the error scale.
+    pub fn new(name: &str, h: &[f64], stats: &[Stat], order: Order) -> Self {
         let v: Vec<f64> = stats.iter().map(|s| s.mean).collect();
         let sem: Vec<f64> = stats.iter().map(|s| s.sem).collect();
         let sigma = sem.iter().all(|s| *s > 0.0).then_some(sem.as_slice());
