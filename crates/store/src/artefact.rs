@@ -18,8 +18,8 @@
 //! are immutable and temporaries private, so it protects nothing here, and its locks leak into
 //! child processes (HDF5 opens files without `O_CLOEXEC`) and fail on some network file systems.
 
-use crate::fsutil;
 use anyhow::{Context, Result, anyhow, bail};
+use fsutil;
 use hdf5::types::{VarLenAscii, VarLenUnicode};
 use ndarray::{Array1, Array2, ArrayView2};
 use serde_json::Value;

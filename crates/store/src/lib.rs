@@ -24,7 +24,7 @@
 
 pub mod artefact;
 pub mod canonical;
-pub mod fsutil;
+pub use fsutil;
 pub mod provenance;
 
 pub use artefact::{

@@ -81,8 +81,8 @@ impl Provenance {
             stats: Value::Object(Default::default()),
             warnings: Vec::new(),
             side_outputs: Vec::new(),
-            created_utc: crate::fsutil::utc_now_iso8601(),
-            host: crate::fsutil::host_name(),
+            created_utc: fsutil::utc_now_iso8601(),
+            host: fsutil::host_name(),
             saddleflow_version: SADDLEFLOW_VERSION.to_string(),
         }
     }

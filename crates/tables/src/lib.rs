@@ -24,9 +24,7 @@
 //! ```
 
 use std::fmt;
-use std::fs::{self, File};
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use polars::prelude::{
@@ -383,40 +381,7 @@ pub fn write_csv(table: &Table, path: &Path) -> Result<()> {
     write_atomic(path, &bytes)
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that
-/// `path` either keeps its old content or has the complete new one. Creates the folder.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    fs::create_dir_all(dir).with_context(|| format!("creating folder {}", dir.display()))?;
-    let tmp = temp_path(path);
-    let result = (|| -> Result<()> {
-        let mut f = File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        fs::rename(&tmp, path)?;
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result.with_context(|| format!("writing {}", path.display()))
-}
-
-/// `.<name>.<pid>.<counter>.tmp` next to `path`.
-fn temp_path(path: &Path) -> PathBuf {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "table".into());
-    let k = COUNTER.fetch_add(1, Ordering::Relaxed);
-    path.with_file_name(format!(".{name}.{}.{k}.tmp", std::process::id()))
-}
+pub use fsutil::write_atomic;
 
 /// Reads a CSV file with a header. Every column of the file is returned (typed as polars
 /// infers it: integer → `i64`, float → `f64`, `true`/`false` → `bool`, else text); each
@@ -496,6 +461,7 @@ fn convert(c: &PlColumn, want: Option<ColumnType>) -> Result<ColumnData> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
 
     fn sample() -> Table {
         Table::new()
