@@ -4,6 +4,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod critical;
 mod flow;
 mod pipeline;
 mod solve;
@@ -21,6 +22,9 @@ enum Command {
     Solve(solve::Args),
     /// Solve the Reynolds thin-film equation on a gap field read from HDF5.
     Flow(flow::Args),
+    /// Locate the percolation threshold (L_c, a_p) of the hard-wall contact and print a JSON
+    /// summary.
+    Critical(critical::Args),
     #[command(flatten)]
     Pipeline(pipeline::Command),
 }
@@ -30,6 +34,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Solve(args) => solve::run(args),
         Command::Flow(args) => flow::run(args),
+        Command::Critical(args) => critical::run(args),
         Command::Pipeline(cmd) => pipeline::run(cmd),
     };
     match result {

@@ -1,0 +1,210 @@
+//! `saddleflow critical`: the percolation threshold of the hard-wall contact on one grid (or
+//! averaged over sub-grid shifts); prints one JSON object.
+
+use anyhow::{Context, Result, bail};
+use critical::{CriticalOptions, CriticalResult, Transition, find_critical_shifted, shift_set};
+use serde_json::{Value, json};
+use surface::Lattice;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Surface model: square, triangular or hexagonal.
+    #[arg(long)]
+    lattice: String,
+    /// Grid exponent: 2^n × 2^n nodes (3..=13).
+    #[arg(long)]
+    n: u32,
+    /// Sub-grid shifts: K ≥ 1 averages over the K × K midpoint rule on [0, ½)² spacings; 0 (the
+    /// default) solves the unshifted grid only (saddles on nodes).
+    #[arg(long, default_value_t = 0)]
+    shifts: usize,
+    /// Polonsky–Keer tolerance on the constraint violation (h0).
+    #[arg(long, default_value_t = 1e-10)]
+    tol: f64,
+    /// Target relative width (hi − lo)/hi of each load bracket.
+    #[arg(long, default_value_t = 1e-9)]
+    rel_width: f64,
+    /// First load probed (E* h0/λ); default: from a coarse search on the 2^(n−2) grid.
+    #[arg(long)]
+    guess: Option<f64>,
+    /// Reduced loads l = (L − L_c)/L_c < 0 of the saddle-gap samples, comma-separated; "none"
+    /// skips the sub-grid estimate. Default: six values from −0.02 to −0.002.
+    #[arg(long, allow_hyphen_values = true)]
+    saddle_loads: Option<String>,
+    /// Sample the saddle gaps on every shift (default: the first shift only).
+    #[arg(long)]
+    saddle_every_shift: bool,
+    /// Threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+fn parse_loads(s: &str) -> Result<Vec<f64>> {
+    if s.trim() == "none" {
+        return Ok(Vec::new());
+    }
+    s.split(',')
+        .map(|v| {
+            let x: f64 = v
+                .trim()
+                .parse()
+                .with_context(|| format!("--saddle-loads: {v:?} is not a number"))?;
+            if !(x.is_finite() && x < 0.0 && x > -1.0) {
+                bail!("--saddle-loads: {x} is out of range: reduced loads must be in (−1, 0)");
+            }
+            Ok(x)
+        })
+        .collect()
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let lattice: Lattice = a.lattice.parse().context("--lattice")?;
+    if !(surface::N_MIN..=surface::N_MAX).contains(&a.n) {
+        bail!(
+            "--n {}: allowed {}..={} (grids of 2^n × 2^n nodes)",
+            a.n,
+            surface::N_MIN,
+            surface::N_MAX
+        );
+    }
+    if !(a.tol.is_finite() && a.tol > 0.0) {
+        bail!("--tol {}: allowed a finite value > 0 (h0)", a.tol);
+    }
+    if !(a.rel_width.is_finite() && a.rel_width > 0.0 && a.rel_width < 1.0) {
+        bail!("--rel-width {}: allowed a value in (0, 1)", a.rel_width);
+    }
+    if a.shifts > 16 {
+        bail!(
+            "--shifts {}: allowed 0..=16 (K × K solves per grid)",
+            a.shifts
+        );
+    }
+    let opts = CriticalOptions {
+        tol_gap: a.tol,
+        rel_width: a.rel_width,
+        guess: a.guess,
+        saddle_loads: match &a.saddle_loads {
+            Some(s) => parse_loads(s)?,
+            None => critical::default_saddle_loads(),
+        },
+        ..Default::default()
+    };
+    opts.validate()?;
+    let shifts = shift_set(a.shifts);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()?;
+    let t0 = std::time::Instant::now();
+    let study = pool.install(|| {
+        find_critical_shifted(
+            lattice,
+            a.n,
+            &shifts,
+            &opts,
+            None,
+            None,
+            a.saddle_every_shift,
+        )
+    })?;
+    let mut out = summary_json(&study.results, &study.average);
+    let obj = out.as_object_mut().expect("object");
+    obj.insert("lattice".into(), json!(lattice.name()));
+    obj.insert("n".into(), json!(a.n));
+    obj.insert("tol_gap".into(), json!(a.tol));
+    obj.insert("rel_width".into(), json!(a.rel_width));
+    obj.insert("p_fc_exact".into(), json!(lattice.exact().p_fc));
+    obj.insert("wall_s".into(), json!(t0.elapsed().as_secs_f64()));
+    println!("{}", serde_json::to_string(&out)?);
+    Ok(())
+}
+
+fn transition_json(t: &Transition) -> Value {
+    json!({
+        "l_c": t.l_c(),
+        "bracket": [t.bracket.lo, t.bracket.hi],
+        "rel_width": t.bracket.rel_width(),
+        "a_p_raw": t.a_p_raw(),
+        "a_p_corrected": t.a_p_corrected(),
+        "contact_nodes": [t.area_lo.n_contact, t.area_hi.n_contact],
+        "perimeter_faces": [t.area_lo.n_perimeter_edges, t.area_hi.n_perimeter_edges],
+        "bridging_nodes": t.bridging_nodes(),
+    })
+}
+
+fn result_json(r: &CriticalResult) -> Value {
+    let groups: Vec<f64> = r.groups.iter().map(|g| g.angle_deg).collect();
+    json!({
+        "shift": [r.grid.shift.0, r.grid.shift.1],
+        "p_fc": r.p_fc,
+        "p_fc_over_l_c": r.p_fc_over_l_c(),
+        "any": transition_json(&r.any),
+        "x": transition_json(&r.x),
+        "y": transition_json(&r.y),
+        "saddle_channel_angles_deg": groups,
+        "saddle_samples": r.samples.iter().map(|s| json!({
+            "load": s.load,
+            "reduced_load": s.reduced,
+            "contact_area": s.area,
+            "gap": s.gap,
+        })).collect::<Vec<_>>(),
+        "subgrid": r.subgrid.as_ref().map(|s| json!({
+            "l_c": s.l_c,
+            "l_c_error": s.l_c_error,
+            "zeta": s.zeta,
+            "zeta_error": s.zeta_error,
+            "fits": s.fits.iter().map(|f| json!({
+                "channel_angle_deg": f.angle_deg,
+                "points": f.points,
+                "l_c": f.l_c.0, "l_c_error": f.l_c.1,
+                "zeta": f.zeta.0, "zeta_error": f.zeta.1,
+                "amplitude": f.amplitude.0, "amplitude_error": f.amplitude.1,
+                "reduced_chi2": f.reduced_chi2,
+                "pegged": f.pegged,
+            })).collect::<Vec<_>>(),
+        })),
+        "notes": r.notes,
+        "probes": r.probes,
+        "retries": r.retries,
+        "sample_solves": r.sample_solves,
+        "iterations": r.iterations,
+        "wall_s": r.wall_s,
+    })
+}
+
+/// The JSON summary: headline numbers (shift averages; with one shift, that grid's values), then
+/// the per-shift details.
+fn summary_json(results: &[CriticalResult], av: &critical::ShiftAverage) -> Value {
+    let first = &results[0];
+    let single = results.len() == 1;
+    let sub = results.iter().find_map(|r| r.subgrid.as_ref());
+    json!({
+        "nx": first.grid.nx,
+        "ny": first.grid.ny,
+        "lx": first.grid.lx,
+        "ly": first.grid.ly,
+        "shifts": results.iter().map(|r| [r.grid.shift.0, r.grid.shift.1]).collect::<Vec<_>>(),
+        "l_c": av.any.l_c.mean,
+        "l_c_shift_sem": av.any.l_c.sem,
+        "bracket": single.then(|| [first.any.bracket.lo, first.any.bracket.hi]),
+        "l_c_x": av.x.l_c.mean,
+        "l_c_y": av.y.l_c.mean,
+        "a_p_raw": av.any.a_p_raw.mean,
+        "a_p_raw_shift_sem": av.any.a_p_raw.sem,
+        "a_p_corrected": av.any.a_p_corrected.mean,
+        "a_p_corrected_shift_sem": av.any.a_p_corrected.sem,
+        "p_fc": av.p_fc.mean,
+        "p_fc_over_l_c": av.p_fc_over_l_c.mean,
+        "l_c_subgrid": sub.map(|s| s.l_c),
+        "l_c_subgrid_error": sub.map(|s| s.l_c_error),
+        "zeta": sub.map(|s| s.zeta),
+        "zeta_error": sub.map(|s| s.zeta_error),
+        "saddle_samples": first.samples.iter().map(|s| json!({
+            "load": s.load,
+            "reduced_load": s.reduced,
+            "gap": s.gap,
+        })).collect::<Vec<_>>(),
+        "probes": results.iter().map(|r| r.probes).sum::<usize>(),
+        "iterations": results.iter().map(|r| r.iterations).sum::<usize>(),
+        "per_shift": results.iter().map(result_json).collect::<Vec<_>>(),
+    })
+}
