@@ -233,4 +233,29 @@ mod tests {
         assert!((kern.k_min() - PI).abs() < 1e-12);
         assert!((kern.k_max() - PI * (16f64 * 16.0 * 2.0).sqrt()).abs() < 1e-9);
     }
+
+    #[test]
+    fn point_displacements_match_the_transform() {
+        let s = Surface::new(Lattice::Triangular, 5).unwrap();
+        let g = s.grid;
+        let mut kern = ElasticKernel::new(&g, 1.0);
+        let sources = [
+            (0, 1.5),
+            (37, -0.25),
+            (g.len() - 1, 0.75),
+            (5 * g.ny + 17, 2.0),
+        ];
+        let mut c = vec![0.0; g.len()];
+        for &(k, v) in &sources {
+            c[k] += v;
+        }
+        let mut want = vec![0.0; g.len()];
+        kern.displacement(&c, &mut want);
+        let mut u: Vec<f64> = (0..g.len()).map(|k| k as f64 * 1e-3).collect();
+        let start = u.clone();
+        kern.add_point_displacements(&sources, &mut u);
+        for k in 0..g.len() {
+            assert!((u[k] - start[k] - want[k]).abs() < 1e-13, "node {k}");
+        }
+    }
 }

@@ -406,4 +406,65 @@ mod tests {
         pool.install(|| sp.convolve(&input, &mult, &mut ser));
         assert_eq!(par, ser);
     }
+
+    #[test]
+    fn fused_callbacks_see_the_prepared_rows_and_reduce_in_row_order() {
+        let (nx, ny) = (128, 256);
+        let mut sp = Spectral::new(nx, ny);
+        let m = sp.half_len();
+        let natural: Vec<f64> = (0..nx * m)
+            .map(|k| ((k % 7) as f64 + 1.0) / (nx * ny) as f64)
+            .collect();
+        let mult = sp.multiplier(&natural);
+        let base: Vec<f64> = (0..nx * ny)
+            .map(|k| ((k * 13) % 31) as f64 - 15.0)
+            .collect();
+        // Reference: prepare by hand (x → 2x + row index), then a plain convolution.
+        let prepared: Vec<f64> = base
+            .iter()
+            .enumerate()
+            .map(|(k, v)| 2.0 * v + (k / ny) as f64)
+            .collect();
+        let mut want = vec![0.0; nx * ny];
+        sp.convolve(&prepared, &natural, &mut want);
+        let mut input = base.clone();
+        let mut out = vec![0.0; nx * ny];
+        let (before, after) = sp.convolve_fused(
+            &mut input,
+            |i, row| {
+                row.iter_mut().for_each(|v| *v = 2.0 * *v + i as f64);
+                [row.iter().sum(), 1.0, 0.0, 0.0]
+            },
+            &mult,
+            Some(&mut out),
+            |_, inp, row| {
+                [
+                    inp.iter().zip(row.iter()).map(|(a, b)| a * b).sum(),
+                    0.0,
+                    0.0,
+                    1.0,
+                ]
+            },
+        );
+        assert_eq!(input, prepared);
+        assert_eq!(out, want);
+        assert_eq!(before[1], nx as f64);
+        assert_eq!(after[3], nx as f64);
+        let dot: f64 = (0..nx)
+            .map(|i| {
+                (0..ny)
+                    .map(|j| prepared[i * ny + j] * want[i * ny + j])
+                    .sum::<f64>()
+            })
+            .sum();
+        assert_eq!(after[0], dot);
+        let sum: f64 = (0..nx)
+            .map(|i| prepared[i * ny..(i + 1) * ny].iter().sum::<f64>())
+            .sum();
+        assert_eq!(before[0], sum);
+        // In place gives the same field.
+        let mut field = prepared.clone();
+        sp.convolve_with_in_place(&mut field, &mult);
+        assert_eq!(field, want);
+    }
 }
