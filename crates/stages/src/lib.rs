@@ -9,6 +9,7 @@
 //! | `surface` | one of the three models on a 2^n × 2^n grid, statistics, critical points | – | `height`, `lx`, `ly`, `critical/*` |
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 
+pub mod gapfile;
 pub mod io;
 pub mod mock;
 pub mod surface;
