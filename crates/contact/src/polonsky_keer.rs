@@ -22,7 +22,7 @@
 //! projected onto Σ_S t = 0 so that σ stays 1 up to rounding between corrections; only after a
 //! correction is the gap measured by a separate pass. While the rms gap on S (a lower bound of the
 //! violation) is far above the tolerance the step pass takes only sums; the extremes that give the
-//! violation are measured near convergence and every [`STATS_EVERY`] iterations. Grid passes run
+//! violation are measured near convergence and every `STATS_EVERY` iterations. Grid passes run
 //! over fixed chunks whose partial sums are added in chunk order, so results do not depend on the
 //! number of threads.
 //!

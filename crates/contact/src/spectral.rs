@@ -2,7 +2,7 @@
 //!
 //! Fields are row-major `nx × ny` slices (first index x). A convolution is: a real-to-complex FFT
 //! along each row (y, contiguous) into the half spectrum `nx × (ny/2 + 1)`; then, for each block
-//! of [`BLOCK`] spectral columns, gather the block into a contiguous buffer, FFT along x, multiply,
+//! of `BLOCK` spectral columns, gather the block into a contiguous buffer, FFT along x, multiply,
 //! inverse FFT along x and scatter back (one gather/scatter per convolution and the multiply done
 //! while the block is in cache, instead of separate forward, multiply and inverse passes over the
 //! whole spectrum); then a complex-to-real FFT along each row. The only full-size work array is
