@@ -1,0 +1,336 @@
+//! `flowmap`: the Reynolds current density at one near-critical hard-wall state, at reduced
+//! load l = (L − L_c)/L_c < 0 (Figure 6, bottom right).
+//!
+//! # L_c
+//! The critical load is the load above which the contact blocks the flow along `axis` (the
+//! fluid, 4-connected, no longer winds around the cell along it; PHYSICS.md). This kind finds it
+//! by its own coarse bisection on the surface's grid: hard-wall contact solves (Polonsky–Keer,
+//! each warm-started from the largest load known to flow), starting from the bracket
+//! [`lo_over_p_fc`·p_fc, p_fc], until the bracket's relative width is below `rel_width`. The
+//! `critical` stage kind (crates/critical) computes L_c more carefully (both axes, sub-grid
+//! extrapolation); it had not landed when this kind was written, so nothing here depends on
+//! it. The bisection's L_c is the grid's own, which is what a map at l ≈ −0.01 on that grid
+//! needs: an extrapolated L_c could lie above the grid's and put the state past closure.
+//!
+//! # Parameters
+//! `l` (default −0.01), `axis` (default `x`), `tol` (flow, 1e-10), `max_iter` (flow, 200),
+//! `tol_gap` (contact, 1e-10), `rel_width` (bisection, 1e-4), `lo_over_p_fc` (1e-3).
+//!
+//! # Artefact
+//! - datasets `gap`, `contact_pressure`, `pressure` (fluid pressure, NaN in contact and in
+//!   removed pools), `current_x`, `current_y` (shape (nx, ny), first index x);
+//! - root attributes `lattice`, `n`, `nx`, `ny`, `lx`, `ly`, `p_fc`, `axis`, `l_c` (midpoint of
+//!   the final bracket), `l_c_lo`, `l_c_hi`, `l_c_source` ("bisection"), `l` (target), `l_actual`
+//!   ((L − L_c)/L_c), `load`, `contact_area`, `flux`, `conductivity`, `percolating`,
+//!   `converged` (flow), `termination`, `iterations`, `residual`, `conservation_error`,
+//!   `contact_converged`;
+//! - `bisection/*`: every probe's `load`, `flows` (u8), `contact_area`, `iterations`,
+//!   `converged` (u8).
+
+use crate::gapfile;
+use anyhow::{Result, anyhow, bail};
+use contact::{Interaction, Method, Model, Solution, SolverOptions};
+use orchestrator::{
+    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
+    StageReport,
+};
+use reynolds::{FlowAxis, FlowOptions};
+use serde_json::json;
+use store::{ArtefactWriter, fields};
+
+/// The `flowmap` stage kind.
+pub struct FlowMapKind;
+
+/// Bump when the artefact's content changes for the same parameters.
+pub const CODE_VERSION: u64 = 1;
+
+/// Whether the fluid (g > 0, 4-connected) winds around the cell along `axis`.
+pub fn fluid_flows(gap: &ndarray::Array2<f64>, axis: FlowAxis) -> bool {
+    let contact = gap.mapv(|g| g <= 0.0);
+    let d = percolation::dual_percolation(contact.view());
+    d.fluid_percolates(match axis {
+        FlowAxis::X => percolation::Axis::X,
+        FlowAxis::Y => percolation::Axis::Y,
+    })
+}
+
+struct Probe {
+    load: f64,
+    flows: bool,
+    area: f64,
+    iterations: usize,
+    converged: bool,
+}
+
+impl StageKind for FlowMapKind {
+    fn name(&self) -> &str {
+        "flowmap"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "current density of the Reynolds flow at a near-critical hard-wall state (l < 0)"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        let open01 = |max: f64| ParamType::Float {
+            min: Some(0.0),
+            min_exclusive: true,
+            max: Some(max),
+            max_exclusive: false,
+        };
+        vec![
+            ParamSpec::new(
+                "l",
+                ParamType::Float {
+                    min: Some(-0.9),
+                    min_exclusive: false,
+                    max: Some(0.0),
+                    max_exclusive: true,
+                },
+            )
+            .default(-0.01)
+            .doc("reduced load (L − L_c)/L_c of the state, < 0 (the fluid still flows)"),
+            ParamSpec::new("axis", ParamType::one_of(&["x", "y"]))
+                .default("x")
+                .doc("flow direction; L_c is the load above which flow along it stops"),
+            ParamSpec::new("tol", open01(1e-3))
+                .default(1e-10)
+                .doc("flow: target true relative residual"),
+            ParamSpec::new("max_iter", ParamType::int_range(1, 100_000))
+                .default(200)
+                .doc("flow: cap on preconditioned CG iterations"),
+            ParamSpec::new("tol_gap", open01(1e-3))
+                .default(1e-10)
+                .doc("contact: constraint-violation tolerance (h0)"),
+            ParamSpec::new("max_iter_contact", ParamType::int_range(1, 100_000_000))
+                .default(200_000)
+                .doc("contact: iteration cap per solve"),
+            ParamSpec::new("rel_width", open01(0.1))
+                .default(1e-4)
+                .doc("bisection: stop when (hi − lo)/hi is below this"),
+            ParamSpec::new("lo_over_p_fc", open01(0.5))
+                .default(1e-3)
+                .doc("bisection: lower end of the initial bracket, in p_fc"),
+        ]
+    }
+    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
+        let l = params.f64("l").unwrap_or(-0.01);
+        let w = params.f64("rel_width").unwrap_or(1e-4);
+        if w >= l.abs() / 2.0 {
+            return Err(ParamIssue::new(
+                "rel_width",
+                format!(
+                    "{w}: must be below |l|/2 = {} so that the state lies below the bracket",
+                    l.abs() / 2.0
+                ),
+            ));
+        }
+        Ok(())
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        vec![InputSpec::one("surface", &["surface"]).doc("the surface (hard wall)")]
+    }
+    fn cost(&self, params: &Params) -> f64 {
+        let w = params.f64("rel_width").unwrap_or(1e-4);
+        (1.0 / w).log2().ceil() * 0.05
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let surf = inputs.one("surface")?;
+        let heights = surf.read_f64_2d(fields::HEIGHT)?;
+        let (lx, ly) = surf.cell()?;
+        let (nx, ny) = heights.dim();
+        let grid = contact::Grid {
+            nx,
+            ny,
+            lx,
+            ly,
+            shift: (0.0, 0.0),
+        };
+        let p_fc = surf.attr_f64("p_fc_grid")?;
+        let lattice = surf.attr_str("lattice")?;
+        let n_exp = surf.attr_i64("n")?;
+        let axis = gapfile::parse_axis(params.str("axis")?)?;
+        let l = params.f64("l")?;
+        let rel_width = params.f64("rel_width")?;
+        let copts = SolverOptions {
+            tol_gap: params.f64("tol_gap")?,
+            max_iter: params.i64("max_iter_contact")? as usize,
+            method: Method::PolonskyKeer,
+            ..Default::default()
+        };
+        let mut model = Model::from_heights(grid, heights.view()).map_err(|e| anyhow!("{e}"))?;
+        let mut probes: Vec<Probe> = Vec::new();
+        let mut solve = |load: f64, warm: Option<&Solution>| -> Result<Solution> {
+            model
+                .solve(Interaction::HardWall, load, &copts, warm)
+                .map_err(|e| anyhow!("hard-wall contact at mean pressure {load}: {e}"))
+        };
+        let record = |probes: &mut Vec<Probe>, load: f64, s: &Solution| -> bool {
+            let flows = fluid_flows(&s.gap, axis);
+            probes.push(Probe {
+                load,
+                flows,
+                area: s.contact_area,
+                iterations: s.stats.iterations,
+                converged: s.stats.converged,
+            });
+            flows
+        };
+
+        // bracket
+        let mut lo = params.f64("lo_over_p_fc")? * p_fc;
+        let mut hi = p_fc;
+        let mut lo_state = solve(lo, None)?;
+        if !record(&mut probes, lo, &lo_state) {
+            bail!(
+                "{lattice} n = {n_exp}: the fluid does not flow along {} even at the bracket's \
+                 lower end {lo} (lo_over_p_fc = {}); lower `lo_over_p_fc`",
+                gapfile::axis_name(axis),
+                params.f64("lo_over_p_fc")?
+            );
+        }
+        let hi_state = solve(hi, Some(&lo_state))?;
+        if record(&mut probes, hi, &hi_state) {
+            bail!(
+                "{lattice} n = {n_exp}: the fluid still flows along {} at the full-contact \
+                 pressure p_fc = {p_fc}; no critical load below it",
+                gapfile::axis_name(axis)
+            );
+        }
+        drop(hi_state);
+        let steps = ((1.0 / rel_width).log2().ceil() as usize).max(1) + 2;
+        let mut k = 0;
+        while (hi - lo) > rel_width * hi {
+            let mid = 0.5 * (lo + hi);
+            let s = solve(mid, Some(&lo_state))?;
+            if record(&mut probes, mid, &s) {
+                lo = mid;
+                lo_state = s;
+            } else {
+                hi = mid;
+            }
+            k += 1;
+            ctx.progress(
+                (k as f64 / steps as f64).min(0.9),
+                &format!("L_c in [{lo:.6}, {hi:.6}]"),
+            );
+        }
+        let l_c = 0.5 * (lo + hi);
+        let unconverged = probes.iter().filter(|p| !p.converged).count();
+        if unconverged > 0 {
+            ctx.warn(format!(
+                "{unconverged} of {} contact solves of the bisection did not converge: L_c may \
+                 be off",
+                probes.len()
+            ));
+        }
+
+        // the state and its flow
+        let load = l_c * (1.0 + l);
+        let state = solve(load, Some(&lo_state))?;
+        if !state.stats.converged {
+            ctx.warn(format!(
+                "the contact solve at L = {load} did not converge ({} iterations)",
+                state.stats.iterations
+            ));
+        }
+        let fopts = FlowOptions {
+            tolerance: params.f64("tol")?,
+            max_iterations: params.i64("max_iter")? as usize,
+            return_fields: true,
+            ..Default::default()
+        };
+        let res = reynolds::solve(state.gap.view(), lx, ly, axis, &fopts)
+            .map_err(|e| anyhow!("flow at L = {load}: {e}"))?;
+        if !res.converged {
+            ctx.warn(format!(
+                "the flow solve at L = {load} did not converge ({} after {} iterations, \
+                 residual {:.2e}): the map is flagged converged = false",
+                gapfile::termination_name(res.termination),
+                res.iterations,
+                res.relative_residual
+            ));
+        }
+        if !res.percolating {
+            ctx.warn(format!(
+                "the fluid does not flow at L = {load} (l = {l}), below the bisection's L_c = \
+                 {l_c}: the flow is not monotonic in the load on this grid"
+            ));
+        }
+        let f = res.fields.as_ref().expect("fields requested");
+        ctx.progress(0.95, "writing");
+
+        out.set_cell(lx, ly)?;
+        out.write_f64_2d(fields::GAP, state.gap.view())?;
+        out.write_f64_2d("contact_pressure", state.pressure.view())?;
+        out.write_f64_2d(fields::PRESSURE, f.pressure.view())?;
+        out.write_f64_2d(fields::CURRENT_X, f.current_x.view())?;
+        out.write_f64_2d(fields::CURRENT_Y, f.current_y.view())?;
+        out.set_attr("lattice", lattice.as_str())?;
+        out.set_attr("n", n_exp)?;
+        out.set_attr("nx", nx as i64)?;
+        out.set_attr("ny", ny as i64)?;
+        out.set_attr("p_fc", p_fc)?;
+        out.set_attr("axis", gapfile::axis_name(axis))?;
+        out.set_attr("l_c", l_c)?;
+        out.set_attr("l_c_lo", lo)?;
+        out.set_attr("l_c_hi", hi)?;
+        out.set_attr("l_c_source", "bisection")?;
+        out.set_attr("l", l)?;
+        out.set_attr("l_actual", (load - l_c) / l_c)?;
+        out.set_attr("load", load)?;
+        out.set_attr("contact_area", state.contact_area)?;
+        out.set_attr("contact_converged", state.stats.converged)?;
+        for (k, v) in gapfile::flow_json(&res).as_object().expect("object") {
+            match v {
+                serde_json::Value::Bool(b) => out.set_attr(k, *b)?,
+                serde_json::Value::String(s) => out.set_attr(k, s.as_str())?,
+                serde_json::Value::Number(x) if x.is_f64() => {
+                    out.set_attr(k, x.as_f64().unwrap_or(f64::NAN))?
+                }
+                serde_json::Value::Number(x) => out.set_attr(k, x.as_i64().unwrap_or_default())?,
+                _ => {}
+            }
+        }
+        out.write_f64_1d(
+            "bisection/load",
+            &probes.iter().map(|p| p.load).collect::<Vec<_>>(),
+        )?;
+        out.write_u8_1d(
+            "bisection/flows",
+            &probes.iter().map(|p| p.flows as u8).collect::<Vec<_>>(),
+        )?;
+        out.write_f64_1d(
+            "bisection/contact_area",
+            &probes.iter().map(|p| p.area).collect::<Vec<_>>(),
+        )?;
+        out.write_i64_1d(
+            "bisection/iterations",
+            &probes
+                .iter()
+                .map(|p| p.iterations as i64)
+                .collect::<Vec<_>>(),
+        )?;
+        out.write_u8_1d(
+            "bisection/converged",
+            &probes.iter().map(|p| p.converged as u8).collect::<Vec<_>>(),
+        )?;
+        Ok(StageReport::with_stats(json!({
+            "l_c": l_c,
+            "l_c_over_p_fc": l_c / p_fc,
+            "l_c_bracket": [lo, hi],
+            "l_c_source": "bisection",
+            "probes": probes.len(),
+            "contact_iterations_total": probes.iter().map(|p| p.iterations).sum::<usize>(),
+            "load": load,
+            "flow": gapfile::flow_json(&res),
+        })))
+    }
+}
