@@ -185,7 +185,7 @@ fn summary_json(results: &[CriticalResult], av: &critical::ShiftAverage) -> Valu
         "shifts": results.iter().map(|r| [r.grid.shift.0, r.grid.shift.1]).collect::<Vec<_>>(),
         "l_c": av.any.l_c.mean,
         "l_c_shift_sem": av.any.l_c.sem,
-        "bracket": single.then(|| [first.any.bracket.lo, first.any.bracket.hi]),
+        "bracket": single.then_some([first.any.bracket.lo, first.any.bracket.hi]),
         "l_c_x": av.x.l_c.mean,
         "l_c_y": av.y.l_c.mean,
         "a_p_raw": av.any.a_p_raw.mean,

@@ -10,7 +10,11 @@ mod pipeline;
 mod solve;
 
 #[derive(Parser)]
-#[command(name = "saddleflow", version, about = "Contact mechanics of and Reynolds flow through saddle points")]
+#[command(
+    name = "saddleflow",
+    version,
+    about = "Contact mechanics of and Reynolds flow through saddle points"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

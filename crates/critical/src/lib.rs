@@ -56,7 +56,7 @@ pub use shifts::{
 pub use state::{FlowState, axis_name, contact_mask};
 pub use study::{
     Extrapolated, FALLBACK_ORDER, LevelSummary, ResolutionOptions, ResolutionStudy,
-    resolution_study,
+    resolution_study, resolution_study_with,
 };
 
 use contact::{Interaction, Method, Model, Solution, SolverOptions};

@@ -34,8 +34,8 @@ pub fn saddle_groups(surface: &Surface) -> Vec<SaddleGroup> {
         if a < 0.0 {
             a += 180.0;
         }
-        if a >= 180.0 - 1e-6 {
-            a = 0.0;
+        if a >= 180.0 - 1e-6 || a.abs() < 1e-9 {
+            a = 0.0; // also turns −0° into 0°
         }
         match groups.iter_mut().find(|g| (g.angle_deg - a).abs() < 1e-3) {
             Some(g) => g.points.push((p.x, p.y)),

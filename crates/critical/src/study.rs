@@ -198,6 +198,15 @@ pub fn resolution_study(
     lattice: Lattice,
     opts: &ResolutionOptions,
 ) -> Result<ResolutionStudy, CriticalError> {
+    resolution_study_with(lattice, opts, &mut |_| {})
+}
+
+/// [`resolution_study`], calling `done` after each level (e.g. for progress reports).
+pub fn resolution_study_with(
+    lattice: Lattice,
+    opts: &ResolutionOptions,
+    done: &mut dyn FnMut(&LevelSummary),
+) -> Result<ResolutionStudy, CriticalError> {
     let t0 = std::time::Instant::now();
     if opts.ns.is_empty() || opts.ns.windows(2).any(|w| w[1] <= w[0]) {
         return Err(CriticalError::Parameter {
@@ -248,6 +257,7 @@ pub fn resolution_study(
             results: study.results,
             wall_s: study.wall_s,
         });
+        done(levels.last().expect("pushed"));
     }
 
     let h: Vec<f64> = levels.iter().map(|l| l.h).collect();

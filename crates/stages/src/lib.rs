@@ -7,16 +7,28 @@
 //! | kind | what | inputs | output |
 //! |---|---|---|---|
 //! | `surface` | one of the three models on a 2^n × 2^n grid, statistics, critical points | – | `height`, `lx`, `ly`, `critical/*` |
+//! | `sweep` | quasi-static loading/unloading path (or γ path at fixed load): area, gap, energy, solver statistics per point, detected jumps, pull-off | `surface` | `points/*`, `jumps/*`, `ended/*`, optional `fields/*` |
+//! | `figure` | one of the paper's figures (`scene = "fig2"`, ...) | per scene (fig2: `hardwall`, `adhesion`, `repulsion` sweeps) | side outputs `figures/<scene>.png`, `.svg` |
+//! | `table` | a scene's data as CSV (`scene = "fig2"`, ...) | per scene (as `figure`) | side outputs `results/tables/<scene>*.csv` |
 //! | `flow` | Reynolds flow at every stored gap of a load path: flux, conductivity, percolation, where flow stops; optional current densities | `sweep` | `points/*`, `stops/*`, `currents/*` |
 //! | `flowmap` | current density at a near-critical hard-wall state l = (L − L_c)/L_c < 0 (L_c by bisection on the grid) | `surface` | `gap`, `pressure`, `current_x`, `current_y`, `bisection/*` |
+//! | `critical` | percolation threshold of the hard-wall contact on one or more grids (coarse to fine), averaged over sub-grid shifts: L_c brackets (x, y, any), a_p raw and corrected, sub-grid L_c and ζ from the saddle gap, the finest grid's near-critical fields | – | `level/<n>/*`, `gap`, `above/*` |
+//! | `resolution` | one model's `critical` levels extrapolated to zero grid spacing; also the data of the convergence figures and the comparison table | `levels` (`critical`) | per quantity `v`, `sem`, `h` and the fit |
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 
+pub mod critical;
+pub mod fig2;
+pub mod fig4;
+pub mod figure;
 pub mod flow;
 pub mod flowmap;
 pub mod gapfile;
 pub mod io;
 pub mod mock;
+pub mod resolution;
 pub mod surface;
+pub mod sweep;
+pub mod table;
 
 /// Re-exported so the CLI reaches the engine through this crate.
 pub use orchestrator;
@@ -26,8 +38,13 @@ use orchestrator::Registry;
 pub fn registry() -> Registry {
     let mut r = Registry::new();
     r.register(surface::SurfaceKind);
+    r.register(sweep::SweepKind);
+    r.register(figure::FigureKind);
+    r.register(table::TableKind);
     r.register(flow::FlowKind);
     r.register(flowmap::FlowMapKind);
+    r.register(critical::CriticalKind);
+    r.register(resolution::ResolutionKind);
     r.register(mock::MockKind);
     r
 }

@@ -91,3 +91,47 @@ fn surface_parameters_are_validated() {
         "{e}"
     );
 }
+
+/// Issue 8 item 2: Figure 2 alone plans the square surface, its three sweeps, the figure and
+/// the tables — never a triangular or hexagonal surface, never a flow problem.
+#[test]
+fn figure2_alone_plans_only_the_square_model_and_no_flow() {
+    let root = project_root();
+    let reg = stages::registry();
+    for q in tomls(&root.join("params")) {
+        let plan = Plan::load(&reg, &root.join("pipeline/paper.toml"), Some(&q)).unwrap();
+        let selected = plan.select(&["fig2".to_string()]).unwrap();
+        let names: std::collections::BTreeSet<&str> = selected
+            .iter()
+            .map(|&i| plan.stages[i].name.as_str())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "surface_square",
+                "fig2_hardwall",
+                "fig2_adhesion",
+                "fig2_repulsion",
+                "fig2",
+                "fig2_log",
+                "fig2_tables"
+            ]
+            .into_iter()
+            .collect(),
+            "{}",
+            q.display()
+        );
+        for &i in &selected {
+            let s = &plan.stages[i];
+            assert!(
+                ["surface", "sweep", "figure", "table"].contains(&s.kind.as_str()),
+                "{} is a {} stage",
+                s.name,
+                s.kind
+            );
+            if s.kind == "surface" {
+                assert_eq!(s.params.str("lattice").unwrap(), "square", "{}", s.name);
+            }
+        }
+    }
+}

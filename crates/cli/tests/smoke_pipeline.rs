@@ -1,0 +1,286 @@
+//! The real pipeline on tiny grids, through the real binary: `saddleflow run -C <tmp> --params
+//! params/smoke.toml` on copies of the project's pipeline/ and params/ files. Checks the
+//! artefacts, Figure 2's files and tables (physically sane values), and that editing one
+//! parameter reruns exactly the stages downstream of it while an unchanged rerun runs nothing
+//! (from the runner's event log).
+
+use serde_json::Value;
+use stages::orchestrator::Plan;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use tables::ColumnType;
+
+fn project_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap().flatten() {
+        let p = e.path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            std::fs::copy(&p, to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+/// A temporary project with the real pipeline/ and params/.
+fn project() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let root = project_root();
+    copy_dir(&root.join("pipeline"), &dir.path().join("pipeline"));
+    copy_dir(&root.join("params"), &dir.path().join("params"));
+    dir
+}
+
+fn logs(root: &Path) -> BTreeSet<PathBuf> {
+    std::fs::read_dir(root.join("results/runs"))
+        .map(|rd| {
+            rd.flatten()
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|x| x == "jsonl"))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Runs `saddleflow run -C root --params params/smoke.toml -j 2 ARGS`; returns the events of
+/// the run's log.
+fn run_smoke(root: &Path, args: &[&str]) -> Vec<Value> {
+    let before = logs(root);
+    let out = Command::new(env!("CARGO_BIN_EXE_saddleflow"))
+        .args(["run", "-C"])
+        .arg(root)
+        .args(["--params", "params/smoke.toml", "-j", "2"])
+        .args(args)
+        .output()
+        .expect("the binary runs");
+    assert!(
+        out.status.success(),
+        "saddleflow run failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let new: Vec<PathBuf> = logs(root).difference(&before).cloned().collect();
+    assert_eq!(new.len(), 1, "one new event log: {new:?}");
+    std::fs::read_to_string(&new[0])
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// Names of the stages with event `what` (`ran`, `cached`, ...).
+fn stages_with(events: &[Value], what: &str) -> BTreeSet<String> {
+    events
+        .iter()
+        .filter(|e| e["event"] == what)
+        .map(|e| e["stage"].as_str().unwrap().to_string())
+        .collect()
+}
+
+fn set(names: &[&str]) -> BTreeSet<String> {
+    names.iter().map(|s| s.to_string()).collect()
+}
+
+/// Rows of the points table for one interaction and branch, in path order: (load, area).
+fn branch(t: &tables::Table, interaction: &str, branch: &str) -> Vec<(f64, f64)> {
+    let (i, b) = (t.str("interaction").unwrap(), t.str("branch").unwrap());
+    let (load, area) = (t.f64("load").unwrap(), t.f64("contact_area").unwrap());
+    let step = t.i64("step").unwrap();
+    let mut rows: Vec<(i64, f64, f64)> = (0..t.n_rows())
+        .filter(|&k| i[k] == interaction && b[k] == branch)
+        .map(|k| (step[k], load[k], area[k]))
+        .collect();
+    rows.sort_by_key(|r| r.0);
+    rows.into_iter().map(|(_, l, a)| (l, a)).collect()
+}
+
+/// Area of a branch at `load` (the point with that exact load).
+fn at(rows: &[(f64, f64)], load: f64) -> Option<f64> {
+    rows.iter()
+        .find(|(l, _)| (l - load).abs() <= 1e-12 * load.abs().max(1.0))
+        .map(|r| r.1)
+}
+
+#[test]
+fn smoke_pipeline_outputs_and_incremental_reruns() {
+    let dir = project();
+    let root = dir.path();
+
+    // 1. the whole smoke pipeline
+    let events = run_smoke(root, &[]);
+    let plan = Plan::load(
+        &stages::registry(),
+        &root.join("pipeline/paper.toml"),
+        Some(&root.join("params/smoke.toml")),
+    )
+    .unwrap();
+    let all: BTreeSet<String> = plan.stages.iter().map(|s| s.name.clone()).collect();
+    assert_eq!(
+        stages_with(&events, "ran"),
+        all,
+        "a fresh run computes every stage"
+    );
+    assert!(stages_with(&events, "failed").is_empty());
+    for s in &plan.stages {
+        let path = root
+            .join("results/cache")
+            .join(&s.kind)
+            .join(format!("{}.h5", s.key));
+        assert!(
+            store::ArtefactReader::is_valid(&path),
+            "{} ({}) has no valid artefact at {}",
+            s.name,
+            s.kind,
+            path.display()
+        );
+    }
+
+    // 2. Figure 2's files
+    let png = std::fs::read(root.join("figures/fig2.png")).unwrap();
+    let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png)
+        .expect("fig2.png decodes");
+    assert!(
+        img.width() >= 400 && img.height() >= 300,
+        "{}×{}",
+        img.width(),
+        img.height()
+    );
+    let svg = std::fs::read_to_string(root.join("figures/fig2.svg")).unwrap();
+    assert!(svg.trim_start().starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert!(
+        svg.contains("relative contact area"),
+        "axis label in the SVG"
+    );
+    let png = std::fs::read(root.join("figures/fig2_log.png")).unwrap();
+    image::load_from_memory_with_format(&png, image::ImageFormat::Png)
+        .expect("fig2_log.png decodes");
+    assert!(
+        std::fs::metadata(root.join("figures/fig2_log.svg"))
+            .unwrap()
+            .len()
+            > 1000
+    );
+
+    // 3. the points table
+    let t = tables::read_csv(
+        &root.join("results/tables/fig2.csv"),
+        &[
+            ("interaction", ColumnType::Str),
+            ("branch", ColumnType::Str),
+            ("step", ColumnType::I64),
+            ("load", ColumnType::F64),
+            ("load_over_p_fc", ColumnType::F64),
+            ("contact_area", ColumnType::F64),
+            ("iterations", ColumnType::I64),
+            ("converged", ColumnType::Bool),
+            ("jump", ColumnType::Bool),
+        ],
+    )
+    .unwrap();
+    assert!(t.n_rows() > 50, "{} rows", t.n_rows());
+    let interactions: BTreeSet<&str> = t
+        .str("interaction")
+        .unwrap()
+        .iter()
+        .map(|s| s.as_str())
+        .collect();
+    assert_eq!(
+        interactions,
+        ["adhesion", "hardwall", "repulsion"].into_iter().collect()
+    );
+    for &a in t.f64("contact_area").unwrap() {
+        assert!((0.0..=1.0).contains(&a), "area {a}");
+    }
+    assert!(
+        t.bool("converged").unwrap().iter().all(|&c| c),
+        "every smoke point converges"
+    );
+    let nodes = 32.0 * 32.0; // n = 5 in params/smoke.toml
+
+    // hard wall: area non-decreasing on loading; loading and unloading coincide
+    let hw_up = branch(&t, "hardwall", "loading");
+    let hw_down = branch(&t, "hardwall", "unloading");
+    assert!(hw_up.len() > 10 && hw_down.len() + 1 == hw_up.len());
+    for w in hw_up.windows(2) {
+        assert!(w[1].1 >= w[0].1, "hard-wall loading area decreases: {w:?}");
+    }
+    assert!(
+        (hw_up.last().unwrap().1 - 1.0).abs() < 1e-12,
+        "full contact at p_fc"
+    );
+    for &(l, a) in &hw_down {
+        let up = at(&hw_up, l).expect("same loads on both branches");
+        assert!(
+            (a - up).abs() <= 1.0 / nodes + 1e-12,
+            "hard wall at load {l}: loading {up}, unloading {a}"
+        );
+    }
+
+    // adhesion: unloading keeps clearly more contact somewhere; it continues into tension
+    let ad_up = branch(&t, "adhesion", "loading");
+    let ad_down = branch(&t, "adhesion", "unloading");
+    let margin = ad_down
+        .iter()
+        .filter_map(|&(l, a)| at(&ad_up, l).map(|u| a - u))
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(margin > 0.1, "adhesion hysteresis margin {margin}");
+    assert!(
+        ad_down.iter().any(|&(l, a)| l < 0.0 && a > 0.0),
+        "adhesive contact under tension on unloading"
+    );
+
+    // 4. the jumps table: none for the hard wall, a pull-off for adhesion
+    let j = tables::read_csv(
+        &root.join("results/tables/fig2_jumps.csv"),
+        &[
+            ("interaction", ColumnType::Str),
+            ("branch", ColumnType::Str),
+            ("event", ColumnType::Str),
+            ("load_before", ColumnType::F64),
+            ("load_after", ColumnType::F64),
+            ("area_before", ColumnType::F64),
+            ("area_after", ColumnType::F64),
+        ],
+    )
+    .unwrap();
+    let ji = j.str("interaction").unwrap();
+    let je = j.str("event").unwrap();
+    assert!(!ji.iter().any(|i| i == "hardwall"), "no hard-wall jumps");
+    let pull = (0..j.n_rows())
+        .find(|&k| ji[k] == "adhesion" && je[k] == "pull-off")
+        .expect("adhesive pull-off recorded");
+    assert!(j.f64("load_after").unwrap()[pull] < 0.0);
+    assert!(ji.iter().any(|i| i == "adhesion") && je.iter().any(|e| e != "pull-off"));
+
+    // 5. unchanged rerun: nothing runs
+    let events = run_smoke(root, &[]);
+    assert!(stages_with(&events, "ran").is_empty(), "{events:?}");
+    assert_eq!(stages_with(&events, "cached"), all);
+
+    // 6. one edited parameter reruns exactly what is downstream of it
+    let p = root.join("params/smoke.toml");
+    let text = std::fs::read_to_string(&p).unwrap();
+    let edited = text.replace("fig2_tension_step = 0.01", "fig2_tension_step = 0.005");
+    assert_ne!(
+        edited, text,
+        "params/smoke.toml sets fig2_tension_step = 0.01"
+    );
+    std::fs::write(&p, edited).unwrap();
+    let events = run_smoke(root, &[]);
+    let ran = stages_with(&events, "ran");
+    assert_eq!(
+        ran,
+        set(&["fig2_adhesion", "fig2", "fig2_log", "fig2_tables"])
+    );
+    assert_eq!(
+        stages_with(&events, "cached"),
+        all.difference(&ran).cloned().collect()
+    );
+    let why: Vec<&Value> = events
+        .iter()
+        .filter(|e| e["event"] == "planned" && e["stage"] == "fig2_adhesion")
+        .collect();
+    assert_eq!(why[0]["reasons"][0], "params_changed", "{why:?}");
+}

@@ -1,0 +1,473 @@
+//! `critical`: the percolation threshold of the hard-wall contact of one model on one or several
+//! 2^n grids, averaged over sub-grid shifts (crates/critical). With several n the levels run
+//! coarse to fine, each starting its brackets from the level before and warm-started from its
+//! near-critical solutions; `resolution` extrapolates them to zero spacing.
+//!
+//! # Parameters
+//! `lattice`; `ns` (grid exponents, strictly ascending); `shifts` (m: the m × m midpoint rule on
+//! [0, ½)² spacings, 0 = unshifted grid only; default 0); `tol_gap` (Polonsky–Keer, h0; 1e-10);
+//! `rel_width` (bracket, 1e-9); `saddle_loads` (reduced loads l < 0 of the saddle-gap samples,
+//! sampled on the first shift only; default six from −0.02 to −0.002; `[]` skips the sub-grid
+//! estimate); `fields` (store the near-critical fields of the finest grid's first shift;
+//! default true).
+//!
+//! # Artefact
+//! - one group `level/<n>` per grid with attributes `n`, `nx`, `ny`, `h` (sqrt(dx·dy), λ),
+//!   `shift_rule`, `p_fc` (grid, mean over shifts), the shift averages `l_c`, `l_c_x`, `l_c_y`,
+//!   `a_p_raw[_x|_y]`, `a_p_corrected[_x|_y]`, `p_fc_over_l_c`, each with a `_sem` (standard
+//!   error over shifts, 0 for one shift), `l_c_subgrid`, `l_c_subgrid_error`, `zeta`,
+//!   `zeta_error` (NaN without a sub-grid fit), `probes`, `iterations`, `retries`, `wall_s`; and
+//!   datasets, one entry per shift: `shifts/{sx, sy, p_fc, probes, iterations, wall_s}` and,
+//!   per criterion (`any`, `x`, `y`), `<criterion>/{lo, hi, a_p_raw, a_p_corrected, contact_lo,
+//!   contact_hi, perimeter_lo, perimeter_hi}`; the first shift's saddle samples `saddle/{angle_deg,
+//!   load, reduced, area, gap}` (`gap`: samples × groups, NaN where the interpolation stencil
+//!   touched contact) and per-group fits `subgrid/{angle_deg, l_c, l_c_error, zeta, zeta_error,
+//!   points}`;
+//! - root attributes: `lattice`, `ns`, `tol_gap`, `rel_width`, `p_fc_exact`, `lx`, `ly`, and the
+//!   finest level's `n`, `l_c`, `a_p_raw`, `a_p_corrected`, `p_fc_over_l_c`;
+//! - with `fields`, for the finest grid's first shift: `height`, `gap`, `displacement`,
+//!   `pressure` just below L_c (the fluid still percolates; a valid input of `saddleflow
+//!   flow`), `above/gap` and `above/pressure` just above, attributes `load_below`,
+//!   `load_above`, `field_shift`.
+
+use crate::surface::lattice_from_name;
+use anyhow::{Context, Result, bail};
+use critical::{
+    Criterion, CriticalOptions, CriticalResult, LevelSummary, ResolutionOptions,
+    default_saddle_loads, resolution_study_with,
+};
+use ndarray::Array2;
+use orchestrator::{
+    Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
+};
+use serde_json::json;
+use store::{ArtefactReader, ArtefactWriter, fields};
+use surface::{Lattice, Surface};
+
+/// The `critical` stage kind.
+pub struct CriticalKind;
+
+/// Bump when the artefact's content changes for the same parameters.
+pub const CODE_VERSION: u64 = 1;
+
+/// Largest shift rule m (m² solves per grid).
+pub const MAX_SHIFTS: i64 = 8;
+
+fn ns(params: &Params) -> Result<Vec<u32>> {
+    Ok(params
+        .get("ns")?
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_i64())
+                .map(|v| v as u32)
+                .collect()
+        })
+        .unwrap_or_default())
+}
+
+impl StageKind for CriticalKind {
+    fn name(&self) -> &str {
+        "critical"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "percolation threshold L_c and contact area a_p of the hard-wall contact on one or more grids, averaged over sub-grid shifts"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new(
+                "lattice",
+                ParamType::one_of(&["square", "triangular", "hexagonal"]),
+            )
+            .doc("which model"),
+            ParamSpec::new(
+                "ns",
+                ParamType::Array {
+                    elem: Box::new(ParamType::int_range(
+                        surface::N_MIN as i64,
+                        surface::N_MAX as i64,
+                    )),
+                    min_len: 1,
+                    max_len: Some(10),
+                },
+            )
+            .doc("grid exponents, strictly ascending: 2^n × 2^n nodes each"),
+            ParamSpec::new("shifts", ParamType::int_range(0, MAX_SHIFTS))
+                .default(0)
+                .doc("m × m sub-grid shifts (midpoint rule on [0, ½)²); 0 = unshifted grid only"),
+            ParamSpec::new("tol_gap", ParamType::float_range(1e-14, 1e-4))
+                .default(1e-10)
+                .doc("Polonsky–Keer tolerance on the constraint violation (h0)"),
+            ParamSpec::new("rel_width", ParamType::float_range(1e-13, 0.1))
+                .default(1e-9)
+                .doc("target relative width (hi − lo)/hi of each load bracket"),
+            ParamSpec::new(
+                "saddle_loads",
+                ParamType::Array {
+                    elem: Box::new(ParamType::Float {
+                        min: Some(-1.0),
+                        min_exclusive: true,
+                        max: Some(0.0),
+                        max_exclusive: true,
+                    }),
+                    min_len: 0,
+                    max_len: Some(64),
+                },
+            )
+            .default(json!(default_saddle_loads()))
+            .doc("reduced loads l < 0 of the saddle-gap samples (first shift); [] = none"),
+            ParamSpec::new("fields", ParamType::Bool)
+                .default(true)
+                .doc("store the near-critical fields of the finest grid (first shift)"),
+        ]
+    }
+    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
+        let ns = ns(params).map_err(|e| ParamIssue::new("ns", e.to_string()))?;
+        if ns.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(ParamIssue::new(
+                "ns",
+                format!("{ns:?}: allowed a strictly ascending list of grid exponents"),
+            ));
+        }
+        Ok(())
+    }
+    fn cost(&self, params: &Params) -> f64 {
+        // ~1000 Polonsky–Keer iterations per shift and level, each an FFT pair; relative to a
+        // 512² solve
+        let m = params.i64("shifts").unwrap_or(0).max(1) as f64;
+        ns(params)
+            .unwrap_or_default()
+            .iter()
+            .map(|&n| 4f64.powi(n as i32) / 4f64.powi(9) * m * m * 10.0)
+            .sum()
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        _inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let lattice = lattice_from_name(params.str("lattice")?)?;
+        let ns = ns(params)?;
+        let m = params.i64("shifts")? as usize;
+        let mut opts = ResolutionOptions::new(ns.clone(), m);
+        opts.critical = CriticalOptions {
+            tol_gap: params.f64("tol_gap")?,
+            rel_width: params.f64("rel_width")?,
+            saddle_loads: params
+                .get("saddle_loads")?
+                .as_array()
+                .map(|a| a.iter().filter_map(|v| v.as_f64()).collect())
+                .unwrap_or_default(),
+            ..Default::default()
+        };
+        // Progress by cost: a level costs ∝ 4^n.
+        let weights: Vec<f64> = ns.iter().map(|&n| 4f64.powi(n as i32)).collect();
+        let total: f64 = weights.iter().sum();
+        let mut done_w = 0.0;
+        ctx.progress(0.01, &format!("n = {}", ns[0]));
+        let mut written = Vec::new();
+        let study = {
+            let mut on_level = |l: &LevelSummary| {
+                let k = ns.iter().position(|&n| n == l.n).unwrap_or(0);
+                done_w += weights[k];
+                let next = ns
+                    .get(k + 1)
+                    .map_or("writing".to_string(), |n| format!("n = {n}"));
+                ctx.progress(0.95 * done_w / total, &next);
+                written.push(l.n);
+            };
+            resolution_study_with(lattice, &opts, &mut on_level)
+                .with_context(|| format!("{} grids n = {ns:?}", lattice.name()))?
+        };
+        let finest_n = study.levels.last().expect("levels").n;
+        let mut retries = 0usize;
+        for l in &study.levels {
+            write_level(out, &format!("level/{}", l.n), l)?;
+            retries += l.results.iter().map(|r| r.retries).sum::<usize>();
+            // Coarse grids cannot resolve the channel at the sampled loads: only the finest
+            // level's sub-grid notes are worth a warning.
+            if l.n == finest_n {
+                for r in &l.results {
+                    for note in &r.notes {
+                        ctx.warn(format!("n = {}: sub-grid estimate: {note}", l.n));
+                    }
+                }
+            }
+        }
+        if retries > 0 {
+            ctx.warn(format!(
+                "{retries} contact solves did not converge from their warm start and were repeated \
+                 from another start (see crates/critical/examples/pk_repro.rs)"
+            ));
+        }
+        let finest = study.levels.last().expect("levels");
+        let g = finest.results[0].grid;
+        out.set_cell(g.lx, g.ly)?;
+        out.set_attr("lattice", lattice.name())?;
+        out.set_attr("ns", json!(ns))?;
+        out.set_attr("n", finest.n as i64)?;
+        out.set_attr("tol_gap", opts.critical.tol_gap)?;
+        out.set_attr("rel_width", opts.critical.rel_width)?;
+        out.set_attr("p_fc_exact", lattice.exact().p_fc)?;
+        let av = &finest.average;
+        out.set_attr("l_c", av.any.l_c.mean)?;
+        out.set_attr("a_p_raw", av.any.a_p_raw.mean)?;
+        out.set_attr("a_p_corrected", av.any.a_p_corrected.mean)?;
+        out.set_attr("p_fc_over_l_c", av.p_fc_over_l_c.mean)?;
+        if params.bool("fields")? {
+            let f = study.fields.as_ref().expect("kept");
+            let s = Surface::on_grid(lattice, g);
+            out.write_f64_2d(fields::HEIGHT, s.heights.view())?;
+            out.write_f64_2d(fields::GAP, f.below.gap.view())?;
+            out.write_f64_2d(fields::DISPLACEMENT, f.below.displacement.view())?;
+            out.write_f64_2d(fields::PRESSURE, f.below.pressure.view())?;
+            out.write_f64_2d("above/gap", f.above.gap.view())?;
+            out.write_f64_2d("above/pressure", f.above.pressure.view())?;
+            out.set_attr("load_below", f.below.mean_pressure)?;
+            out.set_attr("load_above", f.above.mean_pressure)?;
+            out.set_attr("field_shift", json!([g.shift.0, g.shift.1]))?;
+        }
+        ctx.progress(1.0, "written");
+        let per_level: Vec<_> = study
+            .levels
+            .iter()
+            .map(|l| {
+                json!({
+                    "n": l.n,
+                    "solves": l.solves(),
+                    "iterations": l.iterations(),
+                    "wall_s": l.wall_s,
+                    "l_c": l.average.any.l_c.mean,
+                    "a_p_corrected": l.average.any.a_p_corrected.mean,
+                })
+            })
+            .collect();
+        Ok(StageReport::with_stats(json!({
+            "levels": per_level,
+            "iterations": study.levels.iter().map(|l| l.iterations()).sum::<usize>(),
+        })))
+    }
+}
+
+fn write_level(out: &mut ArtefactWriter, at: &str, l: &LevelSummary) -> Result<()> {
+    let results = &l.results;
+    let av = &l.average;
+    let g = results[0].grid;
+    let attr = |out: &mut ArtefactWriter, k: &str, v: f64| out.set_attr_at(at, k, v);
+    out.set_attr_at(at, "n", l.n as i64)?;
+    out.set_attr_at(at, "nx", g.nx as i64)?;
+    out.set_attr_at(at, "ny", g.ny as i64)?;
+    attr(out, "h", l.h)?;
+    out.set_attr_at(at, "shift_rule", shift_rule(&l.shifts) as i64)?;
+    attr(out, "p_fc", av.p_fc.mean)?;
+    for c in Criterion::ALL {
+        let t = av.transition(c);
+        let sfx = suffix(c);
+        for (name, s) in [
+            ("l_c", t.l_c),
+            ("a_p_raw", t.a_p_raw),
+            ("a_p_corrected", t.a_p_corrected),
+        ] {
+            attr(out, &format!("{name}{sfx}"), s.mean)?;
+            attr(out, &format!("{name}{sfx}_sem"), s.sem)?;
+        }
+        let name = c.name();
+        let col = |f: &dyn Fn(&CriticalResult) -> f64| results.iter().map(f).collect::<Vec<_>>();
+        let coli = |f: &dyn Fn(&CriticalResult) -> usize| {
+            results.iter().map(|r| f(r) as i64).collect::<Vec<_>>()
+        };
+        let tr = |r: &CriticalResult| r.transition(c).clone();
+        out.write_f64_1d(&format!("{at}/{name}/lo"), &col(&|r| tr(r).bracket.lo))?;
+        out.write_f64_1d(&format!("{at}/{name}/hi"), &col(&|r| tr(r).bracket.hi))?;
+        out.write_f64_1d(&format!("{at}/{name}/a_p_raw"), &col(&|r| tr(r).a_p_raw()))?;
+        out.write_f64_1d(
+            &format!("{at}/{name}/a_p_corrected"),
+            &col(&|r| tr(r).a_p_corrected()),
+        )?;
+        out.write_i64_1d(
+            &format!("{at}/{name}/contact_lo"),
+            &coli(&|r| tr(r).area_lo.n_contact),
+        )?;
+        out.write_i64_1d(
+            &format!("{at}/{name}/contact_hi"),
+            &coli(&|r| tr(r).area_hi.n_contact),
+        )?;
+        out.write_i64_1d(
+            &format!("{at}/{name}/perimeter_lo"),
+            &coli(&|r| tr(r).area_lo.n_perimeter_edges),
+        )?;
+        out.write_i64_1d(
+            &format!("{at}/{name}/perimeter_hi"),
+            &coli(&|r| tr(r).area_hi.n_perimeter_edges),
+        )?;
+    }
+    attr(out, "p_fc_over_l_c", av.p_fc_over_l_c.mean)?;
+    attr(out, "p_fc_over_l_c_sem", av.p_fc_over_l_c.sem)?;
+    let col = |f: &dyn Fn(&CriticalResult) -> f64| results.iter().map(f).collect::<Vec<_>>();
+    let coli = |f: &dyn Fn(&CriticalResult) -> usize| {
+        results.iter().map(|r| f(r) as i64).collect::<Vec<_>>()
+    };
+    out.write_f64_1d(&format!("{at}/shifts/sx"), &col(&|r| r.grid.shift.0))?;
+    out.write_f64_1d(&format!("{at}/shifts/sy"), &col(&|r| r.grid.shift.1))?;
+    out.write_f64_1d(&format!("{at}/shifts/p_fc"), &col(&|r| r.p_fc))?;
+    out.write_f64_1d(&format!("{at}/shifts/wall_s"), &col(&|r| r.wall_s))?;
+    out.write_i64_1d(&format!("{at}/shifts/probes"), &coli(&|r| r.probes))?;
+    out.write_i64_1d(&format!("{at}/shifts/iterations"), &coli(&|r| r.iterations))?;
+    out.set_attr_at(
+        at,
+        "probes",
+        results.iter().map(|r| r.probes as i64).sum::<i64>(),
+    )?;
+    out.set_attr_at(at, "iterations", l.iterations() as i64)?;
+    out.set_attr_at(
+        at,
+        "retries",
+        results.iter().map(|r| r.retries as i64).sum::<i64>(),
+    )?;
+    attr(out, "wall_s", l.wall_s)?;
+
+    // Saddle samples and the sub-grid fit (first shift).
+    let r0 = &results[0];
+    let g1 = |v: Vec<f64>| v;
+    out.write_f64_1d(
+        &format!("{at}/saddle/angle_deg"),
+        &g1(r0.groups.iter().map(|g| g.angle_deg).collect()),
+    )?;
+    out.write_f64_1d(
+        &format!("{at}/saddle/load"),
+        &g1(r0.samples.iter().map(|s| s.load).collect()),
+    )?;
+    out.write_f64_1d(
+        &format!("{at}/saddle/reduced"),
+        &g1(r0.samples.iter().map(|s| s.reduced).collect()),
+    )?;
+    out.write_f64_1d(
+        &format!("{at}/saddle/area"),
+        &g1(r0.samples.iter().map(|s| s.area).collect()),
+    )?;
+    let gaps = Array2::from_shape_fn((r0.samples.len(), r0.groups.len()), |(i, k)| {
+        r0.samples[i].gap[k].unwrap_or(f64::NAN)
+    });
+    out.write_f64_2d(&format!("{at}/saddle/gap"), gaps.view())?;
+    let fits = r0
+        .subgrid
+        .as_ref()
+        .map(|s| s.fits.clone())
+        .unwrap_or_default();
+    let fcol = |f: &dyn Fn(&critical::SaddleFit) -> f64| fits.iter().map(f).collect::<Vec<_>>();
+    out.write_f64_1d(&format!("{at}/subgrid/angle_deg"), &fcol(&|f| f.angle_deg))?;
+    out.write_f64_1d(&format!("{at}/subgrid/l_c"), &fcol(&|f| f.l_c.0))?;
+    out.write_f64_1d(&format!("{at}/subgrid/l_c_error"), &fcol(&|f| f.l_c.1))?;
+    out.write_f64_1d(&format!("{at}/subgrid/zeta"), &fcol(&|f| f.zeta.0))?;
+    out.write_f64_1d(&format!("{at}/subgrid/zeta_error"), &fcol(&|f| f.zeta.1))?;
+    out.write_i64_1d(
+        &format!("{at}/subgrid/points"),
+        &fits.iter().map(|f| f.points as i64).collect::<Vec<_>>(),
+    )?;
+    let sub = r0.subgrid.as_ref();
+    attr(out, "l_c_subgrid", sub.map_or(f64::NAN, |s| s.l_c))?;
+    attr(
+        out,
+        "l_c_subgrid_error",
+        sub.map_or(f64::NAN, |s| s.l_c_error),
+    )?;
+    attr(out, "zeta", sub.map_or(f64::NAN, |s| s.zeta))?;
+    attr(out, "zeta_error", sub.map_or(f64::NAN, |s| s.zeta_error))?;
+    Ok(())
+}
+
+fn suffix(c: Criterion) -> &'static str {
+    match c {
+        Criterion::Any => "",
+        Criterion::X => "_x",
+        Criterion::Y => "_y",
+    }
+}
+
+/// The m of a shift set from [`critical::shift_set`] (0 for the unshifted grid).
+fn shift_rule(shifts: &[(f64, f64)]) -> usize {
+    if shifts == [(0.0, 0.0)] {
+        0
+    } else {
+        (shifts.len() as f64).sqrt().round() as usize
+    }
+}
+
+/// What downstream kinds read from a `critical` artefact.
+#[derive(Clone, Debug)]
+pub struct CriticalLevel {
+    /// Model.
+    pub lattice: Lattice,
+    /// Grid exponent.
+    pub n: u32,
+    /// Grid spacing sqrt(dx·dy) (λ).
+    pub h: f64,
+    /// Shift rule m.
+    pub shift_rule: usize,
+    /// Shift averages (mean, sem) by name (`l_c`, `a_p_raw_x`, ...).
+    pub values: Vec<(String, f64, f64)>,
+    /// Sub-grid L_c and its error (NaN without a fit).
+    pub l_c_subgrid: (f64, f64),
+    /// ζ from the saddle gap and its error.
+    pub zeta: (f64, f64),
+    /// Full-contact pressure of the grid (mean over shifts).
+    pub p_fc: f64,
+    /// Polonsky–Keer iterations.
+    pub iterations: i64,
+}
+
+impl CriticalLevel {
+    /// Reads every level of a `critical` artefact, ascending n.
+    pub fn read_all(r: &ArtefactReader) -> Result<Vec<Self>> {
+        let lattice = lattice_from_name(&r.attr_str("lattice")?)?;
+        let mut out = Vec::new();
+        for name in r.members("level")? {
+            out.push(Self::read(r, lattice, &format!("level/{name}"))?);
+        }
+        if out.is_empty() {
+            bail!("{} has no levels", r.path().display());
+        }
+        out.sort_by_key(|l| l.n);
+        Ok(out)
+    }
+
+    fn read(r: &ArtefactReader, lattice: Lattice, at: &str) -> Result<Self> {
+        let a = |k: &str| r.attr_f64_at(at, k);
+        let mut values = Vec::new();
+        for q in ["l_c", "a_p_raw", "a_p_corrected"] {
+            for sfx in ["", "_x", "_y"] {
+                let k = format!("{q}{sfx}");
+                values.push((k.clone(), a(&k)?, a(&format!("{k}_sem"))?));
+            }
+        }
+        values.push((
+            "p_fc_over_l_c".into(),
+            a("p_fc_over_l_c")?,
+            a("p_fc_over_l_c_sem")?,
+        ));
+        Ok(CriticalLevel {
+            lattice,
+            n: r.attr_i64_at(at, "n")? as u32,
+            h: a("h")?,
+            shift_rule: r.attr_i64_at(at, "shift_rule")? as usize,
+            values,
+            l_c_subgrid: (a("l_c_subgrid")?, a("l_c_subgrid_error")?),
+            zeta: (a("zeta")?, a("zeta_error")?),
+            p_fc: a("p_fc")?,
+            iterations: r.attr_i64_at(at, "iterations")?,
+        })
+    }
+
+    /// `(mean, sem)` of a named shift average.
+    pub fn get(&self, name: &str) -> Option<(f64, f64)> {
+        self.values
+            .iter()
+            .find(|(k, _, _)| k == name)
+            .map(|(_, v, s)| (*v, *s))
+    }
+}

@@ -1,0 +1,58 @@
+//! Figure 2's inputs, shared by the `figure` and `table` kinds: three load-controlled `sweep`
+//! stages on the square model, one per interaction, given as the inputs `hardwall`, `adhesion`
+//! and `repulsion`.
+
+use crate::sweep::SweepData;
+use anyhow::{Result, bail};
+use orchestrator::{InputSpec, Inputs};
+
+/// The interactions of Figure 2, in the order of its inputs.
+pub const INTERACTIONS: [&str; 3] = ["hardwall", "adhesion", "repulsion"];
+
+/// The inputs Figure 2's kinds take.
+pub fn inputs() -> Vec<InputSpec> {
+    INTERACTIONS
+        .iter()
+        .map(|i| {
+            InputSpec::one(i, &["sweep"]).doc(&format!("load-controlled {i} sweep (square model)"))
+        })
+        .collect()
+}
+
+/// Reads the three sweeps (hard wall, adhesion, repulsion) and checks that each is a load path
+/// of the interaction its input is named after, all on the same grid.
+pub fn read(inputs: &Inputs) -> Result<Vec<SweepData>> {
+    let mut out = Vec::new();
+    for name in INTERACTIONS {
+        let r = inputs.one(name)?;
+        let d = SweepData::read(r)?;
+        if d.interaction != name {
+            bail!(
+                "input `{name}` is a {} sweep (`{}`); it must be the {name} sweep",
+                d.interaction,
+                r.path().display()
+            );
+        }
+        if d.control != "load" {
+            bail!(
+                "input `{name}` varies the {}; Figure 2 needs a load path (control = \"load\")",
+                d.control
+            );
+        }
+        out.push(d);
+    }
+    if let Some(d) = out
+        .iter()
+        .find(|d| (d.n, &d.lattice) != (out[0].n, &out[0].lattice))
+    {
+        bail!(
+            "the sweeps are on different surfaces: {} n = {} (hardwall) and {} n = {} ({})",
+            out[0].lattice,
+            out[0].n,
+            d.lattice,
+            d.n,
+            d.interaction
+        );
+    }
+    Ok(out)
+}

@@ -1,0 +1,386 @@
+//! Figure 6's inputs and data, shared by the `figure` and `table` kinds.
+//!
+//! Inputs:
+//! - `flow`: `flow` stages along load paths, one curve each; the model (`lattice`) and γ0 are
+//!   read from the artefacts (γ0 = 0: hard wall, drawn solid; γ0 > 0: adhesion, dashed). The
+//!   loading branch is drawn, converged points only (flow and contact solves), up to the last
+//!   point where the fluid still flows; where an adhesive curve's flow stops inside the path its
+//!   last point is marked (the flow stops discontinuously there).
+//! - `current` (optional): a `flowmap` stage, the current density near the critical load
+//!   (bottom right), shown in a window around the constriction (the node of largest |j|).
+//!
+//! The bottom-left panel (normalised flux against L_c − L, log–log, with the fitted slope β)
+//! belongs to the near-critical study; until that study provides an input it stays empty.
+
+use crate::flow::FlowData;
+use anyhow::{Result, bail};
+use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve};
+use figures::style::Model;
+use orchestrator::{InputSpec, Inputs, Params, StageContext};
+use serde_json::{Value, json};
+
+/// The inputs Figure 6's kinds take.
+pub fn inputs() -> Vec<InputSpec> {
+    vec![
+        InputSpec::many("flow", &["flow"])
+            .doc("flow stages along load paths (one curve each: model and γ0 from the artefact)"),
+        InputSpec::one("current", &["flowmap"])
+            .optional()
+            .doc("near-critical current density (bottom right)"),
+    ]
+}
+
+/// The model of a lattice name.
+pub fn model(lattice: &str) -> Result<Model> {
+    Model::ALL
+        .into_iter()
+        .find(|m| m.name() == lattice)
+        .ok_or_else(|| anyhow::anyhow!("unknown lattice `{lattice}`"))
+}
+
+/// Reads the flow inputs, sorted by model (hexagonal, square, triangular) then γ0.
+pub fn read_flows(inputs: &Inputs) -> Result<Vec<FlowData>> {
+    let mut v = Vec::new();
+    for r in inputs.all("flow") {
+        let d = FlowData::read(r)?;
+        if d.interaction == "repulsion" {
+            bail!(
+                "`{}` is a flow along a repulsive path; Figure 6 shows the hard wall and \
+                 adhesion",
+                r.path().display()
+            );
+        }
+        v.push(d);
+    }
+    if v.is_empty() {
+        bail!("Figure 6 needs at least one `flow` input");
+    }
+    v.sort_by(|a, b| {
+        let key = |d: &FlowData| Model::ALL.iter().position(|m| m.name() == d.lattice);
+        key(a).cmp(&key(b)).then(a.gamma0.total_cmp(&b.gamma0))
+    });
+    Ok(v)
+}
+
+/// One curve: the loading branch's usable points up to the last flowing one. Returns the curve
+/// (without `mark_end` decided), whether the flow stops inside the path, the indices used and
+/// the number of points left out (non-converged).
+pub struct Curve {
+    /// Indices into the flow data, path order, flowing points only.
+    pub idx: Vec<usize>,
+    /// The flow stops inside the path: some usable point after the last flowing one is blocked.
+    pub stops: bool,
+    /// The first blocked point after the last flowing one, if any.
+    pub blocked: Option<usize>,
+    /// Points of the branch left out because a solve did not converge.
+    pub left_out: usize,
+}
+
+/// The curve of one flow artefact's loading branch.
+pub fn curve(d: &FlowData) -> Curve {
+    let (usable, left_out) = d.usable("loading");
+    let mut idx = Vec::new();
+    let mut blocked = None;
+    for &k in &usable {
+        if d.percolating[k] {
+            if blocked.is_some() {
+                // the fluid flows again after a blocked point: keep the first flowing stretch
+                break;
+            }
+            idx.push(k);
+        } else if !idx.is_empty() && blocked.is_none() {
+            blocked = Some(k);
+        }
+    }
+    Curve {
+        stops: blocked.is_some(),
+        idx,
+        blocked,
+        left_out,
+    }
+}
+
+/// Figure 6's data from its inputs; statistics for the stage report.
+pub fn data(ctx: &mut StageContext, inputs: &Inputs, params: &Params) -> Result<(Fig6Data, Value)> {
+    let flows = read_flows(inputs)?;
+    let unit = params.str("load_unit").unwrap_or("absolute").to_string();
+    let mut curves = Vec::new();
+    let mut stats = Vec::new();
+    for d in &flows {
+        let c = curve(d);
+        let m = model(&d.lattice)?;
+        let what = format!(
+            "{} {}",
+            d.lattice,
+            if d.gamma0 == 0.0 {
+                "hard wall".to_string()
+            } else {
+                format!("γ0 = {}", d.gamma0)
+            }
+        );
+        if c.left_out > 0 {
+            ctx.warn(format!(
+                "{what}: {} points whose flow or contact solve did not converge are left out",
+                c.left_out
+            ));
+        }
+        if !c.stops {
+            ctx.warn(format!(
+                "{what}: the flow does not stop inside the load path (extend the path past \
+                 where it stops)"
+            ));
+        }
+        if c.idx.is_empty() {
+            ctx.warn(format!("{what}: no flowing point to draw"));
+            continue;
+        }
+        let scale = |k: usize| {
+            if unit == "p_fc" {
+                d.load[k] / d.p_fc
+            } else {
+                d.load[k]
+            }
+        };
+        let last = *c.idx.last().expect("non-empty");
+        stats.push(json!({
+            "lattice": d.lattice, "gamma0": d.gamma0, "n": d.n, "axis": d.axis,
+            "points": c.idx.len(), "left_out": c.left_out,
+            "load_last_flowing": d.load[last],
+            "load_first_blocked": c.blocked.map(|k| d.load[k]),
+            "conductivity_first": d.conductivity[c.idx[0]],
+            "conductivity_last_flowing": d.conductivity[last],
+            "contact_area_last_flowing": d.contact_area[last],
+            "contact_area_first_blocked": c.blocked.map(|k| d.contact_area[k]),
+            "p_fc": d.p_fc,
+        }));
+        curves.push(FlowCurve {
+            model: m,
+            gamma0: d.gamma0,
+            load: c.idx.iter().map(|&k| scale(k)).collect(),
+            flux: c.idx.iter().map(|&k| d.conductivity[k]).collect(),
+            mark_end: d.gamma0 != 0.0 && c.stops,
+        });
+    }
+    let current = match inputs.all("current") {
+        [r] => Some(current_map(r, params)?),
+        _ => None,
+    };
+    let data = Fig6Data {
+        flow: curves,
+        load_label: if unit == "p_fc" {
+            "load $L$ / $p$_fc".into()
+        } else {
+            "load $L$ / ($E$^*$h$_0/$λ$)".into()
+        },
+        flux_label: "conductivity $K$ / $h$_0^3".into(),
+        flux_log: params.bool("flux_log").unwrap_or(true),
+        normalised: Vec::new(),
+        distance_label: "($L$_c − $L$)/$L$_c".into(),
+        fit: None,
+        current,
+    };
+    Ok((data, json!({ "curves": stats })))
+}
+
+/// The current map of a `flowmap` artefact, in a window around its largest |j|.
+fn current_map(r: &store::ArtefactReader, params: &Params) -> Result<CurrentMap> {
+    let jx = r.read_f64_2d(store::fields::CURRENT_X)?;
+    let jy = r.read_f64_2d(store::fields::CURRENT_Y)?;
+    let gap = r.read_f64_2d(store::fields::GAP)?;
+    let (lx, ly) = r.cell()?;
+    let (nx, ny) = jx.dim();
+    let mut best = (0usize, 0usize, -1.0f64);
+    for ((i, j), &a) in jx.indexed_iter() {
+        let m = a.hypot(jy[[i, j]]);
+        if m.is_finite() && m > best.2 {
+            best = (i, j, m);
+        }
+    }
+    let half = params.f64("map_half_width").unwrap_or(0.3);
+    let view = if half > 0.0 {
+        let (cx, cy) = (
+            best.0 as f64 * lx / nx as f64,
+            best.1 as f64 * ly / ny as f64,
+        );
+        Some((cx - half, cx + half, cy - half, cy + half))
+    } else {
+        None
+    };
+    Ok(CurrentMap {
+        jx,
+        jy,
+        gap: Some(gap),
+        lx,
+        ly,
+        view,
+        arrows: params.i64("map_arrows").unwrap_or(12).max(0) as usize,
+        log: true,
+    })
+}
+
+/// The CSV files of Figure 6's data (relative to the table kind's `output_dir`).
+pub const TABLE_FILES: [&str; 2] = ["fig6.csv", "fig6_stops.csv"];
+
+/// Figure 6's tables:
+/// - `fig6.csv`, one row per flow point of every input: `lattice`, `gamma0`, `branch`, `load`
+///   (E* h0/λ), `load_over_p_fc`, `contact_area`, `conductivity`, `flux`, `percolating`,
+///   `converged` (flow), `contact_converged`, `termination`, `iterations`, `residual`,
+///   `conservation_error`, `axis`, `n`;
+/// - `fig6_stops.csv`, one row per place where the flow stops (or starts) between two points
+///   of a path: `lattice`, `gamma0`, `branch`, `load_flowing`, `load_blocked` (E* h0/λ),
+///   `load_flowing_over_p_fc`, `load_blocked_over_p_fc`, `conductivity_flowing`,
+///   `contact_area_flowing`, `contact_area_blocked`.
+pub fn tables(inputs: &Inputs) -> Result<Vec<tables::Table>> {
+    use tables::Table;
+    let mut rows: Vec<(String, f64, String, f64, f64, f64, f64, f64)> = Vec::new();
+    let mut flags: Vec<(bool, bool, bool, String, i64, f64, f64, String, i64)> = Vec::new();
+    let (mut s_lat, mut s_g, mut s_br) = (vec![], vec![], vec![]);
+    let (mut s_lf, mut s_lb, mut s_lfr, mut s_lbr, mut s_k, mut s_af, mut s_ab) =
+        (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+    for r in inputs.all("flow") {
+        let d = FlowData::read(r)?;
+        let term = r.read_strings("points/termination")?;
+        let iters = r.read_i64_1d("points/iterations")?;
+        let resid = r.read_f64_1d("points/residual")?;
+        let cons = r.read_f64_1d("points/conservation_error")?;
+        for k in 0..d.load.len() {
+            rows.push((
+                d.lattice.clone(),
+                d.gamma0,
+                d.branch[k].clone(),
+                d.load[k],
+                d.load[k] / d.p_fc,
+                d.contact_area[k],
+                d.conductivity[k],
+                d.flux[k],
+            ));
+            flags.push((
+                d.percolating[k],
+                d.converged[k],
+                d.contact_converged[k],
+                term[k].clone(),
+                iters[k],
+                resid[k],
+                cons[k],
+                d.axis.clone(),
+                d.n,
+            ));
+        }
+        let br = r.read_strings("stops/branch")?;
+        let lf = r.read_f64_1d("stops/load_flowing")?;
+        let lb = r.read_f64_1d("stops/load_blocked")?;
+        let kf = r.read_f64_1d("stops/conductivity_flowing")?;
+        let af = r.read_f64_1d("stops/contact_area_flowing")?;
+        let ab = r.read_f64_1d("stops/contact_area_blocked")?;
+        for k in 0..br.len() {
+            s_lat.push(d.lattice.clone());
+            s_g.push(d.gamma0);
+            s_br.push(br[k].clone());
+            s_lf.push(lf[k]);
+            s_lb.push(lb[k]);
+            s_lfr.push(lf[k] / d.p_fc);
+            s_lbr.push(lb[k] / d.p_fc);
+            s_k.push(kf[k]);
+            s_af.push(af[k]);
+            s_ab.push(ab[k]);
+        }
+    }
+    let points = Table::new()
+        .with_str("lattice", rows.iter().map(|r| r.0.clone()))
+        .with_f64("gamma0", rows.iter().map(|r| r.1))
+        .with_str("branch", rows.iter().map(|r| r.2.clone()))
+        .with_f64("load", rows.iter().map(|r| r.3))
+        .with_f64("load_over_p_fc", rows.iter().map(|r| r.4))
+        .with_f64("contact_area", rows.iter().map(|r| r.5))
+        .with_f64("conductivity", rows.iter().map(|r| r.6))
+        .with_f64("flux", rows.iter().map(|r| r.7))
+        .with_bool("percolating", flags.iter().map(|f| f.0))
+        .with_bool("converged", flags.iter().map(|f| f.1))
+        .with_bool("contact_converged", flags.iter().map(|f| f.2))
+        .with_str("termination", flags.iter().map(|f| f.3.clone()))
+        .with_i64("iterations", flags.iter().map(|f| f.4))
+        .with_f64("residual", flags.iter().map(|f| f.5))
+        .with_f64("conservation_error", flags.iter().map(|f| f.6))
+        .with_str("axis", flags.iter().map(|f| f.7.clone()))
+        .with_i64("n", flags.iter().map(|f| f.8));
+    let stops = Table::new()
+        .with_str("lattice", s_lat)
+        .with_f64("gamma0", s_g)
+        .with_str("branch", s_br)
+        .with_f64("load_flowing", s_lf)
+        .with_f64("load_blocked", s_lb)
+        .with_f64("load_flowing_over_p_fc", s_lfr)
+        .with_f64("load_blocked_over_p_fc", s_lbr)
+        .with_f64("conductivity_flowing", s_k)
+        .with_f64("contact_area_flowing", s_af)
+        .with_f64("contact_area_blocked", s_ab);
+    Ok(vec![points, stops])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The figure renders with the bottom-left panel empty (the near-critical study fills it
+    /// later) and without a current map.
+    #[test]
+    fn renders_without_the_near_critical_panels() {
+        let load: Vec<f64> = (1..20).map(|k| 0.1 * k as f64).collect();
+        let d = Fig6Data {
+            flow: vec![
+                FlowCurve {
+                    model: Model::Square,
+                    gamma0: 0.0,
+                    flux: load
+                        .iter()
+                        .map(|l| (1.5 - l).max(1e-9).powf(3.45))
+                        .collect(),
+                    load: load.clone(),
+                    mark_end: false,
+                },
+                FlowCurve {
+                    model: Model::Square,
+                    gamma0: 0.05,
+                    flux: load[..12].iter().map(|l| (1.3 - l).powf(3.0)).collect(),
+                    load: load[..12].to_vec(),
+                    mark_end: true,
+                },
+            ],
+            load_label: "load".into(),
+            flux_label: "conductivity".into(),
+            flux_log: true,
+            normalised: Vec::new(),
+            distance_label: String::new(),
+            fit: None,
+            current: None,
+        };
+        let png = figures::scenes::fig6::figure(&d)
+            .unwrap()
+            .render_png()
+            .unwrap();
+        assert!(png.len() > 1000);
+    }
+
+    #[test]
+    fn curves_stop_at_the_first_blocked_point() {
+        let d = FlowData {
+            lattice: "square".into(),
+            interaction: "adhesion".into(),
+            gamma0: 0.05,
+            p_fc: 6.28,
+            axis: "x".into(),
+            n: 5,
+            branch: vec!["loading".into(); 6],
+            load: vec![0.0, 0.1, 0.2, 0.3, 0.4, 0.5],
+            conductivity: vec![3.0, 2.0, 1.0, 0.5, 0.0, 0.0],
+            flux: vec![3.0, 2.0, 1.0, 0.5, 0.0, 0.0],
+            percolating: vec![true, true, true, true, false, false],
+            converged: vec![true, true, false, true, true, true],
+            contact_converged: vec![true; 6],
+            contact_area: vec![0.1, 0.2, 0.3, 0.35, 0.4, 0.5],
+        };
+        let c = curve(&d);
+        assert_eq!(c.idx, [0, 1, 3]);
+        assert_eq!((c.stops, c.blocked, c.left_out), (true, Some(4), 1));
+    }
+}

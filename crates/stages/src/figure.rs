@@ -1,0 +1,194 @@
+//! `figure`: renders one of the paper's figures from its input stages, as PNG and SVG side
+//! outputs (`<output>.png`, `<output>.svg`; `output` defaults to `figures/<scene>`).
+//!
+//! Scenes:
+//! - `fig2`: relative contact area against mean pressure, square model, hard wall, adhesion
+//!   and repulsion (inputs `hardwall`, `adhesion`, `repulsion`: load-controlled `sweep`s);
+//!   loading red, unloading blue, detected jumps circled, p_fc marked. `log_area = true` draws
+//!   the area on a log axis (shows the small-area hysteresis). Points that did not converge
+//!   are left out, with a warning.
+//!
+//! Artefact: attributes `scene`, `points_plotted`, `points_left_out` (the figure files
+//! themselves are kept inside the artefact by the engine, as every side output).
+
+use crate::fig2;
+use crate::sweep::SweepData;
+use anyhow::Result;
+use figures::scenes::fig2::{Branch, Fig2Data, LoadLoop};
+use orchestrator::{
+    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
+    StageReport,
+};
+use serde_json::json;
+use store::ArtefactWriter;
+
+/// The `figure` stage kind.
+pub struct FigureKind;
+
+/// Bump when the figures change for the same inputs.
+pub const CODE_VERSION: u64 = 1;
+
+/// Scenes this kind renders.
+pub const SCENES: &[&str] = &["fig2"];
+
+/// The output stem (`figures/<scene>` unless `output` is given).
+fn stem(params: &Params) -> String {
+    match params.str("output") {
+        Ok(s) if !s.is_empty() => s.to_string(),
+        _ => format!("figures/{}", params.str("scene").unwrap_or("figure")),
+    }
+}
+
+/// Checks a side-output path: relative, inside the project, no `..`.
+pub fn check_relative(key: &str, path: &str) -> Result<(), ParamIssue> {
+    let p = std::path::Path::new(path);
+    if p.is_absolute()
+        || p.components()
+            .any(|c| !matches!(c, std::path::Component::Normal(_)))
+    {
+        return Err(ParamIssue::new(
+            key,
+            format!(
+                "\"{path}\": allowed a relative path inside the project without `.` or `..` (e.g. \"figures/fig2\")"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// One branch of a sweep for the figure: converged points only, jumps re-indexed.
+fn branch(d: &SweepData, name: &str) -> (Branch, usize) {
+    let all = d.branch_indices(name);
+    let idx: Vec<usize> = all
+        .iter()
+        .copied()
+        .filter(|&k| d.points[k].converged)
+        .collect();
+    let jumps = d
+        .jumps
+        .iter()
+        .filter(|j| j.branch == name)
+        .filter_map(|j| {
+            let pos = idx.iter().position(|&k| k == j.index)?;
+            (idx.get(pos + 1) == Some(&j.index_after)).then_some(pos)
+        })
+        .collect();
+    (
+        Branch {
+            pressure: idx.iter().map(|&k| d.points[k].load).collect(),
+            area: idx.iter().map(|&k| d.points[k].contact_area).collect(),
+            jumps,
+        },
+        all.len() - idx.len(),
+    )
+}
+
+fn load_loop(d: &SweepData) -> (LoadLoop, usize) {
+    let (loading, a) = branch(d, "loading");
+    let (unloading, b) = branch(d, "unloading");
+    (LoadLoop { loading, unloading }, a + b)
+}
+
+impl StageKind for FigureKind {
+    fn name(&self) -> &str {
+        "figure"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "renders a figure of the paper (PNG and SVG side outputs) from its input stages"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new("scene", ParamType::one_of(SCENES)).doc("which figure"),
+            ParamSpec::new("log_area", ParamType::Bool)
+                .default(false)
+                .doc("fig2: logarithmic area axis"),
+            ParamSpec::new("output", ParamType::string())
+                .default("")
+                .doc("output stem relative to the project root (default figures/<scene>)"),
+        ]
+    }
+    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
+        check_relative("output", &stem(params))
+    }
+    fn inputs(&self, params: &Params) -> Vec<InputSpec> {
+        match params.str("scene") {
+            Ok("fig2") => fig2::inputs(),
+            _ => Vec::new(),
+        }
+    }
+    fn side_outputs(&self, params: &Params) -> Vec<String> {
+        let s = stem(params);
+        vec![format!("{s}.png"), format!("{s}.svg")]
+    }
+    fn cost(&self, _params: &Params) -> f64 {
+        0.05
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let scene = params.str("scene")?;
+        let fig = match scene {
+            "fig2" => {
+                let sweeps = fig2::read(inputs)?;
+                let mut loops = Vec::new();
+                let mut plotted = 0usize;
+                let mut left_out = 0usize;
+                for d in &sweeps {
+                    let (l, bad) = load_loop(d);
+                    if bad > 0 {
+                        ctx.warn(format!(
+                            "{bad} non-converged points of the {} sweep are left out of the figure",
+                            d.interaction
+                        ));
+                    }
+                    plotted += l.loading.area.len() + l.unloading.area.len();
+                    left_out += bad;
+                    loops.push(l);
+                }
+                let label = |d: &SweepData, what: &str, sym: &str, key: &str| -> Result<String> {
+                    let r = inputs.one(&d.interaction)?;
+                    Ok(format!(
+                        "{what}, {sym} = {}, $ρ$ = {}",
+                        r.attr_f64(key)?,
+                        r.attr_f64("rho")?
+                    ))
+                };
+                let data = Fig2Data {
+                    adhesion_label: label(&sweeps[1], "exponential adhesion", "$γ$_0", "gamma0")?,
+                    repulsion_label: label(&sweeps[2], "Gaussian repulsion", "$γ$_r", "gamma_r")?,
+                    hard_wall: loops[0].clone(),
+                    adhesion: loops[1].clone(),
+                    repulsion: loops[2].clone(),
+                    p_fc: Some(sweeps[0].p_fc),
+                    a_p: None,
+                    log_area: params.bool("log_area")?,
+                    pressure_range: None,
+                };
+                out.set_attr("points_plotted", plotted as i64)?;
+                out.set_attr("points_left_out", left_out as i64)?;
+                figures::scenes::fig2::figure(&data)?
+            }
+            other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
+        };
+        ctx.progress(0.3, "drawing");
+        let png = fig.render_png()?;
+        let svg = fig.render_svg()?;
+        let s = stem(params);
+        let (png_bytes, svg_bytes) = (png.len(), svg.len());
+        ctx.emit_file(&format!("{s}.png"), png);
+        ctx.emit_file(&format!("{s}.svg"), svg.into_bytes());
+        out.set_attr("scene", scene)?;
+        ctx.progress(1.0, "rendered");
+        Ok(StageReport::with_stats(json!({
+            "png_bytes": png_bytes,
+            "svg_bytes": svg_bytes,
+        })))
+    }
+}

@@ -1,0 +1,509 @@
+//! `resolution`: one model's `critical` levels extrapolated to zero grid spacing
+//! (`critical::Extrapolated`: `v0 + c h^p`, error = fit ⊕ leave-one-out spread), and the scenes
+//! built from three of them: the convergence figures and the comparison table with the paper.
+//!
+//! # Parameters
+//! `area_order` (order of the leading error of contact areas, default 1: the perimeter),
+//! `load_order` (`"free"`, the default: fitted, falling back to `critical::FALLBACK_ORDER` when
+//! convergence is not monotone; or a number).
+//!
+//! # Inputs
+//! `levels`: `critical` stages of one model (each with one or more grids); together at least two
+//! distinct n, none twice.
+//!
+//! # Artefact
+//! - `n`, `h` (λ): one entry per level, ascending n;
+//! - one group per quantity (`l_c`, `l_c_x`, `l_c_y`, `a_p_raw[_x|_y]`, `a_p_corrected[_x|_y]`,
+//!   `p_fc_over_l_c`, `l_c_subgrid`): datasets `v`, `sem` (and `h` for `l_c_subgrid`, which
+//!   uses only the levels with a sub-grid fit); attributes `ok`, `v0`, `v0_error`,
+//!   `v0_fit_error`, `v0_subset_spread` (NaN without), `order`, `order_error`, `c`, `c_error`,
+//!   `cov_v0_c`, `note`, `error`;
+//! - root attributes `lattice`, `p_fc_exact`, `shift_rule`, the headline values `l_c`,
+//!   `a_p_raw`, `a_p_corrected` with `_error`, `p_fc_over_l_c` = p_fc_exact / L_c with
+//!   `_error`, the finest level's `l_c_subgrid`, `zeta` (with errors), and the paper's values
+//!   `paper_a_p`, `paper_a_p_error`, `paper_p_fc_over_l_c` (NaN where the paper gives none).
+
+use crate::critical::CriticalLevel;
+use crate::surface::lattice_from_name;
+use anyhow::{Result, bail};
+use critical::{Extrapolated, Stat};
+use figures::scenes::convergence::{ConvergenceData, ConvergenceSeries};
+use orchestrator::{
+    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
+    StageReport,
+};
+use serde_json::json;
+use store::{ArtefactReader, ArtefactWriter};
+use surface::Lattice;
+use tables::Table;
+
+/// The `resolution` stage kind.
+pub struct ResolutionKind;
+
+/// Bump when the artefact's content changes for the same inputs.
+pub const CODE_VERSION: u64 = 1;
+
+/// The paper's a_p (value, error) with the labels as corrected in PHYSICS.md.
+pub fn paper_a_p(l: Lattice) -> (f64, f64) {
+    match l {
+        Lattice::Hexagonal => (0.17826, 0.00011),
+        Lattice::Square => (0.40185, 0.00006),
+        Lattice::Triangular => (0.67323, 0.00001),
+    }
+}
+
+/// The paper's p_fc/L_c ("≈ 31" hexagonal, "1.4" triangular; none for the square model).
+pub fn paper_ratio(l: Lattice) -> f64 {
+    match l {
+        Lattice::Hexagonal => 31.0,
+        Lattice::Square => f64::NAN,
+        Lattice::Triangular => 1.4,
+    }
+}
+
+fn parse_order(params: &Params, key: &str) -> Result<analysis::Order> {
+    let v = params.get(key)?;
+    if let Some(s) = v.as_str() {
+        if s == "free" {
+            return Ok(analysis::Order::Free);
+        }
+        bail!("parameter `{key}` = {s:?}: allowed \"free\" or a number > 0");
+    }
+    match v.as_f64() {
+        Some(p) if p.is_finite() && p > 0.0 => Ok(analysis::Order::Fixed(p)),
+        _ => bail!("parameter `{key}` = {v}: allowed \"free\" or a number > 0"),
+    }
+}
+
+const AREA_QUANTITIES: [&str; 6] = [
+    "a_p_raw",
+    "a_p_raw_x",
+    "a_p_raw_y",
+    "a_p_corrected",
+    "a_p_corrected_x",
+    "a_p_corrected_y",
+];
+const LOAD_QUANTITIES: [&str; 4] = ["l_c", "l_c_x", "l_c_y", "p_fc_over_l_c"];
+
+impl StageKind for ResolutionKind {
+    fn name(&self) -> &str {
+        "resolution"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "extrapolates a model's critical levels (L_c, a_p) to zero grid spacing"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new("area_order", ParamType::positive())
+                .default(1.0)
+                .doc("order of the leading error term of contact areas (1: the perimeter)"),
+            ParamSpec::new("load_order", ParamType::Any)
+                .default("free")
+                .doc("order for loads: \"free\" (fitted) or a number"),
+        ]
+    }
+    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
+        parse_order(params, "load_order")
+            .map(|_| ())
+            .map_err(|e| ParamIssue::new("load_order", e.to_string()))
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        vec![
+            InputSpec::many("levels", &["critical"])
+                .doc("the model's critical stages (their grids together)"),
+        ]
+    }
+    fn cost(&self, _params: &Params) -> f64 {
+        0.01
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let area_order = analysis::Order::Fixed(params.f64("area_order")?);
+        let mut load_order = parse_order(params, "load_order")?;
+        let mut levels: Vec<CriticalLevel> = Vec::new();
+        for r in inputs.all("levels") {
+            levels.extend(CriticalLevel::read_all(r)?);
+        }
+        levels.sort_by_key(|l| l.n);
+        let lattice = levels[0].lattice;
+        if let Some(l) = levels.iter().find(|l| l.lattice != lattice) {
+            bail!(
+                "the levels mix models: {} and {}",
+                lattice.name(),
+                l.lattice.name()
+            );
+        }
+        if levels.windows(2).any(|w| w[0].n == w[1].n) {
+            bail!("two levels have the same n; give one critical stage per grid");
+        }
+        if levels.len() < 2 {
+            bail!(
+                "at least two levels (grids) are needed to extrapolate; got {}",
+                levels.len()
+            );
+        }
+        if levels.iter().any(|l| l.shift_rule != levels[0].shift_rule) {
+            ctx.warn("the levels use different shift rules: their averages are not one family");
+        }
+        if load_order == analysis::Order::Free && levels.len() < 4 {
+            // a fitted order needs ≥ 4 levels for a degree of freedom and leave-one-out refits
+            load_order = analysis::Order::Fixed(critical::FALLBACK_ORDER);
+            ctx.warn(format!(
+                "{} levels: too few to fit the order of L_c's convergence; fixed order {} used",
+                levels.len(),
+                critical::FALLBACK_ORDER
+            ));
+        }
+        let h: Vec<f64> = levels.iter().map(|l| l.h).collect();
+        out.write_i64_1d("n", &levels.iter().map(|l| l.n as i64).collect::<Vec<_>>())?;
+        out.write_f64_1d("h", &h)?;
+        let stat = |l: &CriticalLevel, q: &str| {
+            let (mean, sem) = l.get(q).unwrap_or((f64::NAN, f64::NAN));
+            Stat {
+                mean,
+                std: f64::NAN,
+                sem,
+                count: 0,
+            }
+        };
+        let mut ex: Vec<Extrapolated> = Vec::new();
+        for q in LOAD_QUANTITIES {
+            let s: Vec<Stat> = levels.iter().map(|l| stat(l, q)).collect();
+            ex.push(Extrapolated::new(q, &h, &s, load_order));
+        }
+        for q in AREA_QUANTITIES {
+            let s: Vec<Stat> = levels.iter().map(|l| stat(l, q)).collect();
+            ex.push(Extrapolated::new(q, &h, &s, area_order));
+        }
+        let sub: Vec<&CriticalLevel> = levels
+            .iter()
+            .filter(|l| l.l_c_subgrid.0.is_finite())
+            .collect();
+        if sub.len() >= 2 {
+            let hs: Vec<f64> = sub.iter().map(|l| l.h).collect();
+            let s: Vec<Stat> = sub
+                .iter()
+                .map(|l| Stat {
+                    mean: l.l_c_subgrid.0,
+                    std: f64::NAN,
+                    sem: 0.0,
+                    count: 1,
+                })
+                .collect();
+            ex.push(Extrapolated::new("l_c_subgrid", &hs, &s, load_order));
+        }
+        for e in &ex {
+            write_extrapolation(out, e)?;
+            if let Some(n) = &e.note {
+                ctx.warn(format!("{}: {n}", e.name));
+            }
+            if let Err(m) = &e.fit {
+                ctx.warn(format!("{}: extrapolation failed: {m}", e.name));
+            }
+        }
+        let value = |q: &str| {
+            ex.iter()
+                .find(|e| e.name == q)
+                .and_then(|e| e.value())
+                .unwrap_or((f64::NAN, f64::NAN))
+        };
+        let p_fc = lattice.exact().p_fc;
+        let (l_c, l_c_e) = value("l_c");
+        let (a_r, a_r_e) = value("a_p_raw");
+        let (a_c, a_c_e) = value("a_p_corrected");
+        out.set_attr("lattice", lattice.name())?;
+        out.set_attr("shift_rule", levels[0].shift_rule as i64)?;
+        out.set_attr("p_fc_exact", p_fc)?;
+        out.set_attr("l_c", l_c)?;
+        out.set_attr("l_c_error", l_c_e)?;
+        out.set_attr("a_p_raw", a_r)?;
+        out.set_attr("a_p_raw_error", a_r_e)?;
+        out.set_attr("a_p_corrected", a_c)?;
+        out.set_attr("a_p_corrected_error", a_c_e)?;
+        out.set_attr("p_fc_over_l_c", p_fc / l_c)?;
+        out.set_attr("p_fc_over_l_c_error", p_fc / l_c * l_c_e / l_c)?;
+        let finest = levels.last().expect("levels");
+        out.set_attr("finest_n", finest.n as i64)?;
+        out.set_attr("l_c_subgrid", finest.l_c_subgrid.0)?;
+        out.set_attr("l_c_subgrid_error", finest.l_c_subgrid.1)?;
+        out.set_attr("zeta", finest.zeta.0)?;
+        out.set_attr("zeta_error", finest.zeta.1)?;
+        let (pa, pe) = paper_a_p(lattice);
+        out.set_attr("paper_a_p", pa)?;
+        out.set_attr("paper_a_p_error", pe)?;
+        out.set_attr("paper_p_fc_over_l_c", paper_ratio(lattice))?;
+        Ok(StageReport::with_stats(json!({
+            "levels": levels.len(),
+            "l_c": [l_c, l_c_e],
+            "a_p_raw": [a_r, a_r_e],
+            "a_p_corrected": [a_c, a_c_e],
+        })))
+    }
+}
+
+fn write_extrapolation(out: &mut ArtefactWriter, e: &Extrapolated) -> Result<()> {
+    let g = e.name.as_str();
+    out.write_f64_1d(&format!("{g}/v"), &e.v)?;
+    out.write_f64_1d(&format!("{g}/sem"), &e.sem)?;
+    out.write_f64_1d(&format!("{g}/h"), &e.h)?;
+    out.set_attr_at(g, "note", e.note.clone().unwrap_or_default())?;
+    match &e.fit {
+        Ok(f) => {
+            let cov = |a: &str, b: &str| {
+                let i = f.fit.names.iter().position(|n| *n == a);
+                let j = f.fit.names.iter().position(|n| *n == b);
+                match (i, j) {
+                    (Some(i), Some(j)) => f.fit.covariance[i][j],
+                    _ => f64::NAN,
+                }
+            };
+            out.set_attr_at(g, "ok", true)?;
+            out.set_attr_at(g, "v0", f.v0)?;
+            out.set_attr_at(g, "v0_error", f.v0_error)?;
+            out.set_attr_at(g, "v0_fit_error", f.v0_fit_error)?;
+            out.set_attr_at(
+                g,
+                "v0_subset_spread",
+                f.v0_subset_spread.unwrap_or(f64::NAN),
+            )?;
+            out.set_attr_at(g, "order", f.order)?;
+            out.set_attr_at(g, "order_error", f.order_error)?;
+            out.set_attr_at(g, "c", f.c)?;
+            out.set_attr_at(g, "c_error", f.c_error)?;
+            out.set_attr_at(g, "cov_v0_c", cov("v0", "c"))?;
+            out.set_attr_at(g, "error", "")?;
+        }
+        Err(m) => {
+            out.set_attr_at(g, "ok", false)?;
+            for k in [
+                "v0",
+                "v0_error",
+                "v0_fit_error",
+                "v0_subset_spread",
+                "order",
+            ] {
+                out.set_attr_at(g, k, f64::NAN)?;
+            }
+            for k in ["order_error", "c", "c_error", "cov_v0_c"] {
+                out.set_attr_at(g, k, f64::NAN)?;
+            }
+            out.set_attr_at(g, "error", m.as_str())?;
+        }
+    }
+    Ok(())
+}
+
+/// One quantity of a `resolution` artefact.
+#[derive(Clone, Debug)]
+pub struct ResolvedQuantity {
+    /// Grid spacings (λ).
+    pub h: Vec<f64>,
+    /// Values.
+    pub v: Vec<f64>,
+    /// Standard errors over shifts.
+    pub sem: Vec<f64>,
+    /// Extrapolated value, error, order, c, c error and cov(v0, c) (NaN when the fit failed).
+    pub v0: f64,
+    /// 1σ of v0 (fit ⊕ subset spread).
+    pub v0_error: f64,
+    /// Order p.
+    pub order: f64,
+    /// Coefficient c.
+    pub c: f64,
+    /// 1σ of c.
+    pub c_error: f64,
+    /// Covariance of v0 and c from the fit.
+    pub cov_v0_c: f64,
+    /// 1σ of v0 from the fit alone.
+    pub v0_fit_error: f64,
+}
+
+impl ResolvedQuantity {
+    /// Reads quantity `q` of a `resolution` artefact.
+    pub fn read(r: &ArtefactReader, q: &str) -> Result<Self> {
+        let a = |k: &str| r.attr_f64_at(q, k);
+        Ok(ResolvedQuantity {
+            h: r.read_f64_1d(&format!("{q}/h"))?,
+            v: r.read_f64_1d(&format!("{q}/v"))?,
+            sem: r.read_f64_1d(&format!("{q}/sem"))?,
+            v0: a("v0")?,
+            v0_error: a("v0_error")?,
+            order: a("order")?,
+            c: a("c")?,
+            c_error: a("c_error")?,
+            cov_v0_c: a("cov_v0_c")?,
+            v0_fit_error: a("v0_fit_error")?,
+        })
+    }
+
+    /// The fit `v0 + c h^p` at spacing `x` and its 1σ band: the fit covariance of (v0, c) with
+    /// the total error of v0 in place of its fit part.
+    pub fn curve(&self, x: f64) -> (f64, f64) {
+        let xp = x.powf(self.order);
+        let y = self.v0 + self.c * xp;
+        let cov = if self.cov_v0_c.is_finite() {
+            self.cov_v0_c
+        } else {
+            0.0
+        };
+        let c_e = if self.c_error.is_finite() {
+            self.c_error
+        } else {
+            0.0
+        };
+        let var = self.v0_error.powi(2) + (xp * c_e).powi(2) + 2.0 * xp * cov;
+        (y, var.max(0.0).sqrt())
+    }
+}
+
+/// The three models' `resolution` artefacts, by input name, in the paper's order.
+pub const MODEL_INPUTS: [(&str, Lattice); 3] = [
+    ("hexagonal", Lattice::Hexagonal),
+    ("square", Lattice::Square),
+    ("triangular", Lattice::Triangular),
+];
+
+/// Inputs of the convergence figures and the table: one `resolution` stage per model.
+pub fn scene_inputs() -> Vec<InputSpec> {
+    MODEL_INPUTS
+        .iter()
+        .map(|(name, _)| {
+            InputSpec::one(name, &["resolution"]).doc(&format!("resolution study, {name} model"))
+        })
+        .collect()
+}
+
+fn read_models(inputs: &Inputs) -> Result<Vec<(Lattice, &ArtefactReader)>> {
+    let mut out = Vec::new();
+    for (name, l) in MODEL_INPUTS {
+        let r = inputs.one(name)?;
+        let got = lattice_from_name(&r.attr_str("lattice")?)?;
+        if got != l {
+            bail!("input `{name}` is the {} model's study", got.name());
+        }
+        out.push((l, r));
+    }
+    Ok(out)
+}
+
+/// Convergence figure data for `quantity` (`a_p_corrected`, `a_p_raw` or `l_c`): each model's
+/// values against grid spacing, with the extrapolation curve and band, shifted by a reference so
+/// the three models share one axis (the paper's a_p for areas; the model's own extrapolated L_c,
+/// relative, for loads).
+pub fn convergence_data(inputs: &Inputs, quantity: &str) -> Result<ConvergenceData> {
+    let models = read_models(inputs)?;
+    let relative = quantity.starts_with("l_c");
+    let mut series = Vec::new();
+    let mut hmax = 0.0f64;
+    for (l, r) in &models {
+        let q = ResolvedQuantity::read(r, quantity)?;
+        hmax = hmax.max(q.h.iter().copied().fold(0.0, f64::max));
+        let (offset, scale) = if relative {
+            (q.v0, 1.0 / q.v0)
+        } else {
+            (paper_a_p(*l).0, 1.0)
+        };
+        let tr = |v: f64| (v - offset) * scale;
+        let fit: Vec<(f64, f64)> = (0..=40)
+            .map(|k| {
+                let x = hmax.max(q.h[0]) * k as f64 / 40.0;
+                (x, tr(q.curve(x).0))
+            })
+            .collect();
+        let band = fit
+            .iter()
+            .map(|&(x, _)| {
+                let (y, e) = q.curve(x);
+                (tr(y - e), tr(y + e))
+            })
+            .collect();
+        series.push(ConvergenceSeries {
+            label: l.name().to_string(),
+            spacing: q.h.clone(),
+            value: q.v.iter().map(|&v| tr(v)).collect(),
+            error: q.sem.iter().map(|s| s * scale).collect(),
+            fit: if q.v0.is_finite() { fit } else { Vec::new() },
+            fit_band: if q.v0.is_finite() { band } else { Vec::new() },
+            extrapolated: q.v0.is_finite().then(|| (tr(q.v0), q.v0_error * scale)),
+        });
+    }
+    let (label, references) = match quantity {
+        "a_p_corrected" => (
+            "perimeter-corrected $a$_p − paper",
+            vec![(0.0, "paper".to_string())],
+        ),
+        "a_p_raw" => ("raw $a$_p − paper", vec![(0.0, "paper".to_string())]),
+        _ => (
+            "$L$_c / $L$_c(0) − 1",
+            vec![(0.0, "extrapolated".to_string())],
+        ),
+    };
+    Ok(ConvergenceData {
+        quantity_label: label.into(),
+        spacing_label: "grid spacing √(Δ$x$ Δ$y$) / $λ$".into(),
+        series,
+        references,
+    })
+}
+
+/// The comparison with the paper: one row per model.
+pub fn comparison_table(inputs: &Inputs) -> Result<Table> {
+    let models = read_models(inputs)?;
+    let f = |r: &ArtefactReader, k: &str| r.attr_f64(k).unwrap_or(f64::NAN);
+    let mut t = Table::new();
+    let rows: Vec<_> = models.iter().map(|(l, r)| (*l, *r)).collect();
+    let col = |k: &str| rows.iter().map(|(_, r)| f(r, k)).collect::<Vec<_>>();
+    let levels = |r: &ArtefactReader| {
+        r.read_i64_1d("n")
+            .map(|n| {
+                format!(
+                    "{}..{}",
+                    n.first().copied().unwrap_or(0),
+                    n.last().copied().unwrap_or(0)
+                )
+            })
+            .unwrap_or_default()
+    };
+    let sigma = |k: &str| {
+        rows.iter()
+            .map(|(l, r)| {
+                let (pa, pe) = paper_a_p(*l);
+                let (v, e) = (f(r, k), f(r, &format!("{k}_error")));
+                (v - pa) / e.hypot(pe)
+            })
+            .collect::<Vec<_>>()
+    };
+    t = t
+        .with_str("model", rows.iter().map(|(l, _)| l.name().to_string()))
+        .with_str("grids_n", rows.iter().map(|(_, r)| levels(r)))
+        .with_i64(
+            "shift_rule",
+            rows.iter()
+                .map(|(_, r)| r.attr_i64("shift_rule").unwrap_or(-1)),
+        )
+        .with_f64("l_c", col("l_c"))
+        .with_f64("l_c_error", col("l_c_error"))
+        .with_f64("l_c_subgrid_finest", col("l_c_subgrid"))
+        .with_f64("zeta_finest", col("zeta"))
+        .with_f64("a_p_raw", col("a_p_raw"))
+        .with_f64("a_p_raw_error", col("a_p_raw_error"))
+        .with_f64("a_p_corrected", col("a_p_corrected"))
+        .with_f64("a_p_corrected_error", col("a_p_corrected_error"))
+        .with_f64("a_p_paper", col("paper_a_p"))
+        .with_f64("a_p_paper_error", col("paper_a_p_error"))
+        .with_f64("a_p_corrected_minus_paper_sigma", sigma("a_p_corrected"))
+        .with_f64("a_p_raw_minus_paper_sigma", sigma("a_p_raw"))
+        .with_f64("p_fc", col("p_fc_exact"))
+        .with_f64("p_fc_over_l_c", col("p_fc_over_l_c"))
+        .with_f64("p_fc_over_l_c_error", col("p_fc_over_l_c_error"))
+        .with_f64("p_fc_over_l_c_paper", col("paper_p_fc_over_l_c"));
+    Ok(t)
+}
