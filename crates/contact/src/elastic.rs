@@ -26,6 +26,9 @@ pub struct ElasticKernel {
     k_min: f64,
     /// Largest stiffness.
     k_max: f64,
+    /// Displacement of a node under a unit pressure on that node alone, zero mean:
+    /// G(0) = (1/N) Σ_{q≠0} 1/k(q).
+    point_compliance: f64,
     nx: usize,
     ny: usize,
 }
@@ -41,6 +44,7 @@ impl ElasticKernel {
         let mut stiffness = vec![0.0; nx * m];
         let mut compliance = vec![0.0; nx * m];
         let (mut k_min, mut k_max) = (f64::INFINITY, 0.0f64);
+        let mut point_compliance = 0.0;
         for a in 0..nx {
             let ia = if a <= nx / 2 {
                 a as f64
@@ -54,6 +58,9 @@ impl ElasticKernel {
                 if k > 0.0 {
                     stiffness[a * m + b] = k / n as f64;
                     compliance[a * m + b] = 1.0 / (k * n as f64);
+                    // the half spectrum holds b and −b once, except b = 0 and b = ny/2
+                    let twice = b != 0 && 2 * b != ny;
+                    point_compliance += if twice { 2.0 } else { 1.0 } / (k * n as f64);
                     k_min = k_min.min(k);
                     k_max = k_max.max(k);
                 }
@@ -66,9 +73,16 @@ impl ElasticKernel {
             green: None,
             k_min,
             k_max,
+            point_compliance,
             nx,
             ny,
         }
+    }
+
+    /// G(0): the displacement of a node under a unit pressure on that node alone (zero-mean
+    /// periodic Green's function at its source). 1/G(0) is the stiffness a single node feels.
+    pub fn point_compliance(&self) -> f64 {
+        self.point_compliance
     }
 
     /// Number of grid nodes.
@@ -198,6 +212,24 @@ mod tests {
     use super::*;
     use std::f64::consts::PI;
     use surface::{Lattice, Surface};
+
+    #[test]
+    fn point_compliance_is_the_displacement_under_a_unit_point_pressure() {
+        for (l, n) in [(Lattice::Square, 4), (Lattice::Triangular, 5)] {
+            let g = Surface::new(l, n).unwrap().grid;
+            let mut kern = ElasticKernel::new(&g, 1.0);
+            let mut e = vec![0.0; g.len()];
+            e[0] = 1.0;
+            let mut u = vec![0.0; g.len()];
+            kern.displacement(&e, &mut u);
+            let g0 = kern.point_compliance();
+            assert!(
+                g0 > 0.0 && (u[0] - g0).abs() < 1e-12 * g0,
+                "{l:?}: {} vs {g0}",
+                u[0]
+            );
+        }
+    }
 
     #[test]
     fn a_single_wave_has_stress_q_over_two_times_its_amplitude() {

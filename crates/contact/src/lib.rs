@@ -64,6 +64,16 @@ pub enum ContactError {
         /// Nodes in the grid.
         want: usize,
     },
+    /// A warm start holding a non-finite value.
+    #[error("warm start has a non-finite {field} value {value} at node {index}")]
+    WarmStartNonFinite {
+        /// `displacement` or `pressure`.
+        field: &'static str,
+        /// Offending value.
+        value: f64,
+        /// Flat node index.
+        index: usize,
+    },
     /// The body lost all contact under a tensile or zero load: there is no equilibrium.
     #[error(
         "the surfaces separated at mean pressure {pressure} (no contact, minimum gap {min_gap} > 20ρ): \
@@ -178,6 +188,8 @@ pub enum StopReason {
     Stagnation,
     /// The residual grew by orders of magnitude.
     ResidualGrowth,
+    /// The state holds NaN or infinite values.
+    NonFinite,
 }
 
 impl fmt::Display for StopReason {
@@ -194,6 +206,10 @@ impl fmt::Display for StopReason {
             StopReason::ResidualGrowth => {
                 "residual grew by orders of magnitude (diverging): reduce the load step, check ρ against the \
                  grid spacing, or use FIRE"
+            }
+            StopReason::NonFinite => {
+                "the state became non-finite (NaN or infinity): a numerical breakdown; try the other \
+                 method (polonsky-keer / fire) and please report the case"
             }
         })
     }
@@ -359,9 +375,21 @@ impl Model {
                         want: self.heights.len(),
                     });
                 }
+                let p = w.pressure.as_slice().expect("standard layout");
+                for (field, v) in [("displacement", u), ("pressure", p)] {
+                    if let Some((index, &value)) =
+                        v.iter().enumerate().find(|(_, x)| !x.is_finite())
+                    {
+                        return Err(ContactError::WarmStartNonFinite {
+                            field,
+                            value,
+                            index,
+                        });
+                    }
+                }
                 State {
                     u: u.to_vec(),
-                    p: w.pressure.as_slice().expect("standard layout").to_vec(),
+                    p: p.to_vec(),
                 }
             }
             None => self.cold_start(interaction, pressure),
@@ -374,6 +402,13 @@ impl Model {
         let (violation, force) = residuals(self, interaction, pressure, &state.u, opts.tol_gap);
         stats.max_violation = stats.max_violation.max(violation);
         stats.force_residual = stats.force_residual.max(force);
+        if !(violation.is_finite() && force.is_finite()) {
+            // never a silent number: NaN would pass every `<=` test above as a maximum
+            stats.converged = false;
+            stats.reason = Some(StopReason::NonFinite);
+            stats.max_violation = f64::INFINITY;
+            stats.force_residual = f64::INFINITY;
+        }
         stats.wall_s = t0.elapsed().as_secs_f64();
         Ok(self.finish(interaction, pressure, state, stats))
     }
@@ -519,6 +554,9 @@ pub fn residuals(
     for i in 0..n {
         let g = u[i] - model.heights[i];
         let wall = sigma[i] + pressure + interaction.derivative(g.max(0.0));
+        if !(g.is_finite() && wall.is_finite()) {
+            return (f64::INFINITY, f64::INFINITY);
+        }
         if g <= contact_tol {
             viol = viol.max(-g).max(if wall > 0.0 { g.abs() } else { 0.0 });
             force = force.max(-wall);

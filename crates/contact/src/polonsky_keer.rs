@@ -49,6 +49,10 @@ pub const DIRECT_CORRECTIONS: usize = 12;
 const STATS_EVERY: usize = 16;
 /// Iterations without a 1 % improvement of the violation after which the solve is stagnant.
 const STAGNATION: usize = 3000;
+
+/// Consecutive re-open-only steps (no descent direction on the contact set) before the solve
+/// stops as stagnated.
+const MAX_REOPEN_ONLY: usize = 50;
 /// Nodes per chunk of the grid passes (fixed, so partial sums do not depend on threads).
 const CHUNK: usize = 1 << 14;
 
@@ -517,6 +521,8 @@ fn relax<const TRACE: bool>(
         trace: Vec::new(),
     };
     let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
+    // Consecutive re-open-only steps (no descent direction on the contact set).
+    let mut reopen_only = 0usize;
     let mut shift = 0.0;
     // Gap statistics of the current state if the step pass could take them.
     let mut ready: Option<GapStats> = None;
@@ -570,6 +576,11 @@ fn relax<const TRACE: bool>(
             (norm / count).sqrt()
         };
         stats.max_violation = viol;
+        if !(shift.is_finite() && norm.is_finite() && viol.is_finite()) {
+            stats.reason = Some(StopReason::NonFinite);
+            stats.max_violation = f64::INFINITY;
+            break;
+        }
         if TRACE {
             stats.trace.push(gs.energy / nf);
         }
@@ -605,7 +616,12 @@ fn relax<const TRACE: bool>(
 
         // Conjugate direction on the contact set, built row by row as the transform reads it;
         // r = G t, with the line-search sums taken as its rows come out.
-        let beta = if conjugate { norm / g_old } else { 0.0 };
+        // (g_old = 0 when the gap was exactly uniform on the contact set, e.g. a single node)
+        let beta = if conjugate && g_old > 0.0 {
+            norm / g_old
+        } else {
+            0.0
+        };
         let m = gs.t_on / count;
         g_old = norm;
         let (uu, pp): (&[f64], &[f64]) = (u, p);
@@ -629,10 +645,20 @@ fn relax<const TRACE: bool>(
         );
         let denom = srt - sr / count * st;
         let tau = sgt / denom;
-        if !(denom > 0.0 && tau.is_finite()) {
+        // G is positive definite on zero-mean fields, so denom ≤ 0 means t ≈ 0: the gap is
+        // uniform on the contact set and the violation is penetration outside it (as from a
+        // warm start between two solutions). Then take a pure re-open step: the penetrating
+        // nodes receive the pressure that would lift each one alone, τ = 1/G(0).
+        let tau = if denom > 0.0 && tau.is_finite() {
+            reopen_only = 0;
+            tau
+        } else if reopen_only < MAX_REOPEN_ONLY {
+            reopen_only += 1;
+            1.0 / kernel.point_compliance()
+        } else {
             stats.reason = Some(StopReason::Stagnation);
             break;
-        }
+        };
 
         // Step, clip, re-open penetrating nodes; U follows along the line and c holds the
         // correction off it.
@@ -660,7 +686,7 @@ fn relax<const TRACE: bool>(
             .reduce(StepStats::merge)
             .expect("at least one chunk")
         };
-        conjugate = !step.overlap;
+        conjugate = !step.overlap && reopen_only == 0;
         let sigma_new = pressure * nf / step.psum;
         if step.corrected > DIRECT_CORRECTIONS {
             kernel.displacement_in_place(&mut c);

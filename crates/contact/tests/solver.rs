@@ -300,6 +300,59 @@ fn warm_start_from_the_solution_converges_at_once() {
     }
 }
 
+/// A warm start that interpolates two converged solutions just below and just above a change of
+/// the contact set is uniform in gap on its contact set but penetrates next to it: there is no
+/// descent direction on the contact set at the first step. Polonsky–Keer must re-open the
+/// penetrating nodes and converge (it used to stop after 2 iterations as "stagnated"), to the
+/// same state as a cold solve (the hard-wall problem is convex: one solution).
+#[test]
+fn a_warm_start_penetrating_outside_its_contact_set_converges() {
+    let (_, mut m) = model(Lattice::Square, 6);
+    let opts = SolverOptions {
+        method: Method::PolonskyKeer,
+        ..Default::default()
+    };
+    let (la, lb) = (1.436834681907683, 1.4369476317293879);
+    let lm = 0.5 * (la + lb);
+    let a = m.solve(Interaction::HardWall, la, &opts, None).unwrap();
+    let b = m.solve(Interaction::HardWall, lb, &opts, None).unwrap();
+    assert!(a.stats.converged && b.stats.converged);
+    let mut w = a.clone();
+    w.pressure
+        .zip_mut_with(&b.pressure, |p, q| *p = 0.5 * (*p + q));
+    let warm = m.solve(Interaction::HardWall, lm, &opts, Some(&w)).unwrap();
+    let cold = m.solve(Interaction::HardWall, lm, &opts, None).unwrap();
+    assert!(
+        warm.stats.converged,
+        "{:?} after {} iterations, violation {:e}",
+        warm.stats.reason, warm.stats.iterations, warm.stats.max_violation
+    );
+    assert!(warm.stats.max_violation <= opts.tol_gap);
+    let dg = warm
+        .gap
+        .iter()
+        .zip(&cold.gap)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    // both satisfy the constraints to 1e-10 h0; the solution is unique
+    assert!(
+        dg < 1e-8,
+        "warm and cold solutions differ by {dg:e} h0: warm a {} it {} mean p {} viol {:e} min gap {:e} min p {:e}; cold a {} it {} mean p {} mean gap {} vs {}",
+        warm.contact_area,
+        warm.stats.iterations,
+        warm.pressure.mean().unwrap(),
+        warm.stats.max_violation,
+        warm.gap.iter().cloned().fold(f64::INFINITY, f64::min),
+        warm.pressure.iter().cloned().fold(f64::INFINITY, f64::min),
+        cold.contact_area,
+        cold.stats.iterations,
+        cold.pressure.mean().unwrap(),
+        warm.mean_gap,
+        cold.mean_gap
+    );
+    assert_eq!(warm.contact_area, cold.contact_area);
+}
+
 #[test]
 fn every_result_reports_its_convergence() {
     let (s, mut m) = model(Lattice::Square, 6);
@@ -371,4 +424,12 @@ fn bad_input_gives_clear_errors() {
     h.heights[[2, 5]] = f64::NAN;
     let e = Model::new(&h).err().unwrap().to_string();
     assert!(e.contains("(2, 5)") && e.contains("NaN"), "{e}");
+    // a warm start with a NaN is refused, not propagated into a "converged" NaN state
+    let mut w = m.solve(Interaction::HardWall, 0.1, &o, None).unwrap();
+    w.pressure[[1, 2]] = f64::NAN;
+    let e = msg(m.solve(Interaction::HardWall, 0.1, &o, Some(&w)));
+    assert!(
+        e.contains("warm start") && e.contains("pressure") && e.contains("NaN"),
+        "{e}"
+    );
 }

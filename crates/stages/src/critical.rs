@@ -202,7 +202,7 @@ impl StageKind for CriticalKind {
         if retries > 0 {
             ctx.warn(format!(
                 "{retries} contact solves did not converge from their warm start and were repeated \
-                 from another start (see crates/critical/examples/pk_repro.rs)"
+                 from another start (unexpected since the re-open step of Polonsky–Keer: please report)"
             ));
         }
         let finest = study.levels.last().expect("levels");
