@@ -1,6 +1,6 @@
 # saddleflow tasks. `./bootstrap` installs just and the HDF5 library first.
 
-bin := "target/release/saddleflow"
+bin := env_var_or_default("CARGO_TARGET_DIR", "target") / "release/saddleflow"
 
 # List the recipes.
 default:
