@@ -109,6 +109,18 @@ pub fn run(a: Args) -> Result<()> {
     }
     let mut summary = io::solution_json(&sol);
     let obj = summary.as_object_mut().expect("object");
+    // the cohesive zone ρ²E*/γ against the grid spacing: jumps and pull-off are mesh-dependent
+    // below ~4 spacings (PHYSICS.md)
+    if let Some(zone) = interaction.cohesive_zone_length(1.0) {
+        let dx = surface.grid.lx / surface.grid.nx as f64;
+        let spacings = zone / dx;
+        if spacings < 4.0 {
+            eprintln!(
+                "warning: under-resolved cohesive zone: ρ²E*/γ = {zone:.3e} λ spans {spacings:.2} grid spacings (dx = {dx:.3e} λ), fewer than 4; instabilities depend on the mesh (use a larger --n)"
+            );
+        }
+        obj.insert("cohesive_zone_spacings".into(), json!(spacings));
+    }
     obj.insert("lattice".into(), json!(lattice.name()));
     obj.insert("n".into(), json!(a.n));
     obj.insert("p_fc".into(), json!(p_fc));
