@@ -20,6 +20,7 @@ pub mod config;
 pub mod events;
 pub mod kind;
 pub mod lock;
+pub mod memory;
 pub mod ops;
 pub mod plan;
 pub mod progress;

@@ -303,7 +303,7 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
                 let tx = tx.clone();
                 let ws = ws.clone();
                 scope.spawn(move || {
-                    let r = execute(&ws, plan, s, Some(sink));
+                    let r = execute(&ws, plan, s, Some(sink), jobs == 1);
                     let _ = tx.send((i, r));
                 });
                 running += 1;
@@ -477,7 +477,7 @@ pub fn run_stage(
     let progress = Progress::new(opts.progress, 1, s.cost);
     log.push(&s.name, &s.kind, &s.key, What::Started);
     let sink = progress.started(&s.name, &s.kind, s.cost);
-    let result = execute(ws, plan, s, Some(sink));
+    let result = execute(ws, plan, s, Some(sink), true);
     match result {
         Ok(x) => {
             progress.finished(
@@ -535,12 +535,17 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
 }
 
 /// Computes one stage from cached inputs and publishes its artefact, then its side outputs.
+/// `alone`: no other stage runs in this process meanwhile, so the process's peak memory during
+/// the stage is the stage's own (recorded as `peak_rss_mib` with `peak_rss_scope` "stage";
+/// otherwise "process", an upper bound).
 fn execute(
     ws: &Workspace,
     plan: &Plan,
     s: &PlannedStage,
     sink: Option<Arc<dyn ProgressSink>>,
+    alone: bool,
 ) -> Result<Executed> {
+    let own_peak = alone && crate::memory::reset_peak();
     // open inputs
     let mut map = BTreeMap::new();
     for (iname, names) in &s.inputs {
@@ -605,6 +610,13 @@ fn execute(
     } else {
         report.stats.clone()
     };
+    if let (Some(peak), Some(obj)) = (crate::memory::peak_mib(), prov.stats.as_object_mut()) {
+        obj.insert("peak_rss_mib".into(), serde_json::json!(peak));
+        obj.insert(
+            "peak_rss_scope".into(),
+            serde_json::json!(if own_peak { "stage" } else { "process" }),
+        );
+    }
     prov.warnings = warnings.clone();
     prov.side_outputs = records;
     out.write_provenance(&prov)?;
