@@ -8,6 +8,7 @@ mod critical;
 mod flow;
 mod pipeline;
 mod solve;
+mod tradeoff;
 
 #[derive(Parser)]
 #[command(
@@ -29,6 +30,9 @@ enum Command {
     /// Locate the percolation threshold (L_c, a_p) of the hard-wall contact and print a JSON
     /// summary.
     Critical(critical::Args),
+    /// Error against cost of every headline number across fidelity presets (reads the cache):
+    /// figure, tables and the README's trade table.
+    Tradeoff(tradeoff::Args),
     #[command(flatten)]
     Pipeline(pipeline::Command),
 }
@@ -39,6 +43,7 @@ fn main() -> std::process::ExitCode {
         Command::Solve(args) => solve::run(args),
         Command::Flow(args) => flow::run(args),
         Command::Critical(args) => critical::run(args),
+        Command::Tradeoff(args) => tradeoff::run(args),
         Command::Pipeline(cmd) => pipeline::run(cmd),
     };
     match result {

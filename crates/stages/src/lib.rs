@@ -23,12 +23,14 @@ pub mod figure;
 pub mod flow;
 pub mod flowmap;
 pub mod gapfile;
+pub mod headline;
 pub mod io;
 pub mod mock;
 pub mod resolution;
 pub mod surface;
 pub mod sweep;
 pub mod table;
+pub mod tradeoff;
 
 /// Re-exported so the CLI reaches the engine through this crate.
 pub use orchestrator;
