@@ -9,25 +9,97 @@
 //! - `current` (optional): a `flowmap` stage, the current density near the critical load
 //!   (bottom right), shown in a window around the constriction (the node of largest |j|).
 //!
-//! The bottom-left panel (normalised flux against L_c − L, log–log, with the fitted slope β)
-//! belongs to the near-critical study; until that study provides an input it stays empty.
+//! - `ladder` (optional, any kind): the bottom-left panel, normalised flux against
+//!   (L_c − L)/L_c on log–log axes with the fitted slope β, from the near-critical study. This
+//!   module only reads it; without it the panel stays empty. Contract (see [`read_ladder`]):
+//!   per model, datasets `ladder/<lattice>/distance` ((L_c − L)/L_c > 0) and
+//!   `ladder/<lattice>/flux` (normalised flux > 0, same length), optionally
+//!   `ladder/<lattice>/flux_err` (1σ); optional root attributes `beta`, `beta_err`,
+//!   `beta_prefactor` (the fit Q/Q_0 = prefactor · distance^β drawn over the data). Several
+//!   `ladder` artefacts may each hold some of the models; the fit is taken from the first one
+//!   that carries `beta` and `beta_prefactor`.
 
 use crate::flow::FlowData;
 use anyhow::{Result, bail};
-use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve};
+use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit};
 use figures::style::Model;
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use serde_json::{Value, json};
 
-/// The inputs Figure 6's kinds take.
+/// The `flow` input (all the table kind takes).
+pub fn flow_input() -> InputSpec {
+    InputSpec::many("flow", &["flow"])
+        .doc("flow stages along load paths (one curve each: model and γ0 from the artefact)")
+}
+
+/// The inputs Figure 6's figure takes.
 pub fn inputs() -> Vec<InputSpec> {
     vec![
-        InputSpec::many("flow", &["flow"])
-            .doc("flow stages along load paths (one curve each: model and γ0 from the artefact)"),
+        flow_input(),
         InputSpec::one("current", &["flowmap"])
             .optional()
             .doc("near-critical current density (bottom right)"),
+        InputSpec::many("ladder", &[])
+            .optional()
+            .doc("near-critical flux ladder and β fit (bottom left): `ladder/<lattice>/{distance, flux, flux_err}`, attributes `beta`, `beta_err`, `beta_prefactor`"),
     ]
+}
+
+/// The bottom-left panel's data from the `ladder` inputs (contract in the module docs): the
+/// normalised-flux points per model and the power-law fit, if any.
+pub fn read_ladder(inputs: &Inputs) -> Result<(Vec<NormalisedFlux>, Option<PowerLawFit>)> {
+    let mut points = Vec::new();
+    let mut fit = None;
+    for r in inputs.all("ladder") {
+        let file = r.path().display();
+        for m in Model::ALL {
+            let g = format!("ladder/{}", m.name());
+            if !r.has_dataset(&format!("{g}/distance")) {
+                continue;
+            }
+            let distance = r.read_f64_1d(&format!("{g}/distance"))?;
+            let flux = r.read_f64_1d(&format!("{g}/flux"))?;
+            let flux_err = if r.has_dataset(&format!("{g}/flux_err")) {
+                Some(r.read_f64_1d(&format!("{g}/flux_err"))?)
+            } else {
+                None
+            };
+            if flux.len() != distance.len()
+                || flux_err.as_ref().is_some_and(|e| e.len() != distance.len())
+            {
+                bail!(
+                    "`{file}`: {g}/distance, {g}/flux (and {g}/flux_err) must have the same \
+                     length"
+                );
+            }
+            if let Some(k) = (0..distance.len()).find(|&k| !(distance[k] > 0.0 && flux[k] > 0.0)) {
+                bail!(
+                    "`{file}`: {g} point {k} has distance {} and flux {}; both must be > 0 \
+                     (log–log panel)",
+                    distance[k],
+                    flux[k]
+                );
+            }
+            points.push(NormalisedFlux {
+                model: m,
+                distance,
+                flux,
+                flux_err,
+            });
+        }
+        if fit.is_none() && r.has_attr("beta") && r.has_attr("beta_prefactor") {
+            fit = Some(PowerLawFit {
+                exponent: r.attr_f64("beta")?,
+                exponent_err: if r.has_attr("beta_err") {
+                    Some(r.attr_f64("beta_err")?)
+                } else {
+                    None
+                },
+                prefactor: r.attr_f64("beta_prefactor")?,
+            });
+        }
+    }
+    Ok((points, fit))
 }
 
 /// The model of a lattice name.
@@ -165,6 +237,7 @@ pub fn data(ctx: &mut StageContext, inputs: &Inputs, params: &Params) -> Result<
         [r] => Some(current_map(r, params)?),
         _ => None,
     };
+    let (normalised, fit) = read_ladder(inputs)?;
     let data = Fig6Data {
         flow: curves,
         load_label: if unit == "p_fc" {
@@ -174,9 +247,9 @@ pub fn data(ctx: &mut StageContext, inputs: &Inputs, params: &Params) -> Result<
         },
         flux_label: "conductivity $K$ / $h$_0^3".into(),
         flux_log: params.bool("flux_log").unwrap_or(true),
-        normalised: Vec::new(),
+        normalised,
         distance_label: "($L$_c − $L$)/$L$_c".into(),
-        fit: None,
+        fit,
         current,
     };
     Ok((data, json!({ "curves": stats })))

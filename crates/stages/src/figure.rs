@@ -7,12 +7,17 @@
 //!   loading red, unloading blue, detected jumps circled, p_fc marked. `log_area = true` draws
 //!   the area on a log axis (shows the small-area hysteresis). Points that did not converge
 //!   are left out, with a warning.
+//! - `fig6`: flux (effective conductivity) against load for the three models, hard wall solid
+//!   and adhesion dashed with the point where its flow stops marked; the near-critical current
+//!   density; the near-critical flux ladder when a `ladder` input provides it (inputs and
+//!   contract: [`crate::fig6`]). `load_unit` (`absolute` or `p_fc`), `flux_log`,
+//!   `map_half_width` (λ, 0: the whole cell) and `map_arrows` adjust it.
 //!
 //! Artefact: attributes `scene`, `points_plotted`, `points_left_out` (the figure files
 //! themselves are kept inside the artefact by the engine, as every side output).
 
-use crate::fig2;
 use crate::sweep::SweepData;
+use crate::{fig2, fig6};
 use anyhow::Result;
 use figures::scenes::fig2::{Branch, Fig2Data, LoadLoop};
 use orchestrator::{
@@ -29,7 +34,7 @@ pub struct FigureKind;
 pub const CODE_VERSION: u64 = 1;
 
 /// Scenes this kind renders.
-pub const SCENES: &[&str] = &["fig2"];
+pub const SCENES: &[&str] = &["fig2", "fig6"];
 
 /// The output stem (`figures/<scene>` unless `output` is given).
 fn stem(params: &Params) -> String {
@@ -105,6 +110,18 @@ impl StageKind for FigureKind {
             ParamSpec::new("log_area", ParamType::Bool)
                 .default(false)
                 .doc("fig2: logarithmic area axis"),
+            ParamSpec::new("load_unit", ParamType::one_of(&["absolute", "p_fc"]))
+                .default("absolute")
+                .doc("fig6: load axis in E* h0/λ or in units of each model's p_fc"),
+            ParamSpec::new("flux_log", ParamType::Bool)
+                .default(true)
+                .doc("fig6: logarithmic flux axis"),
+            ParamSpec::new("map_half_width", ParamType::non_negative())
+                .default(0.3)
+                .doc("fig6: half width (λ) of the current map's window around its largest |j| (0: the whole cell)"),
+            ParamSpec::new("map_arrows", ParamType::int_range(0, 60))
+                .default(12)
+                .doc("fig6: arrows per side of the current map (0: none)"),
             ParamSpec::new("output", ParamType::string())
                 .default("")
                 .doc("output stem relative to the project root (default figures/<scene>)"),
@@ -116,6 +133,7 @@ impl StageKind for FigureKind {
     fn inputs(&self, params: &Params) -> Vec<InputSpec> {
         match params.str("scene") {
             Ok("fig2") => fig2::inputs(),
+            Ok("fig6") => fig6::inputs(),
             _ => Vec::new(),
         }
     }
@@ -134,6 +152,7 @@ impl StageKind for FigureKind {
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
         let scene = params.str("scene")?;
+        let mut scene_stats = serde_json::Value::Null;
         let fig = match scene {
             "fig2" => {
                 let sweeps = fig2::read(inputs)?;
@@ -175,6 +194,14 @@ impl StageKind for FigureKind {
                 out.set_attr("points_left_out", left_out as i64)?;
                 figures::scenes::fig2::figure(&data)?
             }
+            "fig6" => {
+                let (data, stats) = fig6::data(ctx, inputs, params)?;
+                let plotted: usize = data.flow.iter().map(|c| c.load.len()).sum();
+                out.set_attr("points_plotted", plotted as i64)?;
+                out.set_attr("curves", stats.clone())?;
+                scene_stats = stats;
+                figures::scenes::fig6::figure(&data)?
+            }
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };
         ctx.progress(0.3, "drawing");
@@ -189,6 +216,7 @@ impl StageKind for FigureKind {
         Ok(StageReport::with_stats(json!({
             "png_bytes": png_bytes,
             "svg_bytes": svg_bytes,
+            "scene": scene_stats,
         })))
     }
 }

@@ -8,7 +8,7 @@
 //! |---|---|---|---|
 //! | `surface` | one of the three models on a 2^n × 2^n grid, statistics, critical points | – | `height`, `lx`, `ly`, `critical/*` |
 //! | `sweep` | quasi-static loading/unloading path (or γ path at fixed load): area, gap, energy, solver statistics per point, detected jumps, pull-off | `surface` | `points/*`, `jumps/*`, `ended/*`, optional `fields/*` |
-//! | `figure` | one of the paper's figures (`scene = "fig2"`, ...) | per scene (fig2: `hardwall`, `adhesion`, `repulsion` sweeps) | side outputs `figures/<scene>.png`, `.svg` |
+//! | `figure` | one of the paper's figures (`scene = "fig2"`, ...) | per scene (fig2: `hardwall`, `adhesion`, `repulsion` sweeps; fig6: `flow` stages, optional `current` flowmap and `ladder`) | side outputs `figures/<scene>.png`, `.svg` |
 //! | `table` | a scene's data as CSV (`scene = "fig2"`, ...) | per scene (as `figure`) | side outputs `results/tables/<scene>*.csv` |
 //! | `flow` | Reynolds flow at every stored gap of a load path: flux, conductivity, percolation, where flow stops; optional current densities | `sweep` | `points/*`, `stops/*`, `currents/*` |
 //! | `flowmap` | current density at a near-critical hard-wall state l = (L − L_c)/L_c < 0 (L_c by bisection on the grid) | `surface` | `gap`, `pressure`, `current_x`, `current_y`, `bisection/*` |
@@ -19,6 +19,7 @@
 pub mod critical;
 pub mod fig2;
 pub mod fig4;
+pub mod fig6;
 pub mod figure;
 pub mod flow;
 pub mod flowmap;

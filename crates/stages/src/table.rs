@@ -19,11 +19,13 @@
 //!     which the two branches are in different states): `interaction`, `load_lo`, `load_hi`,
 //!     `load_lo_over_p_fc`, `load_hi_over_p_fc`, `max_area_difference`,
 //!     `load_at_max_over_p_fc`.
+//! - `fig6` (inputs `flow`: `flow` stages along load paths) writes `fig6.csv` (every flow
+//!   point) and `fig6_stops.csv` (where the flow stops), columns in [`crate::fig6::tables`].
 //!
 //! Artefact: attributes `scene`, `rows` (JSON: file → number of rows).
 
-use crate::fig2;
 use crate::figure::check_relative;
+use crate::{fig2, fig6};
 use anyhow::{Context, Result};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
@@ -41,7 +43,7 @@ pub struct TableKind;
 pub const CODE_VERSION: u64 = 1;
 
 /// Scenes this kind tabulates.
-pub const SCENES: &[&str] = &["fig2"];
+pub const SCENES: &[&str] = &["fig2", "fig6"];
 
 /// The files a scene writes, relative to `output_dir`.
 fn files(scene: &str) -> Vec<String> {
@@ -51,6 +53,7 @@ fn files(scene: &str) -> Vec<String> {
             "fig2_jumps.csv".into(),
             "fig2_loops.csv".into(),
         ],
+        "fig6" => fig6::TABLE_FILES.iter().map(|s| s.to_string()).collect(),
         _ => Vec::new(),
     }
 }
@@ -210,6 +213,7 @@ impl StageKind for TableKind {
     fn inputs(&self, params: &Params) -> Vec<InputSpec> {
         match params.str("scene") {
             Ok("fig2") => fig2::inputs(),
+            Ok("fig6") => vec![fig6::flow_input()],
             _ => Vec::new(),
         }
     }
@@ -234,6 +238,7 @@ impl StageKind for TableKind {
         let d = dir(params);
         let tables = match scene {
             "fig2" => fig2_tables(inputs)?,
+            "fig6" => fig6::tables(inputs)?,
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };
         let mut rows = serde_json::Map::new();

@@ -10,7 +10,7 @@ use anyhow::{Result, ensure};
 use ndarray::Array2;
 
 use crate::axes::Axis;
-use crate::canvas::Rect;
+use crate::canvas::{HAlign, Rect, VAlign};
 use crate::figure::Figure;
 use crate::heatmap::{ColorbarPos, Colormap, HeatmapPanel, Overlay};
 use crate::style::{DARK_GREY, MarkerStyle, Model, Stroke, WHITE, model_color, model_marker};
@@ -205,6 +205,18 @@ fn bottom_left(d: &Fig6Data) -> Result<XyPanel> {
             }
         }
     }
+    if d.normalised.is_empty() {
+        // the near-critical study provides this panel; say so instead of leaving it blank
+        p.x = p.x.clone().range(0.1, 10.0);
+        p.y = p.y.clone().range(0.1, 10.0);
+        p.annotations.push(Annotation::Text {
+            at: (1.0, 1.0),
+            text: "no near-critical flux data".into(),
+            h: HAlign::Center,
+            v: VAlign::Center,
+            color: DARK_GREY,
+        });
+    }
     if let Some(fit) = d.fit
         && hi > lo
     {
@@ -301,7 +313,7 @@ pub fn figure(d: &Fig6Data) -> Result<Figure> {
     let mut top = top_panel(d)?;
     top.tag = Some("(a)".into());
     f.xy(rows[0], top);
-    let bottom = rows[1].columns(&[1.0, 1.0], 12.0);
+    let bottom = rows[1].columns(&[0.85, 1.15], 12.0);
     let mut bl = bottom_left(d)?;
     bl.tag = Some("(b)".into());
     f.xy(bottom[0], bl);
