@@ -1,6 +1,6 @@
 //! The real pipeline on tiny grids, through the real binary: `saddleflow run -C <tmp> --params
 //! params/smoke.toml` on copies of the project's pipeline/ and params/ files. Checks the
-//! artefacts, Figure 2's files and tables (physically sane values), and that editing one
+//! artefacts, Figure 2's and Figure 6's files and tables (physically sane values), and that editing one
 //! parameter reruns exactly the stages downstream of it while an unchanged rerun runs nothing
 //! (from the runner's event log).
 
@@ -254,12 +254,15 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
     assert!(j.f64("load_after").unwrap()[pull] < 0.0);
     assert!(ji.iter().any(|i| i == "adhesion") && je.iter().any(|e| e != "pull-off"));
 
-    // 5. unchanged rerun: nothing runs
+    // 5. Figure 6: files, flux-vs-load table, where the flow stops
+    fig6_outputs(root);
+
+    // 6. unchanged rerun: nothing runs
     let events = run_smoke(root, &[]);
     assert!(stages_with(&events, "ran").is_empty(), "{events:?}");
     assert_eq!(stages_with(&events, "cached"), all);
 
-    // 6. one edited parameter reruns exactly what is downstream of it
+    // 7. one edited parameter reruns exactly what is downstream of it
     let p = root.join("params/smoke.toml");
     let text = std::fs::read_to_string(&p).unwrap();
     let edited = text.replace("fig2_tension_step = 0.01", "fig2_tension_step = 0.005");
@@ -283,4 +286,131 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
         .filter(|e| e["event"] == "planned" && e["stage"] == "fig2_adhesion")
         .collect();
     assert_eq!(why[0]["reasons"][0], "params_changed", "{why:?}");
+}
+
+/// Figure 6's PNG/SVG and CSV tables: one curve per model and interaction, every flow solve
+/// converged, flux ≥ 0, hard-wall flux non-increasing with load (the gap shrinks everywhere as
+/// the load grows and the conductivity is monotone in the gap), zero once the flow has stopped,
+/// and every curve stopping inside its path, with adhesion stopping at a lower load than the
+/// hard wall (it pulls the surfaces into contact).
+fn fig6_outputs(root: &Path) {
+    let png = std::fs::read(root.join("figures/fig6.png")).unwrap();
+    let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png)
+        .expect("fig6.png decodes");
+    assert!(img.width() >= 400 && img.height() >= 400);
+    let svg = std::fs::read_to_string(root.join("figures/fig6.svg")).unwrap();
+    assert!(svg.contains("conductivity"), "axis label in the SVG");
+
+    let t = tables::read_csv(
+        &root.join("results/tables/fig6.csv"),
+        &[
+            ("lattice", ColumnType::Str),
+            ("gamma0", ColumnType::F64),
+            ("branch", ColumnType::Str),
+            ("load", ColumnType::F64),
+            ("load_over_p_fc", ColumnType::F64),
+            ("contact_area", ColumnType::F64),
+            ("conductivity", ColumnType::F64),
+            ("flux", ColumnType::F64),
+            ("percolating", ColumnType::Bool),
+            ("converged", ColumnType::Bool),
+            ("contact_converged", ColumnType::Bool),
+        ],
+    )
+    .unwrap();
+    let (lat, g0, br) = (
+        t.str("lattice").unwrap(),
+        t.f64("gamma0").unwrap(),
+        t.str("branch").unwrap(),
+    );
+    let (load, k, q) = (
+        t.f64("load").unwrap(),
+        t.f64("conductivity").unwrap(),
+        t.f64("flux").unwrap(),
+    );
+    let perc = t.bool("percolating").unwrap();
+    assert!(t.bool("converged").unwrap().iter().all(|&c| c));
+    assert!(t.bool("contact_converged").unwrap().iter().all(|&c| c));
+    assert!(br.iter().all(|b| b == "loading"), "loading branches only");
+    let stops = tables::read_csv(
+        &root.join("results/tables/fig6_stops.csv"),
+        &[
+            ("lattice", ColumnType::Str),
+            ("gamma0", ColumnType::F64),
+            ("load_flowing", ColumnType::F64),
+            ("load_blocked", ColumnType::F64),
+            ("conductivity_flowing", ColumnType::F64),
+        ],
+    )
+    .unwrap();
+    let (s_lat, s_g0) = (stops.str("lattice").unwrap(), stops.f64("gamma0").unwrap());
+    let (s_lf, s_lb) = (
+        stops.f64("load_flowing").unwrap(),
+        stops.f64("load_blocked").unwrap(),
+    );
+    for lattice in ["hexagonal", "square", "triangular"] {
+        let mut stop_load = [0.0; 2];
+        for (c, gamma0) in [0.0, 0.05].into_iter().enumerate() {
+            let rows: Vec<usize> = (0..t.n_rows())
+                .filter(|&r| lat[r] == lattice && g0[r] == gamma0)
+                .collect();
+            assert!(
+                rows.len() >= 5,
+                "{lattice} γ0 = {gamma0}: {} rows",
+                rows.len()
+            );
+            let first_blocked = rows
+                .iter()
+                .position(|&r| !perc[r])
+                .unwrap_or_else(|| panic!("{lattice} γ0 = {gamma0}: the flow never stops"));
+            assert!(
+                first_blocked > 0,
+                "{lattice} γ0 = {gamma0}: no flow at the start"
+            );
+            for (i, &r) in rows.iter().enumerate() {
+                assert!(
+                    k[r] >= 0.0 && q[r] >= 0.0,
+                    "{lattice} γ0 = {gamma0}: K = {}",
+                    k[r]
+                );
+                if i >= first_blocked {
+                    assert!(
+                        !perc[r] && k[r] == 0.0 && q[r] == 0.0,
+                        "{lattice} γ0 = {gamma0}: flow after it stopped at load {}",
+                        load[r]
+                    );
+                } else {
+                    assert!(
+                        k[r] > 0.0,
+                        "{lattice} γ0 = {gamma0}: percolating with K = 0"
+                    );
+                }
+                if i > 0 {
+                    assert!(load[r] > load[rows[i - 1]], "loads increase along the path");
+                    if gamma0 == 0.0 {
+                        assert!(
+                            k[r] <= k[rows[i - 1]] * (1.0 + 1e-9),
+                            "{lattice} hard wall: K grows from {} to {} at load {}",
+                            k[rows[i - 1]],
+                            k[r],
+                            load[r]
+                        );
+                    }
+                }
+            }
+            let s: Vec<usize> = (0..stops.n_rows())
+                .filter(|&r| s_lat[r] == lattice && s_g0[r] == gamma0)
+                .collect();
+            assert_eq!(s.len(), 1, "{lattice} γ0 = {gamma0}: one stop");
+            let (rf, rb) = (rows[first_blocked - 1], rows[first_blocked]);
+            assert_eq!((s_lf[s[0]], s_lb[s[0]]), (load[rf], load[rb]));
+            stop_load[c] = s_lb[s[0]];
+        }
+        assert!(
+            stop_load[1] < stop_load[0],
+            "{lattice}: adhesive flow stops at {} (blocked), the hard wall's at {}",
+            stop_load[1],
+            stop_load[0]
+        );
+    }
 }

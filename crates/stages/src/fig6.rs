@@ -434,6 +434,69 @@ mod tests {
         assert!(png.len() > 1000);
     }
 
+    fn ladder_inputs(dir: &std::path::Path, write: &dyn Fn(&mut store::ArtefactWriter)) -> Inputs {
+        let path = dir.join("ladder.h5");
+        let _ = std::fs::remove_file(&path);
+        let mut w = store::ArtefactWriter::create(&path).unwrap();
+        write(&mut w);
+        w.publish().unwrap();
+        let r = store::ArtefactReader::open(&path).unwrap();
+        Inputs::new([("ladder".to_string(), vec![r])].into_iter().collect())
+    }
+
+    /// The `ladder` contract: per-model points (optional errors) and the β fit; models the
+    /// artefact does not hold are absent; bad data is an error naming the dataset.
+    #[test]
+    fn ladder_input_fills_the_bottom_left_panel() {
+        let dir = tempfile::tempdir().unwrap();
+        let inputs = ladder_inputs(dir.path(), &|w| {
+            w.write_f64_1d("ladder/square/distance", &[0.002, 0.01])
+                .unwrap();
+            w.write_f64_1d("ladder/square/flux", &[1e-9, 3e-7]).unwrap();
+            w.write_f64_1d("ladder/square/flux_err", &[1e-10, 2e-8])
+                .unwrap();
+            w.write_f64_1d("ladder/triangular/distance", &[0.005])
+                .unwrap();
+            w.write_f64_1d("ladder/triangular/flux", &[2e-8]).unwrap();
+            w.set_attr("beta", 3.45).unwrap();
+            w.set_attr("beta_err", 0.05).unwrap();
+            w.set_attr("beta_prefactor", 0.7).unwrap();
+        });
+        let (points, fit) = read_ladder(&inputs).unwrap();
+        assert_eq!(points.len(), 2);
+        assert_eq!(points[0].model, Model::Square);
+        assert_eq!(points[0].distance, [0.002, 0.01]);
+        assert_eq!(points[0].flux, [1e-9, 3e-7]);
+        assert_eq!(points[0].flux_err.as_deref(), Some(&[1e-10, 2e-8][..]));
+        assert_eq!(points[1].model, Model::Triangular);
+        assert_eq!(points[1].flux_err, None);
+        let fit = fit.unwrap();
+        assert_eq!(
+            (fit.exponent, fit.exponent_err, fit.prefactor),
+            (3.45, Some(0.05), 0.7)
+        );
+
+        let inputs = ladder_inputs(dir.path(), &|w| {
+            w.write_f64_1d("ladder/hexagonal/distance", &[0.002, 0.0])
+                .unwrap();
+            w.write_f64_1d("ladder/hexagonal/flux", &[1e-9, 3e-7])
+                .unwrap();
+        });
+        let e = read_ladder(&inputs).unwrap_err().to_string();
+        assert!(e.contains("ladder/hexagonal point 1"), "{e}");
+        let inputs = ladder_inputs(dir.path(), &|w| {
+            w.write_f64_1d("ladder/hexagonal/distance", &[0.002, 0.01])
+                .unwrap();
+            w.write_f64_1d("ladder/hexagonal/flux", &[1e-9]).unwrap();
+        });
+        let e = read_ladder(&inputs).unwrap_err().to_string();
+        assert!(e.contains("same length"), "{e}");
+
+        let none = Inputs::new(Default::default());
+        let (points, fit) = read_ladder(&none).unwrap();
+        assert!(points.is_empty() && fit.is_none());
+    }
+
     #[test]
     fn curves_stop_at_the_first_blocked_point() {
         let d = FlowData {
