@@ -305,39 +305,46 @@ pub const TABLE_FILES: [&str; 2] = ["fig6.csv", "fig6_stops.csv"];
 ///   `contact_area_flowing`, `contact_area_blocked`.
 pub fn tables(inputs: &Inputs) -> Result<Vec<tables::Table>> {
     use tables::Table;
-    let mut rows: Vec<(String, f64, String, f64, f64, f64, f64, f64)> = Vec::new();
-    let mut flags: Vec<(bool, bool, bool, String, i64, f64, f64, String, i64)> = Vec::new();
+    // points, column by column
+    let (mut lat, mut g0, mut branch) = (vec![], vec![], vec![]);
+    let (mut load, mut load_r, mut area, mut cond, mut flux) =
+        (vec![], vec![], vec![], vec![], vec![]);
+    let (mut perc, mut conv, mut cconv, mut term) = (vec![], vec![], vec![], vec![]);
+    let (mut iters, mut resid, mut cons, mut axis, mut n) =
+        (vec![], vec![], vec![], vec![], vec![]);
     let (mut s_lat, mut s_g, mut s_br) = (vec![], vec![], vec![]);
     let (mut s_lf, mut s_lb, mut s_lfr, mut s_lbr, mut s_k, mut s_af, mut s_ab) =
         (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
     for r in inputs.all("flow") {
         let d = FlowData::read(r)?;
-        let term = r.read_strings("points/termination")?;
-        let iters = r.read_i64_1d("points/iterations")?;
-        let resid = r.read_f64_1d("points/residual")?;
-        let cons = r.read_f64_1d("points/conservation_error")?;
+        term.extend(r.read_strings("points/termination")?);
+        iters.extend(r.read_i64_1d("points/iterations")?);
+        resid.extend(r.read_f64_1d("points/residual")?);
+        cons.extend(r.read_f64_1d("points/conservation_error")?);
         for k in 0..d.load.len() {
-            rows.push((
-                d.lattice.clone(),
-                d.gamma0,
-                d.branch[k].clone(),
-                d.load[k],
-                d.load[k] / d.p_fc,
-                d.contact_area[k],
-                d.conductivity[k],
-                d.flux[k],
-            ));
-            flags.push((
-                d.percolating[k],
-                d.converged[k],
-                d.contact_converged[k],
-                term[k].clone(),
-                iters[k],
-                resid[k],
-                cons[k],
-                d.axis.clone(),
-                d.n,
-            ));
+            lat.push(d.lattice.clone());
+            g0.push(d.gamma0);
+            branch.push(d.branch[k].clone());
+            load.push(d.load[k]);
+            load_r.push(d.load[k] / d.p_fc);
+            area.push(d.contact_area[k]);
+            cond.push(d.conductivity[k]);
+            flux.push(d.flux[k]);
+            perc.push(d.percolating[k]);
+            conv.push(d.converged[k]);
+            cconv.push(d.contact_converged[k]);
+            axis.push(d.axis.clone());
+            n.push(d.n);
+        }
+        if [term.len(), iters.len(), resid.len(), cons.len()]
+            .iter()
+            .any(|&l| l != lat.len())
+        {
+            bail!(
+                "`{}`: points/termination, iterations, residual, conservation_error and load \
+                 differ in length",
+                r.path().display()
+            );
         }
         let br = r.read_strings("stops/branch")?;
         let lf = r.read_f64_1d("stops/load_flowing")?;
@@ -359,23 +366,23 @@ pub fn tables(inputs: &Inputs) -> Result<Vec<tables::Table>> {
         }
     }
     let points = Table::new()
-        .with_str("lattice", rows.iter().map(|r| r.0.clone()))
-        .with_f64("gamma0", rows.iter().map(|r| r.1))
-        .with_str("branch", rows.iter().map(|r| r.2.clone()))
-        .with_f64("load", rows.iter().map(|r| r.3))
-        .with_f64("load_over_p_fc", rows.iter().map(|r| r.4))
-        .with_f64("contact_area", rows.iter().map(|r| r.5))
-        .with_f64("conductivity", rows.iter().map(|r| r.6))
-        .with_f64("flux", rows.iter().map(|r| r.7))
-        .with_bool("percolating", flags.iter().map(|f| f.0))
-        .with_bool("converged", flags.iter().map(|f| f.1))
-        .with_bool("contact_converged", flags.iter().map(|f| f.2))
-        .with_str("termination", flags.iter().map(|f| f.3.clone()))
-        .with_i64("iterations", flags.iter().map(|f| f.4))
-        .with_f64("residual", flags.iter().map(|f| f.5))
-        .with_f64("conservation_error", flags.iter().map(|f| f.6))
-        .with_str("axis", flags.iter().map(|f| f.7.clone()))
-        .with_i64("n", flags.iter().map(|f| f.8));
+        .with_str("lattice", lat)
+        .with_f64("gamma0", g0)
+        .with_str("branch", branch)
+        .with_f64("load", load)
+        .with_f64("load_over_p_fc", load_r)
+        .with_f64("contact_area", area)
+        .with_f64("conductivity", cond)
+        .with_f64("flux", flux)
+        .with_bool("percolating", perc)
+        .with_bool("converged", conv)
+        .with_bool("contact_converged", cconv)
+        .with_str("termination", term)
+        .with_i64("iterations", iters)
+        .with_f64("residual", resid)
+        .with_f64("conservation_error", cons)
+        .with_str("axis", axis)
+        .with_i64("n", n);
     let stops = Table::new()
         .with_str("lattice", s_lat)
         .with_f64("gamma0", s_g)
@@ -503,7 +510,7 @@ mod tests {
             lattice: "square".into(),
             interaction: "adhesion".into(),
             gamma0: 0.05,
-            p_fc: 6.28,
+            p_fc: std::f64::consts::TAU,
             axis: "x".into(),
             n: 5,
             branch: vec!["loading".into(); 6],
