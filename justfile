@@ -24,6 +24,13 @@ paper *ARGS: build
 smoke *ARGS: build
     {{bin}} run --params params/smoke.toml {{ARGS}}
 
+# Error against cost of every headline number across the presets (runs them first), README table.
+tradeoff: build
+    {{bin}} run --params params/smoke.toml -j 2
+    {{bin}} run --params params/draft.toml -j 2
+    {{bin}} run --params params/paper.toml -j 2
+    {{bin}} tradeoff --readme README.md
+
 # The test suite (release mode; includes the smoke pipeline and checks its outputs).
 test *ARGS:
     cargo test --release --workspace {{ARGS}}
