@@ -191,6 +191,16 @@ impl StageKind for FlowKind {
             ParamSpec::new("current_last_flowing", ParamType::Bool)
                 .default(false)
                 .doc("store the current density at the last flowing point of each branch"),
+            ParamSpec::new(
+                "headline_at",
+                ParamType::Array {
+                    elem: Box::new(ParamType::positive()),
+                    min_len: 0,
+                    max_len: Some(10),
+                },
+            )
+            .default(json!([]))
+            .doc("loads (in the sweep's unit) at which the loading branch's conductivity is a headline number (log-linear between the neighbouring points)"),
         ]
     }
     fn check(&self, _params: &Params) -> Result<(), ParamIssue> {
@@ -456,6 +466,40 @@ impl StageKind for FlowKind {
         )?;
         out.write_f64_1d("stops/contact_area_flowing", &sel(&|s| area_of(s.1)))?;
         out.write_f64_1d("stops/contact_area_blocked", &sel(&|s| area_of(s.2)))?;
+
+        // headline numbers: the loading branch's conductivity at given loads
+        let mut heads = Vec::new();
+        let lattice = sweep.attr_str("lattice").unwrap_or_default();
+        let inter = sweep.attr_str("interaction").unwrap_or_default();
+        for x in params.f64_array("headline_at")? {
+            let curve: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| pts.branch[r.sweep_index] == "loading" && r.res.converged)
+                .map(|r| (pts.load[r.sweep_index] / unit_scale, r.res.conductivity))
+                .collect();
+            match curve
+                .windows(2)
+                .find(|w| w[0].0 <= x && x <= w[1].0 && w[0].1 > 0.0 && w[1].1 > 0.0)
+            {
+                Some(w) => {
+                    let t = if w[1].0 > w[0].0 {
+                        (x - w[0].0) / (w[1].0 - w[0].0)
+                    } else {
+                        0.0
+                    };
+                    let k = (w[0].1.ln() * (1.0 - t) + w[1].1.ln() * t).exp();
+                    heads.push(crate::headline::Headline::new(
+                        format!("K {lattice} {inter} at {x} p_fc"),
+                        k,
+                        f64::NAN,
+                    ));
+                }
+                None => ctx.warn(format!(
+                    "headline_at {x}: no two converged, flowing loading points bracket it; no headline"
+                )),
+            }
+        }
+        crate::headline::write(out, &heads)?;
 
         let iters: Vec<usize> = rows.iter().map(|r| r.res.iterations).collect();
         Ok(StageReport::with_stats(json!({
