@@ -2,6 +2,7 @@
 //! stages on the square model, one per interaction, given as the inputs `hardwall`, `adhesion`
 //! and `repulsion`.
 
+use crate::jumptable::GridSweep;
 use crate::sweep::SweepData;
 use anyhow::{Result, bail};
 use orchestrator::{InputSpec, Inputs};
@@ -53,6 +54,57 @@ pub fn read(inputs: &Inputs) -> Result<Vec<SweepData>> {
             d.n,
             d.interaction
         );
+    }
+    Ok(out)
+}
+
+/// The inputs of Figure 2's resolution check: the same three sweeps on one or more grids each.
+pub fn resolution_inputs() -> Vec<InputSpec> {
+    INTERACTIONS
+        .iter()
+        .map(|i| {
+            InputSpec::many(i, &["sweep"]).doc(&format!(
+                "load-controlled {i} sweeps (square model), one per grid"
+            ))
+        })
+        .collect()
+}
+
+/// Reads the resolution check's sweeps: per interaction, its sweeps coarse to fine, each a
+/// load path of that interaction on the square model, at most one per grid.
+pub fn read_resolution(inputs: &Inputs) -> Result<Vec<(String, Vec<GridSweep>)>> {
+    let mut out = Vec::new();
+    for name in INTERACTIONS {
+        let mut v = Vec::new();
+        for r in inputs.all(name) {
+            let s = GridSweep::read(r)?;
+            if s.data.interaction != name || s.data.control != "load" {
+                bail!(
+                    "input `{name}` (`{}`) is a {} sweep varying the {}; it must be a {name} load path",
+                    r.path().display(),
+                    s.data.interaction,
+                    s.data.control
+                );
+            }
+            if s.data.lattice != "square" {
+                bail!(
+                    "input `{name}` is on the {} model; Figure 2 is the square model",
+                    s.data.lattice
+                );
+            }
+            v.push(s);
+        }
+        if v.is_empty() {
+            bail!("input `{name}`: no sweep given");
+        }
+        v.sort_by_key(|s| s.data.n);
+        if let Some(w) = v.windows(2).find(|w| w[0].data.n == w[1].data.n) {
+            bail!(
+                "input `{name}`: two sweeps on the same grid (n = {}); give one per grid",
+                w[0].data.n
+            );
+        }
+        out.push((name.to_string(), v));
     }
     Ok(out)
 }

@@ -72,6 +72,54 @@ fn neighbour_links(points: &[(f64, f64)], lx: f64, ly: f64) -> Vec<Vec<(f64, f64
     links
 }
 
+/// One model's map with the lattice of its surface drawn over it, for Figures 1 and 4: lines
+/// between neighbouring maxima (black) and minima (white), the minima as white points, the
+/// saddle points as grey stars and, if `saddle_links`, dotted lines between neighbouring
+/// saddles — all from the exact critical points of the surface (`lattice` on the 2^n × 2^n
+/// grid of the field). The square model is shown on 2 × 2 cells (one physical scale with the
+/// other two). No contact mask.
+pub fn lattice_map(
+    lattice: Lattice,
+    n: u32,
+    field: ndarray::Array2<f64>,
+    saddle_links: bool,
+) -> Result<ModelMap> {
+    let grid = Grid::new(lattice, n).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (lx, ly) = lattice.cell();
+    if field.dim() != (grid.nx, grid.ny) {
+        bail!(
+            "the {} field has shape {:?}, the n = {n} grid {:?}",
+            lattice.name(),
+            field.dim(),
+            (grid.nx, grid.ny)
+        );
+    }
+    let cps = Surface::on_grid(lattice, grid).critical_points();
+    let pick = |k: CriticalKind| {
+        cps.iter()
+            .filter(|c| c.kind == k)
+            .map(|c| (c.x, c.y))
+            .collect::<Vec<_>>()
+    };
+    let (maxima, minima, saddles) = (
+        pick(CriticalKind::Maximum),
+        pick(CriticalKind::Minimum),
+        pick(CriticalKind::Saddle),
+    );
+    let mut m = ModelMap::new(model(lattice), field, lx, ly);
+    if lattice == Lattice::Square {
+        m.view = Some((0.0, 2.0 * lx, 0.0, 2.0 * ly));
+    }
+    m.maxima_lines = neighbour_links(&maxima, lx, ly);
+    m.minima_lines = neighbour_links(&minima, lx, ly);
+    if saddle_links {
+        m.saddle_links = neighbour_links(&saddles, lx, ly);
+    }
+    m.minima = minima;
+    m.saddles = saddles;
+    Ok(m)
+}
+
 /// Builds the three maps from the inputs.
 pub fn data(inputs: &Inputs) -> Result<ThreeMaps> {
     let mut maps = Vec::new();

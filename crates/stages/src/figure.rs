@@ -13,11 +13,19 @@
 //!   contract: [`crate::fig6`]). `load_unit` (`absolute` or `p_fc`), `flux_log`,
 //!   `map_half_width` (λ, 0: the whole cell) and `map_arrows` adjust it.
 //!
+//! - `fig1`: elastic displacement at zero load with adhesion for the three models (inputs
+//!   `hexagonal`, `square`, `triangular`: zero-load γ0 `sweep`s with fields at `gamma0`,
+//!   default 0.2), lattice overlays from the surfaces' critical points ([`fig1`]); attribute
+//!   `gamma0`, dataset `contact_area` (per panel).
+//! - `fig3`: relative contact area against γ0 at zero load, increasing and decreasing γ0, the
+//!   three models (inputs: one or more zero-load γ0 `sweep`s per model; the finest grid is
+//!   drawn), jumps marked, γ_p and γ_fc on the axis ([`fig3`]).
+//!
 //! Artefact: attributes `scene`, `points_plotted`, `points_left_out` (the figure files
 //! themselves are kept inside the artefact by the engine, as every side output).
 
 use crate::sweep::SweepData;
-use crate::{fig2, fig6};
+use crate::{fig1, fig2, fig3, fig6};
 use anyhow::Result;
 use figures::scenes::fig2::{Branch, Fig2Data, LoadLoop};
 use orchestrator::{
@@ -34,7 +42,7 @@ pub struct FigureKind;
 pub const CODE_VERSION: u64 = 1;
 
 /// Scenes this kind renders.
-pub const SCENES: &[&str] = &["fig2", "fig6"];
+pub const SCENES: &[&str] = &["fig1", "fig2", "fig3", "fig6"];
 
 /// The output stem (`figures/<scene>` unless `output` is given).
 fn stem(params: &Params) -> String {
@@ -61,8 +69,14 @@ pub fn check_relative(key: &str, path: &str) -> Result<(), ParamIssue> {
     Ok(())
 }
 
-/// One branch of a sweep for the figure: converged points only, jumps re-indexed.
-fn branch(d: &SweepData, name: &str) -> (Branch, usize) {
+/// One branch of a sweep for a figure: the control values (`x` of each point) and areas of its
+/// converged points, the jumps re-indexed to them, and how many points were left out (did not
+/// converge).
+pub fn converged_branch(
+    d: &SweepData,
+    name: &str,
+    x: &dyn Fn(&crate::sweep::Point) -> f64,
+) -> ((Vec<f64>, Vec<f64>, Vec<usize>), usize) {
     let all = d.branch_indices(name);
     let idx: Vec<usize> = all
         .iter()
@@ -79,12 +93,25 @@ fn branch(d: &SweepData, name: &str) -> (Branch, usize) {
         })
         .collect();
     (
+        (
+            idx.iter().map(|&k| x(&d.points[k])).collect(),
+            idx.iter().map(|&k| d.points[k].contact_area).collect(),
+            jumps,
+        ),
+        all.len() - idx.len(),
+    )
+}
+
+/// One load branch of a sweep for Figure 2.
+fn branch(d: &SweepData, name: &str) -> (Branch, usize) {
+    let ((pressure, area, jumps), bad) = converged_branch(d, name, &|p| p.load);
+    (
         Branch {
-            pressure: idx.iter().map(|&k| d.points[k].load).collect(),
-            area: idx.iter().map(|&k| d.points[k].contact_area).collect(),
+            pressure,
+            area,
             jumps,
         },
-        all.len() - idx.len(),
+        bad,
     )
 }
 
@@ -122,6 +149,9 @@ impl StageKind for FigureKind {
             ParamSpec::new("map_arrows", ParamType::int_range(0, 60))
                 .default(12)
                 .doc("fig6: arrows per side of the current map (0: none)"),
+            ParamSpec::new("gamma0", ParamType::positive())
+                .default(0.2)
+                .doc("fig1: the surface energy γ0 (E* h0²/λ) whose state is shown"),
             ParamSpec::new("output", ParamType::string())
                 .default("")
                 .doc("output stem relative to the project root (default figures/<scene>)"),
@@ -132,8 +162,10 @@ impl StageKind for FigureKind {
     }
     fn inputs(&self, params: &Params) -> Vec<InputSpec> {
         match params.str("scene") {
+            Ok("fig1") => fig1::inputs(),
             Ok("fig2") => fig2::inputs(),
             Ok("fig6") => fig6::inputs(),
+            Ok("fig3") => fig3::inputs(),
             _ => Vec::new(),
         }
     }
@@ -201,6 +233,24 @@ impl StageKind for FigureKind {
                 out.set_attr("curves", stats.clone())?;
                 scene_stats = stats;
                 figures::scenes::fig6::figure(&data)?
+            }
+            "fig1" => {
+                let g = params.f64("gamma0")?;
+                let (maps, areas) = fig1::data(inputs, g)?;
+                out.set_attr("gamma0", g)?;
+                out.write_f64_1d("contact_area", &areas)?;
+                figures::scenes::maps::figure(&maps, figures::heatmap::Colormap::Inferno)?
+            }
+            "fig3" => {
+                let models = fig3::read(inputs)?;
+                let (data, left_out) = fig3::data(&models);
+                if left_out > 0 {
+                    ctx.warn(format!(
+                        "{left_out} non-converged points of the finest sweeps are left out of the figure"
+                    ));
+                }
+                out.set_attr("points_left_out", left_out as i64)?;
+                figures::scenes::fig3::figure(&data)?
             }
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };

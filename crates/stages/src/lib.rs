@@ -8,8 +8,8 @@
 //! |---|---|---|---|
 //! | `surface` | one of the three models on a 2^n × 2^n grid, statistics, critical points | – | `height`, `lx`, `ly`, `critical/*` |
 //! | `sweep` | quasi-static loading/unloading path (or γ path at fixed load): area, gap, energy, solver statistics per point, detected jumps, pull-off | `surface` | `points/*`, `jumps/*`, `ended/*`, optional `fields/*` |
-//! | `figure` | one of the paper's figures (`scene = "fig2"`, ...) | per scene (fig2: `hardwall`, `adhesion`, `repulsion` sweeps; fig6: `flow` stages, optional `current` flowmap and `ladder`) | side outputs `figures/<scene>.png`, `.svg` |
-//! | `table` | a scene's data as CSV (`scene = "fig2"`, ...) | per scene (as `figure`) | side outputs `results/tables/<scene>*.csv` |
+//! | `figure` | one of the paper's figures (`scene = "fig1"`, `"fig2"`, `"fig3"`, `"fig6"`, ...) | per scene (fig2: `hardwall`, `adhesion`, `repulsion` sweeps; fig1, fig3: `hexagonal`, `square`, `triangular` zero-load γ0 sweeps; fig6: `flow` stages, optional `current` flowmap and `ladder`) | side outputs `figures/<scene>.png`, `.svg` |
+//! | `table` | a scene's data as CSV (`scene = "fig2"`, `"fig2_resolution"`, `"fig3"`, ...) | per scene (as `figure`) | side outputs `results/tables/<scene>*.csv` |
 //! | `flow` | Reynolds flow at every stored gap of a load path: flux, conductivity, percolation, where flow stops; optional current densities | `sweep` | `points/*`, `stops/*`, `currents/*` |
 //! | `flowmap` | current density at a near-critical hard-wall state l = (L − L_c)/L_c < 0 (L_c by bisection on the grid) | `surface` | `gap`, `pressure`, `current_x`, `current_y`, `bisection/*` |
 //! | `critical` | percolation threshold of the hard-wall contact on one or more grids (coarse to fine), averaged over sub-grid shifts: L_c brackets (x, y, any), a_p raw and corrected, sub-grid L_c and ζ from the saddle gap, the finest grid's near-critical fields | – | `level/<n>/*`, `gap`, `above/*` |
@@ -17,7 +17,9 @@
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 
 pub mod critical;
+pub mod fig1;
 pub mod fig2;
+pub mod fig3;
 pub mod fig4;
 pub mod fig6;
 pub mod figure;
@@ -26,6 +28,7 @@ pub mod flowmap;
 pub mod gapfile;
 pub mod headline;
 pub mod io;
+pub mod jumptable;
 pub mod mock;
 pub mod resolution;
 pub mod surface;

@@ -29,7 +29,8 @@
 //!   displacement, pressure) of the nearest point of each branch are stored (default none: the
 //!   artefact stays small); `fields_all = true` stores them at every point.
 //! - `min_zone_spacings` (default 4): warn when the cohesive-zone length ρ²E*/γ is resolved by
-//!   fewer grid spacings (jumps are then mesh-dependent).
+//!   fewer grid spacings (jumps are then mesh-dependent); on a strength path at its largest
+//!   strength, naming the strength above which the zone is under-resolved.
 //!
 //! Every point starts from the previous point's state ([`contact::Model::solve`] with a warm
 //! start), so metastable branches and hysteresis appear where they exist. The path loop is this
@@ -40,7 +41,8 @@
 //! # Artefact
 //! - root attributes: `interaction`, `gamma0` / `gamma_r`, `rho`, `control`, `unit`, `p_fc`
 //!   (of the grid, E* h0/λ), `unit_scale` (p_fc or 1), `lattice`, `n`, `nx`, `ny`, `dx`,
-//!   `cohesive_zone_length` (NaN for the hard wall), `zone_spacings`, `n_points`,
+//!   `cohesive_zone_length` (NaN for the hard wall; on a strength path at its largest
+//!   strength), `zone_spacings` (the same in grid spacings), `n_points`,
 //!   `n_unconverged`, `lx`, `ly`;
 //! - `points/*`, one entry per solved point in path order: `branch` ("loading" / "unloading":
 //!   control increasing / decreasing), `step`, `load` (E* h0/λ), `strength`, `contact_area`,
@@ -75,7 +77,7 @@ use store::{ArtefactReader, ArtefactWriter};
 pub struct SweepKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 1;
+pub const CODE_VERSION: u64 = 2;
 
 /// Largest number of points a path may have.
 pub const MAX_POINTS: usize = 100_000;
@@ -781,18 +783,36 @@ impl StageKind for SweepKind {
             trace: false,
         };
 
-        // resolution of the cohesive zone
+        // resolution of the cohesive zone: at the path's largest strength (the shortest zone)
+        // when the path varies the strength
         let dx = lx / nx as f64;
-        let zone = base.cohesive_zone_length(1.0);
         let min_spacings = params.f64("min_zone_spacings")?;
+        let strongest = if control == "strength" {
+            let s_max = fwd.iter().chain(&ext).copied().fold(0.0, f64::max);
+            with_strength(base, s_max)
+        } else {
+            base
+        };
+        let zone = strongest.cohesive_zone_length(1.0);
         let spacings = zone.map_or(f64::INFINITY, |z| z / dx);
         if spacings < min_spacings {
-            let msg = format!(
-                "under-resolved cohesive zone: ρ²E*/γ = {:.3e} λ spans {:.2} grid spacings (dx = {:.3e} λ, n = {n_exp}), fewer than {min_spacings}; jump loads and areas depend on the mesh (use a finer grid)",
-                zone.unwrap_or(f64::NAN),
-                spacings,
-                dx
-            );
+            let rho = base.range();
+            // strengths above this resolve the zone by fewer than `min_spacings` spacings
+            let s_limit = rho * rho / (min_spacings * dx);
+            let msg = if control == "strength" {
+                format!(
+                    "under-resolved cohesive zone: ρ²E*/γ spans fewer than {min_spacings} grid spacings for γ > {s_limit:.4} (dx = {dx:.3e} λ, n = {n_exp}, ρ = {rho}); at the path's largest γ = {:.4} it is {:.3e} λ = {spacings:.2e} spacings; jumps above γ = {s_limit:.4} depend on the mesh (use a finer grid)",
+                    strength_of(strongest),
+                    zone.unwrap_or(f64::NAN),
+                )
+            } else {
+                format!(
+                    "under-resolved cohesive zone: ρ²E*/γ = {:.3e} λ spans {:.2} grid spacings (dx = {:.3e} λ, n = {n_exp}), fewer than {min_spacings}; jump loads and areas depend on the mesh (use a finer grid)",
+                    zone.unwrap_or(f64::NAN),
+                    spacings,
+                    dx
+                )
+            };
             ctx.warn(msg);
         }
 

@@ -21,11 +21,20 @@
 //!     `load_at_max_over_p_fc`.
 //! - `fig6` (inputs `flow`: `flow` stages along load paths) writes `fig6.csv` (every flow
 //!   point) and `fig6_stops.csv` (where the flow stops), columns in [`crate::fig6::tables`].
+//! - `fig2_resolution` (inputs `hardwall`, `adhesion`, `repulsion`: the same load paths on one
+//!   or more grids each) writes `fig2_jumps_resolution.csv`: every jump and pull-off of every
+//!   grid, matched across grids, with the change of its position from the next coarser grid
+//!   ([`jumptable::table`]); the hard wall has no rows unless something jumps.
+//! - `fig3` (inputs `hexagonal`, `square`, `triangular`: zero-load γ0 `sweep`s, one or more
+//!   grids each) writes `fig3.csv` (every point, [`fig3::points_table`]),
+//!   `fig3_thresholds.csv` (γ_p, γ_fc, γ_fc/γ_p, break-up and trough opening per model and
+//!   grid, [`fig3::thresholds_table`]) and `fig3_jumps.csv` (every jump, matched across
+//!   grids, [`jumptable::table`]).
 //!
 //! Artefact: attributes `scene`, `rows` (JSON: file → number of rows).
 
 use crate::figure::check_relative;
-use crate::{fig2, fig6};
+use crate::{fig2, fig3, fig6, jumptable};
 use anyhow::{Context, Result};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
@@ -43,7 +52,7 @@ pub struct TableKind;
 pub const CODE_VERSION: u64 = 1;
 
 /// Scenes this kind tabulates.
-pub const SCENES: &[&str] = &["fig2", "fig6"];
+pub const SCENES: &[&str] = &["fig2", "fig2_resolution", "fig3", "fig6"];
 
 /// The files a scene writes, relative to `output_dir`.
 fn files(scene: &str) -> Vec<String> {
@@ -54,6 +63,12 @@ fn files(scene: &str) -> Vec<String> {
             "fig2_loops.csv".into(),
         ],
         "fig6" => fig6::TABLE_FILES.iter().map(|s| s.to_string()).collect(),
+        "fig2_resolution" => vec!["fig2_jumps_resolution.csv".into()],
+        "fig3" => vec![
+            "fig3.csv".into(),
+            "fig3_thresholds.csv".into(),
+            "fig3_jumps.csv".into(),
+        ],
         _ => Vec::new(),
     }
 }
@@ -214,6 +229,8 @@ impl StageKind for TableKind {
         match params.str("scene") {
             Ok("fig2") => fig2::inputs(),
             Ok("fig6") => vec![fig6::flow_input()],
+            Ok("fig2_resolution") => fig2::resolution_inputs(),
+            Ok("fig3") => fig3::inputs(),
             _ => Vec::new(),
         }
     }
@@ -239,6 +256,15 @@ impl StageKind for TableKind {
         let tables = match scene {
             "fig2" => fig2_tables(inputs)?,
             "fig6" => fig6::tables(inputs)?,
+            "fig2_resolution" => vec![jumptable::table(&fig2::read_resolution(inputs)?)],
+            "fig3" => {
+                let models = fig3::read(inputs)?;
+                vec![
+                    fig3::points_table(&models),
+                    fig3::thresholds_table(&models),
+                    jumptable::table(&models),
+                ]
+            }
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };
         let mut rows = serde_json::Map::new();

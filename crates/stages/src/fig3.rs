@@ -1,0 +1,430 @@
+//! Figure 3's inputs, data and thresholds: relative contact area against the surface energy γ0
+//! at zero load, for the three models, increasing and decreasing γ0 (each step warm-started
+//! from the previous one).
+//!
+//! Inputs `hexagonal`, `square`, `triangular`: one or more `sweep` stages per model with
+//! `interaction = "adhesion"`, `control = "strength"` and zero load, on one or more grids (the
+//! figure shows the finest; the tables list every grid, which is the resolution check).
+//!
+//! # Thresholds ([`thresholds`])
+//! On the increasing-γ0 branch:
+//! - γ_p (coalescence, contact percolation): the first point at which the non-contact region
+//!   percolates along neither axis (contact patches have merged around every fluid pool);
+//! - γ_fc (full contact): the first point with relative contact area 1.
+//!
+//! On the decreasing branch: `break-up` (the fluid percolates again) and `trough opening` (the
+//! area leaves 1). Each is a bracket (the last point before, the first point after): the
+//! instability lies in between; its midpoint is the estimate, the bracket the uncertainty.
+//! γ_fc/γ_p is the ratio of midpoints, bounded by the ratios of the bracket ends; if both
+//! happen in the same step (the triangular model jumps from isolated patches straight to full
+//! contact) it is one instability and the ratio is exactly 1.
+
+use crate::jumptable::GridSweep;
+use crate::sweep::{Point, SweepData};
+use anyhow::{Result, bail};
+use figures::scenes::fig3::{Fig3Data, GammaBranch, ModelGammaPath};
+use figures::style::Model;
+use orchestrator::{InputSpec, Inputs};
+
+/// The models of Figure 3, in the order of its inputs (and of Figure 1's panels).
+pub const MODELS: [&str; 3] = ["hexagonal", "square", "triangular"];
+
+/// γ_fc/γ_p as the paper states it (hexagonal, square: not stated, triangular).
+pub fn paper_ratio(model: &str) -> Option<f64> {
+    match model {
+        "hexagonal" => Some(135.0),
+        "triangular" => Some(1.0),
+        _ => None,
+    }
+}
+
+/// The inputs of Figure 3's kinds.
+pub fn inputs() -> Vec<InputSpec> {
+    MODELS
+        .iter()
+        .map(|m| {
+            InputSpec::many(m, &["sweep"]).doc(&format!(
+                "adhesive γ0 sweeps at zero load of the {m} model, one per grid"
+            ))
+        })
+        .collect()
+}
+
+/// Checks that a sweep is a zero-load adhesive strength path of `model`.
+pub fn check(d: &SweepData, model: &str, input: &str) -> Result<()> {
+    if d.interaction != "adhesion" || d.control != "strength" {
+        bail!(
+            "input `{input}` is a {} sweep varying the {}; Figure 3 needs adhesion with control = \"strength\"",
+            d.interaction,
+            d.control
+        );
+    }
+    if d.lattice != model {
+        bail!(
+            "input `{input}` is a sweep of the {} model; it must be the {model} model",
+            d.lattice
+        );
+    }
+    if let Some(p) = d.points.iter().find(|p| p.load != 0.0) {
+        bail!(
+            "input `{input}`: Figure 3 is at zero load, the sweep has load {} E* h0/λ",
+            p.load
+        );
+    }
+    Ok(())
+}
+
+/// Reads every model's sweeps, coarse to fine (at most one per grid).
+pub fn read(inputs: &Inputs) -> Result<Vec<(String, Vec<GridSweep>)>> {
+    let mut out = Vec::new();
+    for m in MODELS {
+        let rs = inputs.all(m);
+        if rs.is_empty() {
+            bail!("input `{m}`: no sweep given");
+        }
+        let mut v = Vec::new();
+        for r in rs {
+            let s = GridSweep::read(r)?;
+            check(&s.data, m, m)?;
+            v.push(s);
+        }
+        v.sort_by_key(|s| s.data.n);
+        if let Some(w) = v.windows(2).find(|w| w[0].data.n == w[1].data.n) {
+            bail!(
+                "input `{m}`: two sweeps on the same grid (n = {}); give one per grid",
+                w[0].data.n
+            );
+        }
+        out.push((m.to_string(), v));
+    }
+    Ok(out)
+}
+
+/// A change of state between two consecutive converged points of a branch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transition {
+    /// γ0 before and after.
+    pub gamma: (f64, f64),
+    /// Relative contact area before and after.
+    pub area: (f64, f64),
+}
+
+impl Transition {
+    /// The midpoint of the bracket.
+    pub fn mid(&self) -> f64 {
+        0.5 * (self.gamma.0 + self.gamma.1)
+    }
+}
+
+/// The thresholds of one sweep (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Thresholds {
+    /// Increasing γ0: the fluid stops percolating.
+    pub coalescence: Option<Transition>,
+    /// Increasing γ0: the area reaches 1.
+    pub full_contact: Option<Transition>,
+    /// Decreasing γ0: the fluid percolates again.
+    pub break_up: Option<Transition>,
+    /// Decreasing γ0: the area leaves 1.
+    pub trough_opening: Option<Transition>,
+    /// Largest γ0 of the path.
+    pub gamma_max: f64,
+}
+
+impl Thresholds {
+    /// γ_fc/γ_p with its bracket (lower, upper): exactly 1 if both are the same step.
+    pub fn ratio(&self) -> Option<(f64, f64, f64)> {
+        let (p, fc) = (self.coalescence?, self.full_contact?);
+        if p == fc {
+            return Some((1.0, 1.0, 1.0));
+        }
+        Some((
+            fc.mid() / p.mid(),
+            fc.gamma.0 / p.gamma.1,
+            fc.gamma.1 / p.gamma.0,
+        ))
+    }
+}
+
+fn fluid(p: &Point) -> bool {
+    p.fluid_percolates_x || p.fluid_percolates_y
+}
+
+/// The first step of `branch` (converged points) from a point without `what` to one with it.
+fn first_change(d: &SweepData, branch: &str, what: &dyn Fn(&Point) -> bool) -> Option<Transition> {
+    let idx: Vec<usize> = d
+        .branch_indices(branch)
+        .into_iter()
+        .filter(|&k| d.points[k].converged)
+        .collect();
+    idx.windows(2).find_map(|w| {
+        let (a, b) = (&d.points[w[0]], &d.points[w[1]]);
+        (!what(a) && what(b)).then_some(Transition {
+            gamma: (a.strength, b.strength),
+            area: (a.contact_area, b.contact_area),
+        })
+    })
+}
+
+/// The thresholds of a zero-load γ0 sweep.
+pub fn thresholds(d: &SweepData) -> Thresholds {
+    let coalesced = |p: &Point| p.contact_area > 0.0 && !fluid(p);
+    let full = |p: &Point| p.contact_area >= 1.0;
+    Thresholds {
+        coalescence: first_change(d, "loading", &coalesced),
+        full_contact: first_change(d, "loading", &full),
+        break_up: first_change(d, "unloading", &|p| !coalesced(p)),
+        trough_opening: first_change(d, "unloading", &|p| !full(p)),
+        gamma_max: d.points.iter().map(|p| p.strength).fold(0.0, f64::max),
+    }
+}
+
+fn model_of(name: &str) -> Model {
+    match name {
+        "hexagonal" => Model::Hexagonal,
+        "square" => Model::Square,
+        _ => Model::Triangular,
+    }
+}
+
+/// Figure 3's data from the finest grid of every model, and the points left out (did not
+/// converge).
+pub fn data(models: &[(String, Vec<GridSweep>)]) -> (Fig3Data, usize) {
+    let mut paths = Vec::new();
+    let mut left_out = 0;
+    for (m, sweeps) in models {
+        let d = &sweeps.last().expect("read() checks for one sweep").data;
+        let mut branch = |name: &str| {
+            let (b, bad) = crate::figure::converged_branch(d, name, &|p| p.strength);
+            left_out += bad;
+            GammaBranch {
+                gamma0: b.0,
+                area: b.1,
+                jumps: b.2,
+            }
+        };
+        let (increasing, decreasing) = (branch("loading"), branch("unloading"));
+        let t = thresholds(d);
+        paths.push(ModelGammaPath {
+            model: model_of(m),
+            increasing,
+            decreasing,
+            gamma_p: t.coalescence.map(|c| c.mid()),
+            gamma_fc: t.full_contact.map(|c| c.mid()),
+        });
+    }
+    (
+        Fig3Data {
+            paths,
+            log_gamma: true,
+        },
+        left_out,
+    )
+}
+
+/// The thresholds table: one row per model and grid. Columns: `model`, `n`, `dx`, `gamma_max`,
+/// per threshold `X` in (`gamma_p`, `gamma_fc`, `gamma_break_up`, `gamma_trough_opening`):
+/// `X_before`, `X_after`, `X` (midpoint), `area_X_before`, `area_X_after`, and for γ_p and
+/// γ_fc `zone_spacings_X` (ρ²E*/γ in grid spacings there); `ratio` (γ_fc/γ_p), `ratio_lo`,
+/// `ratio_hi`, `ratio_paper`. NaN where the path does not reach the threshold.
+pub fn thresholds_table(models: &[(String, Vec<GridSweep>)]) -> tables::Table {
+    let mut t = tables::Table::new();
+    let (mut model, mut n, mut dx, mut gmax) = (vec![], vec![], vec![], vec![]);
+    let mut cols: Vec<(String, Vec<f64>)> = Vec::new();
+    let push = |name: String, v: f64, cols: &mut Vec<(String, Vec<f64>)>| {
+        if let Some(c) = cols.iter_mut().find(|c| c.0 == name) {
+            c.1.push(v);
+        } else {
+            cols.push((name, vec![v]));
+        }
+    };
+    for (m, sweeps) in models {
+        for s in sweeps {
+            let th = thresholds(&s.data);
+            model.push(m.clone());
+            n.push(s.data.n);
+            dx.push(s.dx);
+            gmax.push(th.gamma_max);
+            for (name, tr, zone) in [
+                ("gamma_p", th.coalescence, true),
+                ("gamma_fc", th.full_contact, true),
+                ("gamma_break_up", th.break_up, false),
+                ("gamma_trough_opening", th.trough_opening, false),
+            ] {
+                let nan = f64::NAN;
+                let g = tr.map_or((nan, nan), |t| t.gamma);
+                let a = tr.map_or((nan, nan), |t| t.area);
+                push(format!("{name}_before"), g.0, &mut cols);
+                push(format!("{name}_after"), g.1, &mut cols);
+                push(name.to_string(), tr.map_or(nan, |t| t.mid()), &mut cols);
+                push(format!("area_{name}_before"), a.0, &mut cols);
+                push(format!("area_{name}_after"), a.1, &mut cols);
+                if zone {
+                    push(
+                        format!("zone_spacings_{name}"),
+                        tr.map_or(nan, |t| s.zone_spacings(t.mid())),
+                        &mut cols,
+                    );
+                }
+            }
+            let r = th.ratio();
+            push("ratio".into(), r.map_or(f64::NAN, |r| r.0), &mut cols);
+            push("ratio_lo".into(), r.map_or(f64::NAN, |r| r.1), &mut cols);
+            push("ratio_hi".into(), r.map_or(f64::NAN, |r| r.2), &mut cols);
+            push(
+                "ratio_paper".into(),
+                paper_ratio(m).unwrap_or(f64::NAN),
+                &mut cols,
+            );
+        }
+    }
+    t = t
+        .with_str("model", model)
+        .with_i64("n", n)
+        .with_f64("dx", dx)
+        .with_f64("gamma_max", gmax);
+    for (name, v) in cols {
+        t = t.with_f64(&name, v);
+    }
+    t
+}
+
+/// Every point of every sweep: `model`, `n`, `branch`, `step`, `gamma0`, `contact_area`,
+/// `contact_area_corrected`, `mean_gap`, `contact_clusters`, `fluid_percolates`, `converged`,
+/// `iterations`, `force_residual`, `jump` (the state jumps between this point and the
+/// branch's next converged point).
+pub fn points_table(models: &[(String, Vec<GridSweep>)]) -> tables::Table {
+    let (mut model, mut n, mut branch, mut step, mut g) = (vec![], vec![], vec![], vec![], vec![]);
+    let (mut a, mut ac, mut gap, mut cl, mut fl) = (vec![], vec![], vec![], vec![], vec![]);
+    let (mut conv, mut it, mut fr, mut jump) = (vec![], vec![], vec![], vec![]);
+    for (m, sweeps) in models {
+        for s in sweeps {
+            let d = &s.data;
+            for (k, p) in d.points.iter().enumerate() {
+                model.push(m.clone());
+                n.push(d.n);
+                branch.push(p.branch.clone());
+                step.push(p.step);
+                g.push(p.strength);
+                a.push(p.contact_area);
+                ac.push(p.contact_area_corrected);
+                gap.push(p.mean_gap);
+                cl.push(p.contact_clusters);
+                fl.push(fluid(p));
+                conv.push(p.converged);
+                it.push(p.iterations);
+                fr.push(p.force_residual);
+                jump.push(d.jumps.iter().any(|j| j.index == k));
+            }
+        }
+    }
+    tables::Table::new()
+        .with_str("model", model)
+        .with_i64("n", n)
+        .with_str("branch", branch)
+        .with_i64("step", step)
+        .with_f64("gamma0", g)
+        .with_f64("contact_area", a)
+        .with_f64("contact_area_corrected", ac)
+        .with_f64("mean_gap", gap)
+        .with_i64("contact_clusters", cl)
+        .with_bool("fluid_percolates", fl)
+        .with_bool("converged", conv)
+        .with_i64("iterations", it)
+        .with_f64("force_residual", fr)
+        .with_bool("jump", jump)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(branch: &str, g: f64, a: f64, fluid: bool) -> Point {
+        Point {
+            branch: branch.into(),
+            step: 0,
+            load: 0.0,
+            strength: g,
+            contact_area: a,
+            contact_area_corrected: a,
+            mean_gap: 0.0,
+            mean_displacement: 0.0,
+            energy: 0.0,
+            iterations: 1,
+            max_violation: 0.0,
+            force_residual: 0.0,
+            converged: true,
+            stop_reason: String::new(),
+            wall_s: 0.0,
+            contact_clusters: 1,
+            fluid_percolates_x: fluid,
+            fluid_percolates_y: fluid,
+        }
+    }
+
+    fn sweep(points: Vec<Point>) -> SweepData {
+        SweepData {
+            interaction: "adhesion".into(),
+            control: "strength".into(),
+            p_fc: 1.0,
+            lattice: "square".into(),
+            n: 4,
+            points,
+            jumps: vec![],
+            loops: vec![],
+            ended: vec![],
+        }
+    }
+
+    #[test]
+    fn thresholds_bracket_coalescence_and_full_contact() {
+        let up = [
+            (0.1, 0.1, true),
+            (0.2, 0.2, true),
+            (0.3, 0.45, false),
+            (0.4, 0.5, false),
+            (0.5, 1.0, false),
+        ];
+        let down = [
+            (0.4, 1.0, false),
+            (0.3, 1.0, false),
+            (0.2, 0.3, true),
+            (0.1, 0.1, true),
+        ];
+        let mut p: Vec<Point> = up
+            .iter()
+            .map(|&(g, a, f)| point("loading", g, a, f))
+            .collect();
+        p.extend(down.iter().map(|&(g, a, f)| point("unloading", g, a, f)));
+        let t = thresholds(&sweep(p));
+        assert_eq!(t.coalescence.unwrap().gamma, (0.2, 0.3));
+        assert_eq!(t.coalescence.unwrap().area, (0.2, 0.45));
+        assert_eq!(t.full_contact.unwrap().gamma, (0.4, 0.5));
+        // decreasing: full contact is left and the fluid percolates again in the same step
+        assert_eq!(t.trough_opening.unwrap().gamma, (0.3, 0.2));
+        assert_eq!(t.break_up.unwrap().gamma, (0.3, 0.2));
+        let (r, lo, hi) = t.ratio().unwrap();
+        assert!((r - 0.45 / 0.25).abs() < 1e-12);
+        assert!((lo - 0.4 / 0.3).abs() < 1e-12 && (hi - 0.5 / 0.2).abs() < 1e-12);
+        assert_eq!(t.gamma_max, 0.5);
+    }
+
+    #[test]
+    fn straight_to_full_contact_is_one_instability() {
+        let p = vec![
+            point("loading", 0.1, 0.05, true),
+            point("loading", 0.2, 0.1, true),
+            point("loading", 0.3, 1.0, false),
+        ];
+        let t = thresholds(&sweep(p));
+        assert_eq!(t.coalescence, t.full_contact);
+        assert_eq!(t.ratio(), Some((1.0, 1.0, 1.0)));
+        // nothing on a branch that never coalesces
+        let q = vec![
+            point("loading", 0.1, 0.05, true),
+            point("loading", 0.2, 0.1, true),
+        ];
+        let t = thresholds(&sweep(q));
+        assert!(t.coalescence.is_none() && t.full_contact.is_none() && t.ratio().is_none());
+    }
+}
