@@ -257,12 +257,61 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
     // 5. Figure 6: files, flux-vs-load table, where the flow stops
     fig6_outputs(root);
 
-    // 6. unchanged rerun: nothing runs
+    // 6. Figures 1 and 3: files, thresholds per model and grid, jumps on both grids
+    for f in ["fig1", "fig3"] {
+        let png = std::fs::read(root.join(format!("figures/{f}.png"))).unwrap();
+        image::load_from_memory_with_format(&png, image::ImageFormat::Png)
+            .unwrap_or_else(|e| panic!("{f}.png decodes: {e}"));
+        let svg = std::fs::read_to_string(root.join(format!("figures/{f}.svg"))).unwrap();
+        assert!(svg.trim_end().ends_with("</svg>"), "{f}.svg");
+    }
+    let th = tables::read_csv(
+        &root.join("results/tables/fig3_thresholds.csv"),
+        &[
+            ("model", ColumnType::Str),
+            ("n", ColumnType::I64),
+            ("gamma_p", ColumnType::F64),
+            ("gamma_fc", ColumnType::F64),
+            ("ratio", ColumnType::F64),
+        ],
+    )
+    .unwrap();
+    assert_eq!(th.n_rows(), 6, "three models on two grids");
+    let grids: BTreeSet<i64> = th.i64("n").unwrap().iter().copied().collect();
+    assert_eq!(grids.len(), 2, "{grids:?}");
+    let jr = tables::read_csv(
+        &root.join("results/tables/fig2_jumps_resolution.csv"),
+        &[
+            ("group", ColumnType::Str),
+            ("n", ColumnType::I64),
+            ("event", ColumnType::Str),
+            ("x_mid", ColumnType::F64),
+            ("in_loop", ColumnType::Bool),
+            ("change_from_coarser", ColumnType::F64),
+        ],
+    )
+    .unwrap();
+    let (g, il, jn) = (
+        jr.str("group").unwrap(),
+        jr.bool("in_loop").unwrap(),
+        jr.i64("n").unwrap(),
+    );
+    assert!(
+        !(0..jr.n_rows()).any(|k| g[k] == "hardwall" && il[k]),
+        "no hard-wall hysteresis on either grid"
+    );
+    let adh_grids: BTreeSet<i64> = (0..jr.n_rows())
+        .filter(|&k| g[k] == "adhesion" && il[k])
+        .map(|k| jn[k])
+        .collect();
+    assert_eq!(adh_grids, grids, "adhesive hysteresis jumps on both grids");
+
+    // 7. unchanged rerun: nothing runs
     let events = run_smoke(root, &[]);
     assert!(stages_with(&events, "ran").is_empty(), "{events:?}");
     assert_eq!(stages_with(&events, "cached"), all);
 
-    // 7. one edited parameter reruns exactly what is downstream of it
+    // 8. one edited parameter reruns exactly what is downstream of it
     let p = root.join("params/smoke.toml");
     let text = std::fs::read_to_string(&p).unwrap();
     let edited = text.replace("fig2_tension_step = 0.01", "fig2_tension_step = 0.005");
@@ -275,7 +324,14 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
     let ran = stages_with(&events, "ran");
     assert_eq!(
         ran,
-        set(&["fig2_adhesion", "fig2", "fig2_log", "fig2_tables"])
+        set(&[
+            "fig2_adhesion",
+            "fig2_adhesion_check",
+            "fig2",
+            "fig2_log",
+            "fig2_tables",
+            "fig2_resolution"
+        ])
     );
     assert_eq!(
         stages_with(&events, "cached"),
