@@ -195,12 +195,12 @@ pub fn data(models: &[(String, Vec<GridSweep>)]) -> (Fig3Data, usize) {
     for (m, sweeps) in models {
         let d = &sweeps.last().expect("read() checks for one sweep").data;
         let mut branch = |name: &str| {
-            let (b, bad) = crate::figure::converged_branch(d, name, &|p| p.strength);
-            left_out += bad;
+            let b = crate::figure::converged_branch(d, name, &|p| p.strength);
+            left_out += b.left_out;
             GammaBranch {
-                gamma0: b.0,
-                area: b.1,
-                jumps: b.2,
+                gamma0: b.x,
+                area: b.area,
+                jumps: b.jumps,
             }
         };
         let (increasing, decreasing) = (branch("loading"), branch("unloading"));

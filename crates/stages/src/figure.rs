@@ -69,14 +69,26 @@ pub fn check_relative(key: &str, path: &str) -> Result<(), ParamIssue> {
     Ok(())
 }
 
+/// One branch of a sweep as a figure draws it (see [`converged_branch`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConvergedBranch {
+    /// Control value of each converged point.
+    pub x: Vec<f64>,
+    /// Relative contact area of each converged point.
+    pub area: Vec<f64>,
+    /// Jumps: index i means a jump between converged points i and i + 1.
+    pub jumps: Vec<usize>,
+    /// Points left out (did not converge).
+    pub left_out: usize,
+}
+
 /// One branch of a sweep for a figure: the control values (`x` of each point) and areas of its
-/// converged points, the jumps re-indexed to them, and how many points were left out (did not
-/// converge).
+/// converged points, the jumps re-indexed to them, and how many points were left out.
 pub fn converged_branch(
     d: &SweepData,
     name: &str,
     x: &dyn Fn(&crate::sweep::Point) -> f64,
-) -> ((Vec<f64>, Vec<f64>, Vec<usize>), usize) {
+) -> ConvergedBranch {
     let all = d.branch_indices(name);
     let idx: Vec<usize> = all
         .iter()
@@ -92,26 +104,24 @@ pub fn converged_branch(
             (idx.get(pos + 1) == Some(&j.index_after)).then_some(pos)
         })
         .collect();
-    (
-        (
-            idx.iter().map(|&k| x(&d.points[k])).collect(),
-            idx.iter().map(|&k| d.points[k].contact_area).collect(),
-            jumps,
-        ),
-        all.len() - idx.len(),
-    )
+    ConvergedBranch {
+        x: idx.iter().map(|&k| x(&d.points[k])).collect(),
+        area: idx.iter().map(|&k| d.points[k].contact_area).collect(),
+        jumps,
+        left_out: all.len() - idx.len(),
+    }
 }
 
 /// One load branch of a sweep for Figure 2.
 fn branch(d: &SweepData, name: &str) -> (Branch, usize) {
-    let ((pressure, area, jumps), bad) = converged_branch(d, name, &|p| p.load);
+    let b = converged_branch(d, name, &|p| p.load);
     (
         Branch {
-            pressure,
-            area,
-            jumps,
+            pressure: b.x,
+            area: b.area,
+            jumps: b.jumps,
         },
-        bad,
+        b.left_out,
     )
 }
 
