@@ -3,9 +3,10 @@
 //!
 //! Every jump of every sweep is one row. A jump is matched across grids by (group, branch,
 //! event, ordinal): the k-th jump with that event on that branch of that group (interaction
-//! for Figure 2, model for Figure 3). `change_from_coarser` is the jump position's midpoint
-//! minus the matched jump's midpoint on the next coarser grid of the group (empty if the
-//! coarser grid has no such jump): converging positions have shrinking changes. Pull-offs (a
+//! for Figure 2, model for Figure 3), else by the nearest jump in the same direction on the
+//! same branch. `change_from_coarser` is the jump position's midpoint minus the matched jump's
+//! midpoint on the next coarser grid of the group (NaN if the coarser grid has no jump on that
+//! branch): converging positions have shrinking changes. Pull-offs (a
 //! branch that ended because the surfaces separated) are rows with event `pull-off`.
 
 use crate::sweep::SweepData;
@@ -74,7 +75,9 @@ struct Row {
 /// (ρ²E*/γ in grid spacings at the jump's strength; ∞ for the hard wall), `in_loop` (the jump's
 /// bracket touches a hysteresis loop between the branches: an instability; a jump outside any
 /// loop, at the same place on both branches, is a step of the discrete contact area, e.g. on
-/// a coarse hard-wall grid), `change_from_coarser`.
+/// a coarse hard-wall grid), `change_from_coarser` (x_mid minus the matched jump's x_mid on the
+/// next coarser grid), `matched` (`event`: same event, branch and ordinal; `nearest: <event>`:
+/// the nearest jump in the same direction on that branch; empty: none).
 pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
     let mut rows: Vec<Row> = Vec::new();
     let mut control = Vec::new();
@@ -162,20 +165,37 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
         }
     }
     let mid = |r: &Row| 0.5 * (r.x.0 + r.x.1);
-    // the matched jump on the next coarser grid of the group
-    let change: Vec<f64> = rows
+    let up = |r: &Row| r.area.1 > r.area.0;
+    // the matched jump on the next coarser grid of the group: the same event with the same
+    // ordinal on the same branch, else the nearest jump in the same direction on that branch
+    // (the event's name can differ between grids, e.g. `coalescence` on one and `area jump
+    // (up)` on a coarser one where the fluid still percolates along one axis)
+    let (change, matched): (Vec<f64>, Vec<String>) = rows
         .iter()
         .map(|r| {
-            rows.iter()
-                .filter(|c| {
-                    c.group == r.group
-                        && c.n < r.n
-                        && (&c.branch, &c.event, c.ordinal) == (&r.branch, &r.event, r.ordinal)
+            let Some(nc) = rows
+                .iter()
+                .filter(|c| c.group == r.group && c.n < r.n)
+                .map(|c| c.n)
+                .max()
+            else {
+                return (f64::NAN, String::new());
+            };
+            let coarser = || {
+                rows.iter()
+                    .filter(move |c| c.group == r.group && c.n == nc && c.branch == r.branch)
+            };
+            if let Some(c) = coarser().find(|c| (&c.event, c.ordinal) == (&r.event, r.ordinal)) {
+                return (mid(r) - mid(c), "event".to_string());
+            }
+            coarser()
+                .filter(|c| up(c) == up(r) && c.event != "pull-off" && r.event != "pull-off")
+                .min_by(|a, b| (mid(a) - mid(r)).abs().total_cmp(&(mid(b) - mid(r)).abs()))
+                .map_or((f64::NAN, String::new()), |c| {
+                    (mid(r) - mid(c), format!("nearest: {}", c.event))
                 })
-                .max_by_key(|c| c.n)
-                .map_or(f64::NAN, |c| mid(r) - mid(c))
         })
-        .collect();
+        .unzip();
     let col = |f: &dyn Fn(&Row) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
     let s = |f: &dyn Fn(&Row) -> String| rows.iter().map(f).collect::<Vec<String>>();
     Table::new()
@@ -214,4 +234,89 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
             rows.iter().map(|r| r.in_loop).collect::<Vec<bool>>(),
         )
         .with_f64("change_from_coarser", change)
+        .with_str("matched", matched)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::{JumpRow, Loop};
+
+    fn jump(branch: &str, event: &str, x: (f64, f64), area: (f64, f64)) -> JumpRow {
+        JumpRow {
+            branch: branch.into(),
+            index: 0,
+            index_after: 1,
+            load: (x.0 * 2.0, x.1 * 2.0),
+            strength: (0.2, 0.2),
+            area,
+            ratio: 10.0,
+            event: event.into(),
+            detector: "trend".into(),
+        }
+    }
+
+    fn grid(n: i64, jumps: Vec<JumpRow>, loops: Vec<Loop>) -> GridSweep {
+        GridSweep {
+            data: SweepData {
+                interaction: "adhesion".into(),
+                control: "load".into(),
+                p_fc: 2.0,
+                lattice: "square".into(),
+                n,
+                points: vec![],
+                jumps,
+                loops,
+                ended: vec![],
+            },
+            rho: 0.04,
+            dx: 1.0 / (1 << n) as f64,
+        }
+    }
+
+    #[test]
+    fn jumps_are_matched_across_grids() {
+        let coarse = grid(
+            4,
+            vec![
+                jump("loading", "area jump (up)", (0.30, 0.32), (0.3, 0.4)),
+                jump("unloading", "break-up", (0.20, 0.18), (0.4, 0.3)),
+            ],
+            vec![Loop {
+                x: (0.36, 0.6),
+                max_area_difference: 0.1,
+                x_at_max: 0.5,
+            }],
+        );
+        let fine = grid(
+            5,
+            vec![
+                jump("loading", "coalescence", (0.28, 0.30), (0.3, 0.45)),
+                jump("unloading", "break-up", (0.19, 0.17), (0.42, 0.3)),
+                jump("unloading", "contact loss", (0.02, 0.01), (0.01, 0.0)),
+            ],
+            vec![],
+        );
+        // given fine first: rows come out coarse to fine
+        let t = table(&[("adhesion".into(), vec![fine, coarse])]);
+        assert_eq!(t.i64("n").unwrap(), [4, 4, 5, 5, 5]);
+        let (ch, m) = (
+            t.f64("change_from_coarser").unwrap(),
+            t.str("matched").unwrap(),
+        );
+        assert!(ch[0].is_nan() && ch[1].is_nan() && m[0].is_empty());
+        // coalescence ↔ the coarse grid's upward jump on loading (by proximity)
+        assert!((ch[2] - (0.29 - 0.31)).abs() < 1e-12 && m[2] == "nearest: area jump (up)");
+        // break-up ↔ break-up (same event)
+        assert!((ch[3] - (0.18 - 0.19)).abs() < 1e-12 && m[3] == "event");
+        // contact loss ↔ the only downward unloading jump of the coarse grid
+        assert!((ch[4] - (0.015 - 0.19)).abs() < 1e-12, "{}", ch[4]);
+        // loads in units of p_fc (= 2 here), zone in grid spacings (ρ²/γ/dx = 0.008 · 16)
+        assert_eq!(t.f64("x_before").unwrap()[0], 0.30);
+        assert!((t.f64("zone_spacings").unwrap()[0] - 0.128).abs() < 1e-12);
+        // the coarse grid's loop [0.36, 0.6] E* h0/λ is 0.18–0.3 p_fc: both its jumps touch it
+        // (the upward one at its upper end); the fine grid has no loop
+        let il = t.bool("in_loop").unwrap();
+        assert_eq!(il, [true, true, false, false, false]);
+    }
 }
