@@ -38,6 +38,32 @@ pub fn paper_ratio(model: &str) -> Option<f64> {
     }
 }
 
+/// Headline numbers: γ_p, γ_fc and γ_fc/γ_p of each model on its finest grid (error: half
+/// the bracket; for the ratio, half the spread of its bounds).
+pub fn headlines(models: &[(String, Vec<GridSweep>)]) -> Vec<crate::headline::Headline> {
+    use crate::headline::Headline;
+    let mut out = Vec::new();
+    for (m, grids) in models {
+        let Some(finest) = grids.last() else { continue };
+        let t = thresholds(&finest.data);
+        let half = |tr: &Transition| 0.5 * (tr.gamma.1 - tr.gamma.0).abs();
+        if let Some(p) = &t.coalescence {
+            out.push(Headline::new(format!("gamma_p {m}"), p.mid(), half(p)));
+        }
+        if let Some(fc) = &t.full_contact {
+            out.push(Headline::new(format!("gamma_fc {m}"), fc.mid(), half(fc)));
+        }
+        if let Some((r, lo, hi)) = t.ratio() {
+            let h = Headline::new(format!("gamma_fc/gamma_p {m}"), r, 0.5 * (hi - lo));
+            out.push(match paper_ratio(m) {
+                Some(pr) => h.paper(pr, f64::NAN),
+                None => h,
+            });
+        }
+    }
+    out
+}
+
 /// The inputs of Figure 3's kinds.
 pub fn inputs() -> Vec<InputSpec> {
     MODELS

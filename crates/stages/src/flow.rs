@@ -54,7 +54,7 @@ use store::{ArtefactReader, ArtefactWriter, fields};
 pub struct FlowKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 3;
+pub const CODE_VERSION: u64 = 4;
 
 /// The group of a sweep point's fields.
 pub fn fields_group(branch: &str, index: usize) -> String {
