@@ -1,6 +1,7 @@
 //! The real pipeline on tiny grids, through the real binary: `saddleflow run -C <tmp> --params
 //! params/smoke.toml` on copies of the project's pipeline/ and params/ files. Checks the
-//! artefacts, Figure 2's and Figure 6's files and tables (physically sane values), and that editing one
+//! artefacts, Figures 1, 2, 3 and 6 with their tables (physically sane values), Figure 4, the
+//! convergence figure and the critical-load table (sane L_c, a_p, p_fc/L_c), and that editing one
 //! parameter reruns exactly the stages downstream of it while an unchanged rerun runs nothing
 //! (from the runner's event log).
 
@@ -256,8 +257,69 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
 
     // 5. Figure 6: files, flux-vs-load table, where the flow stops
     fig6_outputs(root);
+    // 6. the percolation threshold: Figure 4, the convergence figure, the comparison table
+    for stem in ["fig4", "convergence"] {
+        let png = std::fs::read(root.join(format!("figures/{stem}.png"))).unwrap();
+        let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png)
+            .unwrap_or_else(|e| panic!("{stem}.png decodes: {e}"));
+        assert!(img.width() >= 400 && img.height() >= 300, "{stem}.png");
+        let svg = std::fs::read_to_string(root.join(format!("figures/{stem}.svg"))).unwrap();
+        assert!(svg.trim_end().ends_with("</svg>"), "{stem}.svg");
+    }
+    let c = tables::read_csv(
+        &root.join("results/tables/critical.csv"),
+        &[
+            ("model", ColumnType::Str),
+            ("l_c", ColumnType::F64),
+            ("l_c_error", ColumnType::F64),
+            ("a_p_raw", ColumnType::F64),
+            ("a_p_corrected", ColumnType::F64),
+            ("a_p_corrected_error", ColumnType::F64),
+            ("a_p_paper", ColumnType::F64),
+            ("p_fc", ColumnType::F64),
+            ("p_fc_over_l_c", ColumnType::F64),
+        ],
+    )
+    .unwrap();
+    assert_eq!(
+        c.str("model").unwrap(),
+        ["hexagonal", "square", "triangular"]
+    );
+    let (l_c, p_fc) = (c.f64("l_c").unwrap(), c.f64("p_fc").unwrap());
+    let (a_r, a_c) = (c.f64("a_p_raw").unwrap(), c.f64("a_p_corrected").unwrap());
+    let ratio = c.f64("p_fc_over_l_c").unwrap();
+    for k in 0..3 {
+        assert!(
+            0.0 < l_c[k] && l_c[k] < p_fc[k],
+            "row {k}: L_c {} p_fc {}",
+            l_c[k],
+            p_fc[k]
+        );
+        assert!(
+            0.0 < a_r[k] && a_r[k] < 1.0 && 0.0 < a_c[k] && a_c[k] < 1.0,
+            "row {k}"
+        );
+        assert!((ratio[k] - p_fc[k] / l_c[k]).abs() < 1e-12 * ratio[k]);
+        assert!(
+            c.f64("l_c_error").unwrap()[k] > 0.0 && c.f64("a_p_corrected_error").unwrap()[k] > 0.0
+        );
+    }
+    // blunt hexagonal peaks coalesce first, the triangular model only near full contact
+    assert!(a_c[0] < a_c[1] && a_c[1] < a_c[2], "a_p order: {a_c:?}");
+    assert!(
+        (20.0..45.0).contains(&ratio[0]),
+        "hexagonal p_fc/L_c {}",
+        ratio[0]
+    );
+    assert!(
+        (1.2..1.6).contains(&ratio[2]),
+        "triangular p_fc/L_c {}",
+        ratio[2]
+    );
+    let md = std::fs::read_to_string(root.join("results/tables/critical.md")).unwrap();
+    assert_eq!(md.lines().count(), 5, "header, rule, three models:\n{md}");
 
-    // 6. Figures 1 and 3: files, thresholds per model and grid, jumps on both grids
+    // 7. Figures 1 and 3: files, thresholds per model and grid, jumps on both grids
     for f in ["fig1", "fig3"] {
         let png = std::fs::read(root.join(format!("figures/{f}.png"))).unwrap();
         image::load_from_memory_with_format(&png, image::ImageFormat::Png)
@@ -306,12 +368,12 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
         .collect();
     assert_eq!(adh_grids, grids, "adhesive hysteresis jumps on both grids");
 
-    // 7. unchanged rerun: nothing runs
+    // 8. unchanged rerun: nothing runs
     let events = run_smoke(root, &[]);
     assert!(stages_with(&events, "ran").is_empty(), "{events:?}");
     assert_eq!(stages_with(&events, "cached"), all);
 
-    // 8. one edited parameter reruns exactly what is downstream of it
+    // 9. one edited parameter reruns exactly what is downstream of it
     let p = root.join("params/smoke.toml");
     let text = std::fs::read_to_string(&p).unwrap();
     let edited = text.replace("fig2_tension_step = 0.01", "fig2_tension_step = 0.005");

@@ -12,6 +12,13 @@
 //!   density; the near-critical flux ladder when a `ladder` input provides it (inputs and
 //!   contract: [`crate::fig6`]). `load_unit` (`absolute` or `p_fc`), `flux_log`,
 //!   `map_half_width` (λ, 0: the whole cell) and `map_arrows` adjust it.
+//! - `fig4`: gap maps just below the percolation threshold for the three models, contact white,
+//!   bright = large gap, arranged as Figure 1 (inputs `hexagonal`, `square`, `triangular`:
+//!   `critical` stages stored with fields; see [`crate::fig4`]).
+//! - `convergence`: a_p (perimeter-corrected and raw, minus the paper's value) and L_c
+//!   (relative to its extrapolation) against grid spacing for the three models, with the
+//!   extrapolations to zero spacing and their 1σ bands, stacked (a)–(c) (inputs `hexagonal`,
+//!   `square`, `triangular`: `resolution` stages; see [`crate::resolution`]).
 //!
 //! - `fig1`: elastic displacement at zero load with adhesion for the three models (inputs
 //!   `hexagonal`, `square`, `triangular`: zero-load γ0 `sweep`s with fields at `gamma0`,
@@ -21,12 +28,14 @@
 //!   three models (inputs: one or more zero-load γ0 `sweep`s per model; the finest grid is
 //!   drawn), jumps marked, γ_p and γ_fc on the axis ([`fig3`]).
 //!
-//! Artefact: attributes `scene`, `points_plotted`, `points_left_out` (the figure files
-//! themselves are kept inside the artefact by the engine, as every side output).
+//! Artefact: attributes `scene`; fig2: `points_plotted`, `points_left_out`; fig3:
+//! `points_left_out`; fig6: `points_plotted`, `curves` (the figure files themselves are kept
+//! inside the artefact by the engine, as every side output).
 
 use crate::sweep::SweepData;
-use crate::{fig1, fig2, fig3, fig6};
+use crate::{fig1, fig2, fig3, fig4, fig6, resolution};
 use anyhow::Result;
+use figures::Colormap;
 use figures::scenes::fig2::{Branch, Fig2Data, LoadLoop};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
@@ -42,7 +51,10 @@ pub struct FigureKind;
 pub const CODE_VERSION: u64 = 1;
 
 /// Scenes this kind renders.
-pub const SCENES: &[&str] = &["fig1", "fig2", "fig3", "fig6"];
+pub const SCENES: &[&str] = &["fig1", "fig2", "fig3", "fig4", "fig6", "convergence"];
+
+/// The quantities of the `convergence` scene's panels, top to bottom.
+pub const CONVERGENCE_QUANTITIES: [&str; 3] = ["a_p_corrected", "a_p_raw", "l_c"];
 
 /// The output stem (`figures/<scene>` unless `output` is given).
 fn stem(params: &Params) -> String {
@@ -176,6 +188,8 @@ impl StageKind for FigureKind {
             Ok("fig2") => fig2::inputs(),
             Ok("fig6") => fig6::inputs(),
             Ok("fig3") => fig3::inputs(),
+            Ok("fig4") => fig4::inputs(),
+            Ok("convergence") => resolution::scene_inputs(),
             _ => Vec::new(),
         }
     }
@@ -261,6 +275,14 @@ impl StageKind for FigureKind {
                 }
                 out.set_attr("points_left_out", left_out as i64)?;
                 figures::scenes::fig3::figure(&data)?
+            }
+            "fig4" => figures::scenes::maps::figure(&fig4::data(inputs)?, Colormap::Viridis)?,
+            "convergence" => {
+                let panels = CONVERGENCE_QUANTITIES
+                    .iter()
+                    .map(|q| resolution::convergence_data(inputs, q))
+                    .collect::<Result<Vec<_>>>()?;
+                figures::scenes::convergence::stacked(&panels)?
             }
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };

@@ -454,11 +454,18 @@ pub fn convergence_data(inputs: &Inputs, quantity: &str) -> Result<ConvergenceDa
     })
 }
 
-/// The comparison with the paper: one row per model.
+/// The comparison with the paper: one row per model (the `critical` table scene's CSV).
+///
+/// Columns: `model`; `grids_n` ("8..10"); `shift_rule` (m: m × m shifts per grid);
+/// `finest_n`; the extrapolated `l_c`, `a_p_raw`, `a_p_corrected` with `_error` (1σ: fit ⊕
+/// leave-one-grid-out spread); the finest grid's sub-grid estimate `l_c_subgrid_finest` and
+/// `zeta_finest` with `_error`; the paper's `a_p_paper`, `a_p_paper_error`; the deviations
+/// `a_p_corrected_minus_paper_sigma`, `a_p_raw_minus_paper_sigma` (in units of both errors
+/// combined); `p_fc` (exact, continuum), `p_fc_over_l_c` with `_error`, the paper's
+/// `p_fc_over_l_c_paper` (NaN for the square model) and `p_fc_over_l_c_minus_paper_percent`.
 pub fn comparison_table(inputs: &Inputs) -> Result<Table> {
     let models = read_models(inputs)?;
     let f = |r: &ArtefactReader, k: &str| r.attr_f64(k).unwrap_or(f64::NAN);
-    let mut t = Table::new();
     let rows: Vec<_> = models.iter().map(|(l, r)| (*l, *r)).collect();
     let col = |k: &str| rows.iter().map(|(_, r)| f(r, k)).collect::<Vec<_>>();
     let levels = |r: &ArtefactReader| {
@@ -481,7 +488,11 @@ pub fn comparison_table(inputs: &Inputs) -> Result<Table> {
             })
             .collect::<Vec<_>>()
     };
-    t = t
+    let ratio_dev = rows
+        .iter()
+        .map(|(_, r)| 100.0 * (f(r, "p_fc_over_l_c") / f(r, "paper_p_fc_over_l_c") - 1.0))
+        .collect::<Vec<_>>();
+    Ok(Table::new()
         .with_str("model", rows.iter().map(|(l, _)| l.name().to_string()))
         .with_str("grids_n", rows.iter().map(|(_, r)| levels(r)))
         .with_i64(
@@ -489,10 +500,17 @@ pub fn comparison_table(inputs: &Inputs) -> Result<Table> {
             rows.iter()
                 .map(|(_, r)| r.attr_i64("shift_rule").unwrap_or(-1)),
         )
+        .with_i64(
+            "finest_n",
+            rows.iter()
+                .map(|(_, r)| r.attr_i64("finest_n").unwrap_or(-1)),
+        )
         .with_f64("l_c", col("l_c"))
         .with_f64("l_c_error", col("l_c_error"))
         .with_f64("l_c_subgrid_finest", col("l_c_subgrid"))
+        .with_f64("l_c_subgrid_finest_error", col("l_c_subgrid_error"))
         .with_f64("zeta_finest", col("zeta"))
+        .with_f64("zeta_finest_error", col("zeta_error"))
         .with_f64("a_p_raw", col("a_p_raw"))
         .with_f64("a_p_raw_error", col("a_p_raw_error"))
         .with_f64("a_p_corrected", col("a_p_corrected"))
@@ -504,6 +522,50 @@ pub fn comparison_table(inputs: &Inputs) -> Result<Table> {
         .with_f64("p_fc", col("p_fc_exact"))
         .with_f64("p_fc_over_l_c", col("p_fc_over_l_c"))
         .with_f64("p_fc_over_l_c_error", col("p_fc_over_l_c_error"))
-        .with_f64("p_fc_over_l_c_paper", col("paper_p_fc_over_l_c"));
-    Ok(t)
+        .with_f64("p_fc_over_l_c_paper", col("paper_p_fc_over_l_c"))
+        .with_f64("p_fc_over_l_c_minus_paper_percent", ratio_dev))
+}
+
+/// The comparison table for reading: values with their 1σ errors in concise notation, the
+/// paper's beside them (GitHub Markdown; the CSV has every number in full).
+pub fn comparison_markdown(t: &Table) -> Result<String> {
+    let n = t.n_rows();
+    let s = |k: &str| t.str(k).map(|v| v.to_vec());
+    let f = |k: &str| t.f64(k).map(|v| v.to_vec());
+    let i = |k: &str| t.i64(k).map(|v| v.to_vec());
+    let (model, grids, m) = (s("model")?, s("grids_n")?, i("shift_rule")?);
+    let ve = |k: &str, sig: usize| -> Result<Vec<String>> {
+        let (v, e) = (f(k)?, f(&format!("{k}_error"))?);
+        Ok((0..n).map(|r| tables::concise(v[r], e[r], sig)).collect())
+    };
+    let plain = |k: &str, fmt: tables::FloatFormat| -> Result<Vec<String>> {
+        Ok(f(k)?.iter().map(|&x| fmt.apply(x)).collect())
+    };
+    let (dev_c, dev_r) = (
+        f("a_p_corrected_minus_paper_sigma")?,
+        f("a_p_raw_minus_paper_sigma")?,
+    );
+    let md = Table::new()
+        .with_str("model", model)
+        .with_str(
+            "grids n (shifts)",
+            (0..n).map(|r| format!("{} ({}×{})", grids[r], m[r].max(1), m[r].max(1))),
+        )
+        .with_str("L_c", ve("l_c", 6)?)
+        .with_str("L_c sub-grid (finest)", ve("l_c_subgrid_finest", 6)?)
+        .with_str("ζ (finest)", ve("zeta_finest", 3)?)
+        .with_str("p_fc", plain("p_fc", tables::FloatFormat::Significant(6))?)
+        .with_str("p_fc/L_c", ve("p_fc_over_l_c", 4)?)
+        .with_str(
+            "paper",
+            plain("p_fc_over_l_c_paper", tables::FloatFormat::Shortest)?,
+        )
+        .with_str("a_p raw", ve("a_p_raw", 5)?)
+        .with_str("a_p corrected", ve("a_p_corrected", 5)?)
+        .with_str("a_p paper", ve("a_p_paper", 5)?)
+        .with_str(
+            "Δ/σ corrected, raw",
+            (0..n).map(|r| format!("{:+.1}, {:+.1}", dev_c[r], dev_r[r])),
+        );
+    Ok(md.to_markdown(tables::FloatFormat::Shortest))
 }

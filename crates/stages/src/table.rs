@@ -30,11 +30,17 @@
 //!   `fig3_thresholds.csv` (γ_p, γ_fc, γ_fc/γ_p, break-up and trough opening per model and
 //!   grid, [`fig3::thresholds_table`]) and `fig3_jumps.csv` (every jump, matched across
 //!   grids, [`jumptable::table`]).
+//! - `critical` (inputs `hexagonal`, `square`, `triangular`: `resolution` stages) writes
+//!   - `critical.csv`, one row per model: L_c, a_p raw and perimeter-corrected extrapolated to
+//!     zero grid spacing with their errors, the finest grid's sub-grid L_c and ζ, p_fc,
+//!     p_fc/L_c, the paper's values and the deviations (columns in
+//!     [`resolution::comparison_table`]);
+//!   - `critical.md`, the same comparison as a Markdown table in concise notation.
 //!
 //! Artefact: attributes `scene`, `rows` (JSON: file → number of rows).
 
 use crate::figure::check_relative;
-use crate::{fig2, fig3, fig6, jumptable};
+use crate::{fig2, fig3, fig6, jumptable, resolution};
 use anyhow::{Context, Result};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
@@ -52,7 +58,7 @@ pub struct TableKind;
 pub const CODE_VERSION: u64 = 2;
 
 /// Scenes this kind tabulates.
-pub const SCENES: &[&str] = &["fig2", "fig2_resolution", "fig3", "fig6"];
+pub const SCENES: &[&str] = &["fig2", "fig2_resolution", "fig3", "fig6", "critical"];
 
 /// The files a scene writes, relative to `output_dir`.
 fn files(scene: &str) -> Vec<String> {
@@ -69,6 +75,7 @@ fn files(scene: &str) -> Vec<String> {
             "fig3_thresholds.csv".into(),
             "fig3_jumps.csv".into(),
         ],
+        "critical" => vec!["critical.csv".into(), "critical.md".into()],
         _ => Vec::new(),
     }
 }
@@ -231,6 +238,7 @@ impl StageKind for TableKind {
             Ok("fig6") => vec![fig6::flow_input()],
             Ok("fig2_resolution") => fig2::resolution_inputs(),
             Ok("fig3") => fig3::inputs(),
+            Ok("critical") => resolution::scene_inputs(),
             _ => Vec::new(),
         }
     }
@@ -253,26 +261,42 @@ impl StageKind for TableKind {
     ) -> Result<StageReport> {
         let scene = params.str("scene")?;
         let d = dir(params);
-        let tables = match scene {
-            "fig2" => fig2_tables(inputs)?,
-            "fig6" => fig6::tables(inputs)?,
-            "fig2_resolution" => vec![jumptable::table(&fig2::read_resolution(inputs)?)],
+        // (file contents, rows) in the order of `files(scene)`
+        let encode = |t: &Table| -> Result<(Vec<u8>, usize)> { Ok((csv_bytes(t)?, t.n_rows())) };
+        let contents: Vec<(Vec<u8>, usize)> = match scene {
+            "fig2" => fig2_tables(inputs)?
+                .iter()
+                .map(encode)
+                .collect::<Result<_>>()?,
+            "fig6" => fig6::tables(inputs)?
+                .iter()
+                .map(encode)
+                .collect::<Result<_>>()?,
+            "fig2_resolution" => vec![encode(&jumptable::table(&fig2::read_resolution(inputs)?))?],
             "fig3" => {
                 let models = fig3::read(inputs)?;
                 crate::headline::write(out, &fig3::headlines(&models))?;
-                vec![
+                [
                     fig3::points_table(&models),
                     fig3::thresholds_table(&models),
                     jumptable::table(&models),
                 ]
+                .iter()
+                .map(encode)
+                .collect::<Result<_>>()?
+            }
+            "critical" => {
+                let t = resolution::comparison_table(inputs)?;
+                let md = resolution::comparison_markdown(&t)?;
+                vec![encode(&t)?, (md.into_bytes(), t.n_rows())]
             }
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };
         let mut rows = serde_json::Map::new();
-        for (name, t) in files(scene).iter().zip(&tables) {
+        for (name, (bytes, n)) in files(scene).iter().zip(contents) {
             let path = format!("{d}/{name}");
-            ctx.emit_file(&path, csv_bytes(t).with_context(|| path.clone())?);
-            rows.insert(path, json!(t.n_rows()));
+            ctx.emit_file(&path, bytes);
+            rows.insert(path, json!(n));
         }
         out.set_attr("scene", scene)?;
         out.set_attr("rows", serde_json::Value::Object(rows.clone()))?;

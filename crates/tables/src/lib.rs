@@ -318,6 +318,28 @@ impl Table {
     }
 }
 
+/// A value with its 1σ error in the concise notation of the literature: two significant digits
+/// of the error in parentheses, applying to the last digits of the value ("0.17826(11)" for
+/// 0.178262 ± 0.000107, "31.5(12)" for 31.49 ± 1.2, "123(15)" for 123.4 ± 15). An error that
+/// is zero, negative or not finite gives the value alone with `sig` significant digits.
+pub fn concise(value: f64, error: f64, sig: usize) -> String {
+    if !value.is_finite() {
+        return FloatFormat::Significant(sig).apply(value);
+    }
+    if !(error.is_finite() && error > 0.0) {
+        return FloatFormat::Significant(sig).apply(value);
+    }
+    let mut decimals = (1 - error.log10().floor() as i32).max(0);
+    let mut digits = (error * 10f64.powi(decimals)).round();
+    // 0.0996 rounds to 100 at 5 decimals: one decimal fewer
+    if digits >= 100.0 && decimals > 0 {
+        decimals -= 1;
+        digits = (error * 10f64.powi(decimals)).round();
+    }
+    let v = FloatFormat::Fixed(decimals as usize).apply(value);
+    format!("{v}({})", digits as i64)
+}
+
 /// How [`Table::to_markdown`] prints floats.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum FloatFormat {
@@ -331,7 +353,8 @@ pub enum FloatFormat {
 }
 
 impl FloatFormat {
-    fn apply(self, x: f64) -> String {
+    /// `x` as [`Table::to_markdown`] prints it (NaN as "–", a typographic minus).
+    pub fn apply(self, x: f64) -> String {
         if !x.is_finite() {
             return if x.is_nan() {
                 "–".to_string()
@@ -462,6 +485,18 @@ fn convert(c: &PlColumn, want: Option<ColumnType>) -> Result<ColumnData> {
 mod tests {
     use super::*;
     use std::fs;
+
+    #[test]
+    fn concise_notation() {
+        assert_eq!(concise(0.178262, 0.000107, 5), "0.17826(11)");
+        assert_eq!(concise(0.67323, 0.00001, 5), "0.673230(10)");
+        assert_eq!(concise(31.49, 1.2, 4), "31.5(12)");
+        assert_eq!(concise(123.4, 15.0, 4), "123(15)");
+        assert_eq!(concise(0.5, 0.09996, 4), "0.50(10)");
+        assert_eq!(concise(-0.0012, 0.00034, 4), "−0.00120(34)");
+        assert_eq!(concise(0.25, f64::NAN, 3), "0.250");
+        assert_eq!(concise(f64::NAN, 0.1, 3), "–");
+    }
 
     fn sample() -> Table {
         Table::new()

@@ -44,8 +44,8 @@ pub struct ConvergenceData {
     pub references: Vec<(f64, String)>,
 }
 
-/// Builds the convergence figure (one column).
-pub fn figure(d: &ConvergenceData) -> Result<Figure> {
+/// The convergence panel of one quantity.
+pub fn panel(d: &ConvergenceData) -> Result<XyPanel> {
     let xl = if d.spacing_label.is_empty() {
         "grid spacing $Δx$ / $λ$"
     } else {
@@ -135,8 +135,33 @@ pub fn figure(d: &ConvergenceData) -> Result<Figure> {
     } else {
         LegendPos::BottomLeft
     };
+    Ok(p)
+}
+
+/// Builds the convergence figure (one column).
+pub fn figure(d: &ConvergenceData) -> Result<Figure> {
     let mut f = Figure::new(COLUMN_WIDTH, 360.0);
-    f.xy(Rect::new(0.0, 0.0, COLUMN_WIDTH, 360.0), p);
+    f.xy(Rect::new(0.0, 0.0, COLUMN_WIDTH, 360.0), panel(d)?);
+    Ok(f)
+}
+
+/// Several quantities' convergence panels stacked in one column, tagged (a), (b), ..., with
+/// the legend in the first panel only (the series are the same in every panel).
+pub fn stacked(ds: &[ConvergenceData]) -> Result<Figure> {
+    ensure!(!ds.is_empty(), "no convergence panels to draw");
+    let h = 300.0;
+    let gap = 8.0;
+    let total = h * ds.len() as f64 + gap * (ds.len() - 1) as f64;
+    let mut f = Figure::new(COLUMN_WIDTH, total);
+    let rows = Rect::new(0.0, 0.0, COLUMN_WIDTH, total).rows(&vec![1.0; ds.len()], gap);
+    for (k, (d, r)) in ds.iter().zip(rows).enumerate() {
+        let mut p = panel(d)?;
+        p.tag = Some(format!("({})", (b'a' + k as u8) as char));
+        if k > 0 {
+            p.legend = LegendPos::None;
+        }
+        f.xy(r, p);
+    }
     Ok(f)
 }
 
