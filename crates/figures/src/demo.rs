@@ -480,8 +480,10 @@ pub fn convergence() -> ConvergenceData {
             fit,
             fit_band: band,
             extrapolated: Some((a_inf, 0.0004)),
+            reference: None,
         }],
         references: vec![(0.40185, "paper: 0.40185(6)".into())],
+        reference_label: None,
     }
 }
 

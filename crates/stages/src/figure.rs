@@ -15,9 +15,10 @@
 //! - `fig4`: gap maps just below the percolation threshold for the three models, contact white,
 //!   bright = large gap, arranged as Figure 1 (inputs `hexagonal`, `square`, `triangular`:
 //!   `critical` stages stored with fields; see [`crate::fig4`]).
-//! - `convergence`: a_p (perimeter-corrected and raw, minus the paper's value) and L_c
-//!   (relative to its extrapolation) against grid spacing for the three models, with the
-//!   extrapolations to zero spacing and their 1σ bands, stacked (a)–(c) (inputs `hexagonal`,
+//! - `convergence`: against grid spacing for the three models, with the extrapolations to zero
+//!   spacing and their 1σ bands, stacked: (a) perimeter-corrected a_p minus the paper's value
+//!   (the paper's error bars at zero spacing), (b) the same on the three finest grids, (c) raw
+//!   a_p minus the paper's, (d) L_c relative to its extrapolation (inputs `hexagonal`,
 //!   `square`, `triangular`: `resolution` stages; see [`crate::resolution`]).
 //!
 //! - `fig1`: elastic displacement at zero load with adhesion for the three models (inputs
@@ -53,8 +54,14 @@ pub const CODE_VERSION: u64 = 1;
 /// Scenes this kind renders.
 pub const SCENES: &[&str] = &["fig1", "fig2", "fig3", "fig4", "fig6", "convergence"];
 
-/// The quantities of the `convergence` scene's panels, top to bottom.
-pub const CONVERGENCE_QUANTITIES: [&str; 3] = ["a_p_corrected", "a_p_raw", "l_c"];
+/// The `convergence` scene's panels, top to bottom: quantity and how many of the finest grids
+/// (`None`: all).
+pub const CONVERGENCE_PANELS: [(&str, Option<usize>); 4] = [
+    ("a_p_corrected", None),
+    ("a_p_corrected", Some(3)),
+    ("a_p_raw", None),
+    ("l_c", None),
+];
 
 /// The output stem (`figures/<scene>` unless `output` is given).
 fn stem(params: &Params) -> String {
@@ -278,9 +285,9 @@ impl StageKind for FigureKind {
             }
             "fig4" => figures::scenes::maps::figure(&fig4::data(inputs)?, Colormap::Viridis)?,
             "convergence" => {
-                let panels = CONVERGENCE_QUANTITIES
+                let panels = CONVERGENCE_PANELS
                     .iter()
-                    .map(|q| resolution::convergence_data(inputs, q))
+                    .map(|(q, k)| resolution::convergence_data(inputs, q, *k))
                     .collect::<Result<Vec<_>>>()?;
                 figures::scenes::convergence::stacked(&panels)?
             }

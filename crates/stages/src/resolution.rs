@@ -396,16 +396,35 @@ fn read_models(inputs: &Inputs) -> Result<Vec<(Lattice, &ArtefactReader)>> {
 
 /// Convergence figure data for `quantity` (`a_p_corrected`, `a_p_raw` or `l_c`): each model's
 /// values against grid spacing, with the extrapolation curve and band, shifted by a reference so
-/// the three models share one axis (the paper's a_p for areas; the model's own extrapolated L_c,
-/// relative, for loads).
-pub fn convergence_data(inputs: &Inputs, quantity: &str) -> Result<ConvergenceData> {
+/// the three models share one axis (the paper's a_p for areas, whose error bars are drawn at
+/// zero spacing; the model's own extrapolated L_c, relative, for loads). `finest = Some(k)`
+/// shows only the k finest grids of each model (a zoom on the approach to zero spacing; the
+/// extrapolation is still the one of all grids).
+pub fn convergence_data(
+    inputs: &Inputs,
+    quantity: &str,
+    finest: Option<usize>,
+) -> Result<ConvergenceData> {
     let models = read_models(inputs)?;
     let relative = quantity.starts_with("l_c");
-    let mut series = Vec::new();
-    let mut hmax = 0.0f64;
+    let mut qs = Vec::new();
     for (l, r) in &models {
-        let q = ResolvedQuantity::read(r, quantity)?;
-        hmax = hmax.max(q.h.iter().copied().fold(0.0, f64::max));
+        let mut q = ResolvedQuantity::read(r, quantity)?;
+        if let Some(k) = finest {
+            // levels are stored coarse to fine (descending h)
+            let skip = q.h.len().saturating_sub(k.max(1));
+            for v in [&mut q.h, &mut q.v, &mut q.sem] {
+                v.drain(..skip);
+            }
+        }
+        qs.push((*l, q));
+    }
+    let hmax = qs
+        .iter()
+        .flat_map(|(_, q)| q.h.iter().copied())
+        .fold(0.0, f64::max);
+    let mut series = Vec::new();
+    for (l, q) in &qs {
         let (offset, scale) = if relative {
             (q.v0, 1.0 / q.v0)
         } else {
@@ -414,7 +433,7 @@ pub fn convergence_data(inputs: &Inputs, quantity: &str) -> Result<ConvergenceDa
         let tr = |v: f64| (v - offset) * scale;
         let fit: Vec<(f64, f64)> = (0..=40)
             .map(|k| {
-                let x = hmax.max(q.h[0]) * k as f64 / 40.0;
+                let x = hmax * k as f64 / 40.0;
                 (x, tr(q.curve(x).0))
             })
             .collect();
@@ -433,24 +452,30 @@ pub fn convergence_data(inputs: &Inputs, quantity: &str) -> Result<ConvergenceDa
             fit: if q.v0.is_finite() { fit } else { Vec::new() },
             fit_band: if q.v0.is_finite() { band } else { Vec::new() },
             extrapolated: q.v0.is_finite().then(|| (tr(q.v0), q.v0_error * scale)),
+            reference: (!relative).then(|| (0.0, paper_a_p(*l).1)),
         });
     }
+    let zoom = if finest.is_some() { " (zoom)" } else { "" };
     let (label, references) = match quantity {
         "a_p_corrected" => (
-            "perimeter-corrected $a$_p − paper",
+            format!("corrected $a$_p − paper{zoom}"),
             vec![(0.0, "paper".to_string())],
         ),
-        "a_p_raw" => ("raw $a$_p − paper", vec![(0.0, "paper".to_string())]),
+        "a_p_raw" => (
+            format!("raw $a$_p − paper{zoom}"),
+            vec![(0.0, "paper".to_string())],
+        ),
         _ => (
-            "$L$_c / $L$_c(0) − 1",
+            format!("$L$_c / $L$_c(0) − 1{zoom}"),
             vec![(0.0, "extrapolated".to_string())],
         ),
     };
     Ok(ConvergenceData {
-        quantity_label: label.into(),
+        quantity_label: label,
         spacing_label: "grid spacing √(Δ$x$ Δ$y$) / $λ$".into(),
         series,
         references,
+        reference_label: (!relative).then(|| "paper (1σ)".to_string()),
     })
 }
 

@@ -29,6 +29,9 @@ pub struct ConvergenceSeries {
     pub fit_band: Vec<(f64, f64)>,
     /// Extrapolated value at zero spacing and its 1σ error.
     pub extrapolated: Option<(f64, f64)>,
+    /// A reference value of this series and its 1σ error (e.g. the paper's), drawn at zero
+    /// spacing beside the extrapolated value as a cross with an error bar.
+    pub reference: Option<(f64, f64)>,
 }
 
 /// Data of a convergence figure.
@@ -42,6 +45,8 @@ pub struct ConvergenceData {
     pub series: Vec<ConvergenceSeries>,
     /// Reference values (value, label), drawn as horizontal dotted lines.
     pub references: Vec<(f64, String)>,
+    /// Legend text of the series' own reference values (`ConvergenceSeries::reference`).
+    pub reference_label: Option<String>,
 }
 
 /// The convergence panel of one quantity.
@@ -101,6 +106,17 @@ pub fn panel(d: &ConvergenceData) -> Result<XyPanel> {
                 .y_err(vec![e]),
             );
         }
+        if let Some((v, e)) = s.reference {
+            // just left of zero spacing, so that it does not hide the extrapolated value
+            p.series.push(
+                Series::points(
+                    vec![-0.02 * hmax.max(1e-12)],
+                    vec![v],
+                    MarkerStyle::filled(Marker::Cross, col).size(6.5),
+                )
+                .y_err(vec![e]),
+            );
+        }
     }
     for (v, label) in &d.references {
         p.annotations.push(Annotation::HLine {
@@ -114,6 +130,15 @@ pub fn panel(d: &ConvergenceData) -> Result<XyPanel> {
             label: "extrapolated to $Δx$ = 0".into(),
             stroke: None,
             marker: Some(MarkerStyle::open(Marker::Diamond, GREY).size(7.5)),
+        });
+    }
+    if let Some(label) = &d.reference_label
+        && d.series.iter().any(|s| s.reference.is_some())
+    {
+        p.legend_extra.push(LegendEntry {
+            label: label.clone(),
+            stroke: None,
+            marker: Some(MarkerStyle::filled(Marker::Cross, GREY).size(6.5)),
         });
     }
     // the legend goes where the data are not: above the points if they fall with spacing
