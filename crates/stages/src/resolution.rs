@@ -21,9 +21,12 @@
 //! - root attributes `lattice`, `p_fc_exact`, `shift_rule`, the headline values `l_c`,
 //!   `a_p_raw`, `a_p_corrected` with `_error`, `p_fc_over_l_c` = p_fc_exact / L_c with
 //!   `_error`, the finest level's `l_c_subgrid`, `zeta` (with errors), and the paper's values
-//!   `paper_a_p`, `paper_a_p_error`, `paper_p_fc_over_l_c` (NaN where the paper gives none).
+//!   `paper_a_p`, `paper_a_p_error`, `paper_p_fc_over_l_c` (NaN where the paper gives none);
+//! - headline numbers ([`crate::headline`]): "a_p <model> (corrected)", "a_p <model> (raw)",
+//!   "L_c <model>", "p_fc/L_c <model>" with the paper's values where it gives them.
 
 use crate::critical::CriticalLevel;
+use crate::headline::Headline;
 use crate::surface::lattice_from_name;
 use anyhow::{Result, bail};
 use critical::{Extrapolated, Stat};
@@ -41,7 +44,7 @@ use tables::Table;
 pub struct ResolutionKind;
 
 /// Bump when the artefact's content changes for the same inputs.
-pub const CODE_VERSION: u64 = 1;
+pub const CODE_VERSION: u64 = 2;
 
 /// The paper's a_p (value, error) with the labels as corrected in PHYSICS.md.
 pub fn paper_a_p(l: Lattice) -> (f64, f64) {
@@ -240,6 +243,18 @@ impl StageKind for ResolutionKind {
         out.set_attr("paper_a_p", pa)?;
         out.set_attr("paper_a_p_error", pe)?;
         out.set_attr("paper_p_fc_over_l_c", paper_ratio(lattice))?;
+        let m = lattice.name();
+        let (ratio, ratio_e) = (p_fc / l_c, p_fc / l_c * l_c_e / l_c);
+        crate::headline::write(
+            out,
+            &[
+                Headline::new(format!("a_p {m} (corrected)"), a_c, a_c_e).paper(pa, pe),
+                Headline::new(format!("a_p {m} (raw)"), a_r, a_r_e).paper(pa, pe),
+                Headline::new(format!("L_c {m}"), l_c, l_c_e),
+                Headline::new(format!("p_fc/L_c {m}"), ratio, ratio_e)
+                    .paper(paper_ratio(lattice), f64::NAN),
+            ],
+        )?;
         Ok(StageReport::with_stats(json!({
             "levels": levels.len(),
             "l_c": [l_c, l_c_e],

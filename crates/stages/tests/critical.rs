@@ -155,6 +155,16 @@ fn stored_averages_corrections_and_extrapolations_follow_from_the_raw_data() {
             "{model}"
         );
         assert!(got("a_p_corrected_error") > 0.0 && got("l_c_error") > 0.0);
+        // headline numbers for the fidelity trade-off: the same values, the paper's a_p beside
+        let heads = stages::headline::read(&res).unwrap();
+        let head = |name: &str| heads.iter().find(|h| h.name == name).unwrap().clone();
+        let h = head(&format!("a_p {model} (corrected)"));
+        assert_eq!(
+            (h.value, h.error),
+            (got("a_p_corrected"), Some(got("a_p_corrected_error")))
+        );
+        assert_eq!(h.paper, Some(got("paper_a_p")));
+        assert_eq!(head(&format!("L_c {model}")).value, got("l_c"));
         // the table carries the stage's numbers
         assert_eq!(table.str("model").unwrap()[row], *model);
         for k in ["l_c", "a_p_raw", "a_p_corrected", "p_fc_over_l_c"] {
