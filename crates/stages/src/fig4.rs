@@ -139,32 +139,9 @@ pub fn data(inputs: &Inputs) -> Result<ThreeMaps> {
             );
         }
         let gap = r.read_f64_2d(fields::GAP)?;
-        let (lx, ly) = r.cell()?;
-        let s = Surface::on_grid(
-            lattice,
-            Grid::new(lattice, r.attr_i64("n")? as u32).map_err(|e| anyhow::anyhow!("{e}"))?,
-        );
-        let cps = s.critical_points();
-        let pick = |k: CriticalKind| {
-            cps.iter()
-                .filter(|c| c.kind == k)
-                .map(|c| (c.x, c.y))
-                .collect::<Vec<_>>()
-        };
-        let (maxima, minima, saddles) = (
-            pick(CriticalKind::Maximum),
-            pick(CriticalKind::Minimum),
-            pick(CriticalKind::Saddle),
-        );
-        let mut m = ModelMap::new(model(lattice), gap.clone(), lx, ly);
-        m.contact = Some(gap.mapv(|g| g <= 0.0));
-        if lattice == Lattice::Square {
-            m.view = Some((0.0, 2.0 * lx, 0.0, 2.0 * ly));
-        }
-        m.maxima_lines = neighbour_links(&maxima, lx, ly);
-        m.minima_lines = neighbour_links(&minima, lx, ly);
-        m.minima = minima;
-        m.saddles = saddles;
+        let contact = gap.mapv(|g| g <= 0.0);
+        let mut m = lattice_map(lattice, r.attr_i64("n")? as u32, gap, false)?;
+        m.contact = Some(contact);
         maps.push(m);
     }
     Ok(ThreeMaps {
