@@ -48,7 +48,7 @@ use surface::{Lattice, Surface};
 pub struct CriticalKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 1;
+pub const CODE_VERSION: u64 = 2;
 
 /// Largest shift rule m (m² solves per grid).
 pub const MAX_SHIFTS: i64 = 8;
