@@ -2,32 +2,11 @@
 //! hysteresis and thresholds against the exact full-contact stability limit, the figures'
 //! inputs checked, and the jump positions tabulated per grid.
 
+mod common;
+use common::{reader, try_run as run};
+
 use stages::fig3::thresholds;
-use stages::orchestrator::{Plan, ProgressMode, RunOptions, Workspace};
 use stages::sweep::SweepData;
-use std::path::Path;
-
-fn run(dir: &Path, pipeline: &str) -> Result<(Plan, Workspace), String> {
-    std::fs::create_dir_all(dir.join("pipeline")).unwrap();
-    std::fs::write(dir.join("pipeline/p.toml"), pipeline).unwrap();
-    let plan = Plan::load(&stages::registry(), &dir.join("pipeline/p.toml"), None)
-        .map_err(|e| format!("{e:#}"))?;
-    let ws = Workspace::new(dir);
-    let opts = RunOptions {
-        progress: ProgressMode::Silent,
-        ..Default::default()
-    };
-    let s = stages::orchestrator::run(&ws, &plan, &opts).map_err(|e| format!("{e:#}"))?;
-    if !s.failed.is_empty() {
-        return Err(format!("{:?}", s.failed));
-    }
-    Ok((plan, ws))
-}
-
-fn reader(plan: &Plan, ws: &Workspace, name: &str) -> store::ArtefactReader {
-    let s = plan.stages.iter().find(|s| s.name == name).unwrap();
-    store::ArtefactReader::open_complete(ws.artefact_of(s)).unwrap()
-}
 
 /// Full contact under adhesion holds while the adhesive stress γ0/ρ can carry the largest
 /// tension of the full-contact state, p_fc − p̄ at the trough (exact on the grid: the square

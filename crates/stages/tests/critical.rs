@@ -5,31 +5,15 @@
 //! here: shift averages from the per-shift brackets and contact counts, the perimeter correction
 //! (Yastrebov et al. 2017) from the counts, the two-grid extrapolation in closed form.
 
-use stages::orchestrator::{Plan, ProgressMode, RunOptions, Workspace};
+mod common;
+use common::reader;
+
+use stages::orchestrator::{Plan, Workspace};
 use std::path::Path;
 use tables::ColumnType;
 
-fn plan(dir: &Path, pipeline: &str) -> Plan {
-    std::fs::create_dir_all(dir.join("pipeline")).unwrap();
-    std::fs::write(dir.join("pipeline/p.toml"), pipeline).unwrap();
-    Plan::load(&stages::registry(), &dir.join("pipeline/p.toml"), None).unwrap()
-}
-
 fn run(dir: &Path, pipeline: &str) -> (Plan, Workspace, Vec<String>) {
-    let plan = plan(dir, pipeline);
-    let ws = Workspace::new(dir);
-    let opts = RunOptions {
-        progress: ProgressMode::Silent,
-        ..Default::default()
-    };
-    let s = stages::orchestrator::run(&ws, &plan, &opts).unwrap();
-    let failed = s.failed.iter().map(|f| format!("{f:?}")).collect();
-    (plan, ws, failed)
-}
-
-fn reader(plan: &Plan, ws: &Workspace, name: &str) -> store::ArtefactReader {
-    let s = plan.stages.iter().find(|s| s.name == name).unwrap();
-    store::ArtefactReader::open_complete(ws.artefact_of(s)).unwrap()
+    common::run_all(dir, pipeline).unwrap()
 }
 
 const STUDY: &str = r#"

@@ -1,28 +1,11 @@
 //! The `flow` and `flowmap` kinds through the engine on tiny grids: flux against load along a
 //! hard-wall path, where it stops, current densities, and the near-critical map.
 
+mod common;
+use common::{reader, run};
+
 use stages::flow::FlowData;
 use stages::orchestrator::{Plan, ProgressMode, RunOptions, Workspace};
-use std::path::Path;
-
-fn run(dir: &Path, pipeline: &str) -> (Plan, Workspace) {
-    std::fs::create_dir_all(dir.join("pipeline")).unwrap();
-    std::fs::write(dir.join("pipeline/p.toml"), pipeline).unwrap();
-    let plan = Plan::load(&stages::registry(), &dir.join("pipeline/p.toml"), None).unwrap();
-    let ws = Workspace::new(dir);
-    let opts = RunOptions {
-        progress: ProgressMode::Silent,
-        ..Default::default()
-    };
-    let s = stages::orchestrator::run(&ws, &plan, &opts).unwrap();
-    assert!(s.failed.is_empty(), "{:?}", s.failed);
-    (plan, ws)
-}
-
-fn reader(plan: &Plan, ws: &Workspace, name: &str) -> store::ArtefactReader {
-    let s = plan.stages.iter().find(|s| s.name == name).unwrap();
-    store::ArtefactReader::open_complete(ws.artefact_of(s)).unwrap()
-}
 
 /// A hard-wall loading path on the 16² square model, gaps stored at every point, past full
 /// contact (p_fc).

@@ -2,28 +2,11 @@
 //! records, that non-converged points are flagged and never used silently, the cohesive-zone
 //! warning, and parameter errors with file and line.
 
-use stages::orchestrator::{Plan, ProgressMode, RunOptions, Workspace};
+mod common;
+use common::{reader, run};
+
+use stages::orchestrator::Plan;
 use stages::sweep::SweepData;
-use std::path::Path;
-
-fn run(dir: &Path, pipeline: &str) -> (Plan, Workspace) {
-    std::fs::create_dir_all(dir.join("pipeline")).unwrap();
-    std::fs::write(dir.join("pipeline/p.toml"), pipeline).unwrap();
-    let plan = Plan::load(&stages::registry(), &dir.join("pipeline/p.toml"), None).unwrap();
-    let ws = Workspace::new(dir);
-    let opts = RunOptions {
-        progress: ProgressMode::Silent,
-        ..Default::default()
-    };
-    let s = stages::orchestrator::run(&ws, &plan, &opts).unwrap();
-    assert!(s.failed.is_empty(), "{:?}", s.failed);
-    (plan, ws)
-}
-
-fn reader(plan: &Plan, ws: &Workspace, name: &str) -> store::ArtefactReader {
-    let s = plan.stages.iter().find(|s| s.name == name).unwrap();
-    store::ArtefactReader::open_complete(ws.artefact_of(s)).unwrap()
-}
 
 const SURFACE: &str = "[stages.sq]\nkind = \"surface\"\nparams = { lattice = \"square\", n = 4 }\n";
 
