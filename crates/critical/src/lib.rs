@@ -37,12 +37,18 @@
 //! - the sub-grid estimate ([`saddle`]): saddle gaps sampled at loads below L_c and fitted by
 //!   `A (L_c − L)^ζ` with L_c free.
 //!
+//! # Near-critical scaling
+//! [`ladder`] solves at reduced loads around L_c and keeps a window around one saddle;
+//! [`scaling`] measures the channel's width and length there and fits the exponents.
+//!
 //! # Beyond one grid
 //! [`shifts`] averages over sub-grid shifts of the surface relative to the grid; [`study`] runs
 //! several grid exponents n, coarse to fine with warm starts, and extrapolates to zero spacing.
 
 pub mod bracket;
+pub mod ladder;
 pub mod saddle;
+pub mod scaling;
 pub mod shifts;
 mod state;
 pub mod study;
