@@ -61,8 +61,10 @@ pub fn axis_saddle(surface: &Surface) -> Result<SaddleFrame, CriticalError> {
         } else {
             continue;
         };
-        if let (Some(i), Some(j)) = (on_node(p.x, g.dx(), g.shift.0), on_node(p.y, g.dy(), g.shift.1))
-        {
+        if let (Some(i), Some(j)) = (
+            on_node(p.x, g.dx(), g.shift.0),
+            on_node(p.y, g.dy(), g.shift.1),
+        ) {
             return Ok(SaddleFrame {
                 x: p.x,
                 y: p.y,
@@ -224,12 +226,8 @@ pub fn solve_ladder(
     if !(l_c.is_finite() && l_c > 0.0) {
         return Err(CriticalError::param("l_c", l_c, "finite and > 0 (E* h0/λ)"));
     }
-    if let Some(&l) = ls.iter().find(|l| !(l.is_finite() && **l > -1.0 && **l != 0.0)) {
-        return Err(CriticalError::param(
-            "ls",
-            l,
-            "non-zero reduced loads above −1",
-        ));
+    if let Some(&l) = ls.iter().find(|l| !(l.is_finite() && **l > -1.0)) {
+        return Err(CriticalError::param("ls", l, "reduced loads above −1"));
     }
     let mut ls = ls.to_vec();
     ls.sort_by(f64::total_cmp);
@@ -258,7 +256,8 @@ pub fn solve_ladder(
         let t0 = Instant::now();
         let load = l_c * (1.0 + l);
         let first = coarse.map(|c| warm::warm_start_from(&c[k], &surface.grid));
-        let starts: [Option<&Solution>; 3] = [first.as_ref().or(prev.as_ref()), prev.as_ref(), None];
+        let starts: [Option<&Solution>; 3] =
+            [first.as_ref().or(prev.as_ref()), prev.as_ref(), None];
         let mut iterations = 0;
         let mut attempts = 0;
         let mut sol = None;
@@ -392,7 +391,22 @@ mod tests {
             assert!(((r.load - l_c) / l_c - r.l).abs() < 1e-12);
         }
         // more load, more contact
-        assert!(rungs.windows(2).all(|w| w[1].contact_area >= w[0].contact_area));
-        assert!(solve_ladder(&s, &f, l_c, &[0.0], &LadderOptions::default(), None, &mut |_, _| {}).is_err());
+        assert!(
+            rungs
+                .windows(2)
+                .all(|w| w[1].contact_area >= w[0].contact_area)
+        );
+        assert!(
+            solve_ladder(
+                &s,
+                &f,
+                l_c,
+                &[-1.5],
+                &LadderOptions::default(),
+                None,
+                &mut |_, _| {}
+            )
+            .is_err()
+        );
     }
 }

@@ -117,7 +117,9 @@ pub fn blocked_half_length(w: &Window) -> Result<EdgeFit, String> {
         hi += 1;
     }
     if lo == 0 || hi + 1 == col.len() {
-        return Err("the contact along the channel axis reaches the window's edge; enlarge `window`".into());
+        return Err(
+            "the contact along the channel axis reaches the window's edge; enlarge `window`".into(),
+        );
     }
     if hi - lo + 1 < 3 {
         return Err(format!(
@@ -146,7 +148,11 @@ fn edge_between(r1: f64, p1: f64, r2: f64, p2: f64, d: f64, dir: f64) -> f64 {
         return half;
     }
     let r0 = r1 - p1 * p1 / slope;
-    let (a, b) = if dir > 0.0 { (r1, r1 + d) } else { (r1 - d, r1) };
+    let (a, b) = if dir > 0.0 {
+        (r1, r1 + d)
+    } else {
+        (r1 - d, r1)
+    };
     r0.clamp(a, b)
 }
 
@@ -301,7 +307,11 @@ mod tests {
             assert!((e.r - r_c).abs() < 1e-9, "{} vs {r_c}", e.r);
             // the contact lines are straight at r⊥ = ±r_c; p² is linear, so exactly placed
             let pts = contact_lines(&w);
-            assert!(pts.iter().filter(|p| !p.0.is_nan()).all(|p| (p.1.abs() - r_c).abs() < 1e-9));
+            assert!(
+                pts.iter()
+                    .filter(|p| !p.0.is_nan())
+                    .all(|p| (p.1.abs() - r_c).abs() < 1e-9)
+            );
         }
     }
 
@@ -322,7 +332,11 @@ mod tests {
         assert!((e.r - a0).abs() < 1e-8, "{}", e.r);
         // p² = p0² (1 − x²/a²) is not linear in x, but near the edge it is to first order
         let pts = contact_lines(&w);
-        assert!(pts.iter().filter(|p| !p.0.is_nan()).all(|p| (p.0.abs() - a0).abs() < 0.2 * d));
+        assert!(
+            pts.iter()
+                .filter(|p| !p.0.is_nan())
+                .all(|p| (p.0.abs() - a0).abs() < 0.2 * d)
+        );
         // too small a window
         let small = Window {
             gap: w.gap.slice(ndarray::s![10..31, ..]).to_owned(),

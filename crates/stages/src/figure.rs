@@ -20,7 +20,10 @@
 //!   (the paper's error bars at zero spacing), (b) the same on the three finest grids, (c) raw
 //!   a_p minus the paper's, (d) L_c relative to its extrapolation (inputs `hexagonal`,
 //!   `square`, `triangular`: `resolution` stages; see [`crate::resolution`]).
-//!
+//! - `fig5`: Figure 5, near-critical contact lines and axis gaps collapsed by the scaling
+//!   (inputs `ladder`, one per model, and `exponents`; crates/stages/src/fig5.rs).
+//! - `fig6_beta`: Figure 6's bottom-left panel on its own, normalised flux against
+//!   (L_c − L)/L_c with the fitted β (input `exponents`).
 //! - `fig1`: elastic displacement at zero load with adhesion for the three models (inputs
 //!   `hexagonal`, `square`, `triangular`: zero-load γ0 `sweep`s with fields at `gamma0`,
 //!   default 0.2), lattice overlays from the surfaces' critical points ([`fig1`]); attribute
@@ -33,6 +36,7 @@
 //! `points_left_out`; fig6: `points_plotted`, `curves` (the figure files themselves are kept
 //! inside the artefact by the engine, as every side output).
 
+use crate::fig5;
 use crate::sweep::SweepData;
 use crate::{fig1, fig2, fig3, fig4, fig6, resolution};
 use anyhow::Result;
@@ -52,7 +56,16 @@ pub struct FigureKind;
 pub const CODE_VERSION: u64 = 1;
 
 /// Scenes this kind renders.
-pub const SCENES: &[&str] = &["fig1", "fig2", "fig3", "fig4", "fig6", "convergence"];
+pub const SCENES: &[&str] = &[
+    "fig1",
+    "fig2",
+    "fig3",
+    "fig4",
+    "fig5",
+    "fig6",
+    "fig6_beta",
+    "convergence",
+];
 
 /// The `convergence` scene's panels, top to bottom: quantity and how many of the finest grids
 /// (`None`: all).
@@ -197,6 +210,8 @@ impl StageKind for FigureKind {
             Ok("fig3") => fig3::inputs(),
             Ok("fig4") => fig4::inputs(),
             Ok("convergence") => resolution::scene_inputs(),
+            Ok("fig5") => fig5::inputs(),
+            Ok("fig6_beta") => fig5::exponent_inputs(),
             _ => Vec::new(),
         }
     }
@@ -290,6 +305,32 @@ impl StageKind for FigureKind {
                     .map(|(q, k)| resolution::convergence_data(inputs, q, *k))
                     .collect::<Result<Vec<_>>>()?;
                 figures::scenes::convergence::stacked(&panels)?
+            }
+            "fig5" => {
+                let (data, warnings) = fig5::fig5_data(inputs)?;
+                for w in warnings {
+                    ctx.warn(w);
+                }
+                out.set_attr("contact_lines", data.contact_lines.len() as i64)?;
+                out.set_attr("profiles", data.profiles.len() as i64)?;
+                figures::scenes::fig5::figure(&data)?
+            }
+            "fig6_beta" => {
+                let (normalised, fit) = fig5::beta_panel(inputs.one("exponents")?)?;
+                if normalised.is_empty() {
+                    ctx.warn("no model has a flux below L_c: the β panel is empty");
+                }
+                let data = figures::scenes::fig6::Fig6Data {
+                    flow: Vec::new(),
+                    load_label: String::new(),
+                    flux_label: String::new(),
+                    flux_log: false,
+                    normalised,
+                    distance_label: "($L$_c − $L$) / $L$_c".into(),
+                    fit,
+                    current: None,
+                };
+                figures::scenes::fig6::beta_figure(&data)?
             }
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };

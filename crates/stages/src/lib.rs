@@ -14,13 +14,17 @@
 //! | `flowmap` | current density at a near-critical hard-wall state l = (L − L_c)/L_c < 0 (L_c by bisection on the grid) | `surface` | `gap`, `pressure`, `current_x`, `current_y`, `bisection/*` |
 //! | `critical` | percolation threshold of the hard-wall contact on one or more grids (coarse to fine), averaged over sub-grid shifts: L_c brackets (x, y, any), a_p raw and corrected, sub-grid L_c and ζ from the saddle gap, the finest grid's near-critical fields | – | `level/<n>/*`, `gap`, `above/*` |
 //! | `resolution` | one model's `critical` levels extrapolated to zero grid spacing; also the data of the convergence figures and the comparison table | `levels` (`critical`) | per quantity `v`, `sem`, `h` and the fit |
+//! | `ladder` | hard-wall solves at reduced loads l around L_c (±0.002 … ±0.02 and 0), warm-started, coarse to fine: a window of gap and pressure around one saddle and the flux per rung | `critical` | `level/<n>/*` |
+//! | `exponents` | ζ, υ, χ, β per model from the ladders (fit and grid-spread errors), the identity β = 3ζ + υ − χ | `ladder` (one per model) | `model/<lattice>/*` |
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 
 pub mod critical;
+pub mod exponents;
 pub mod fig1;
 pub mod fig2;
 pub mod fig3;
 pub mod fig4;
+pub mod fig5;
 pub mod fig6;
 pub mod figure;
 pub mod flow;
@@ -29,6 +33,7 @@ pub mod gapfile;
 pub mod headline;
 pub mod io;
 pub mod jumptable;
+pub mod ladder;
 pub mod mock;
 pub mod resolution;
 pub mod surface;
@@ -51,6 +56,8 @@ pub fn registry() -> Registry {
     r.register(flowmap::FlowMapKind);
     r.register(critical::CriticalKind);
     r.register(resolution::ResolutionKind);
+    r.register(ladder::LadderKind);
+    r.register(exponents::ExponentsKind);
     r.register(mock::MockKind);
     r
 }

@@ -37,8 +37,13 @@
 //!     [`resolution::comparison_table`]);
 //!   - `critical.md`, the same comparison as a Markdown table in concise notation.
 //!
+//! - `exponents` (input `exponents`): `exponents.csv` and `ladder_measurements.csv`, the
+//!   near-critical exponents against the paper and the per-rung measurements behind them
+//!   (columns in crates/stages/src/fig5.rs).
+//!
 //! Artefact: attributes `scene`, `rows` (JSON: file → number of rows).
 
+use crate::fig5;
 use crate::figure::check_relative;
 use crate::{fig2, fig3, fig6, jumptable, resolution};
 use anyhow::{Context, Result};
@@ -58,7 +63,14 @@ pub struct TableKind;
 pub const CODE_VERSION: u64 = 2;
 
 /// Scenes this kind tabulates.
-pub const SCENES: &[&str] = &["fig2", "fig2_resolution", "fig3", "fig6", "critical"];
+pub const SCENES: &[&str] = &[
+    "fig2",
+    "fig2_resolution",
+    "fig3",
+    "fig6",
+    "critical",
+    "exponents",
+];
 
 /// The files a scene writes, relative to `output_dir`.
 fn files(scene: &str) -> Vec<String> {
@@ -76,6 +88,7 @@ fn files(scene: &str) -> Vec<String> {
             "fig3_jumps.csv".into(),
         ],
         "critical" => vec!["critical.csv".into(), "critical.md".into()],
+        "exponents" => vec!["exponents.csv".into(), "ladder_measurements.csv".into()],
         _ => Vec::new(),
     }
 }
@@ -239,6 +252,7 @@ impl StageKind for TableKind {
             Ok("fig2_resolution") => fig2::resolution_inputs(),
             Ok("fig3") => fig3::inputs(),
             Ok("critical") => resolution::scene_inputs(),
+            Ok("exponents") => fig5::exponent_inputs(),
             _ => Vec::new(),
         }
     }
@@ -289,6 +303,13 @@ impl StageKind for TableKind {
                 let t = resolution::comparison_table(inputs)?;
                 let md = resolution::comparison_markdown(&t)?;
                 vec![encode(&t)?, (md.into_bytes(), t.n_rows())]
+            }
+            "exponents" => {
+                let r = inputs.one("exponents")?;
+                [fig5::exponent_table(r)?, fig5::measurement_table(r)?]
+                    .iter()
+                    .map(encode)
+                    .collect::<Result<_>>()?
             }
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };

@@ -325,6 +325,15 @@ pub fn figure(d: &Fig6Data) -> Result<Figure> {
     Ok(f)
 }
 
+/// The bottom-left panel alone (normalised flux against L_c − L with the fitted slope β), for
+/// when the near-critical data are shown without the rest of Figure 6.
+pub fn beta_figure(d: &Fig6Data) -> Result<Figure> {
+    let (w, h) = (420.0, 360.0);
+    let mut f = Figure::new(w, h);
+    f.xy(Rect::new(0.0, 0.0, w, h), bottom_left(d)?);
+    Ok(f)
+}
+
 /// Renders Figure 6 to `<out_stem>.png` and `.svg`.
 pub fn render(d: &Fig6Data, out_stem: &Path) -> Result<Vec<PathBuf>> {
     figure(d)?.render(out_stem)

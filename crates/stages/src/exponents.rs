@@ -1,0 +1,506 @@
+//! `exponents`: the near-critical exponents ζ, υ, χ and β of each model from its `ladder`
+//! (crates/critical/src/scaling.rs), each with an error bar from the fit and from the spread
+//! across the ladder's grid resolutions, and the identity β = 3ζ + υ − χ checked.
+//!
+//! # Per grid
+//! - ζ: the gap at the saddle node against |l| (l < 0), power law in log–log; also with L_c free
+//!   (`A (L_c − L)^ζ`, [`analysis::fit_saddle_gap`]) as a check of the L_c used (`zeta_lc_free`);
+//! - υ: the open channel's half-width r_c (square-root onset of the contact pressure across the
+//!   channel) against |l| (l < 0);
+//! - χ: the blocked channel's half-length a (Hertzian pressure along the channel axis) against l
+//!   (l > 0);
+//! - β: the flux through the cell against |l| = (L_c − L)/L_c (l < 0, fluid percolating).
+//!
+//! A rung whose measurement fails (channel not resolved, contact outside the window, fit
+//! failure) is left out of that fit with a warning; a fit needs 2 rungs (its error needs 3).
+//!
+//! # Per model
+//! The finest grid with a fit gives the value and the fit error (1σ, scaled by the reduced χ²);
+//! `grid_spread` is the largest difference to the other grids' values (NaN with one grid);
+//! `error` = sqrt(fit² + spread²). `beta_identity` = 3ζ + υ − χ with the errors combined in
+//! quadrature, compared with the flux's β (`beta_identity_diff`, in σ of both).
+//!
+//! # Artefact
+//! Attribute `models` (JSON list); per model `model/<lattice>`: attributes `<e>`,
+//! `<e>_fit_error`, `<e>_grid_spread`, `<e>_error`, `<e>_n`, `<e>_points`, `<e>_prefactor`
+//! for e in zeta, upsilon, chi, beta (NaN when no grid gave a fit), `zeta_lc_free`,
+//! `zeta_lc_free_error`, `l_c_fit`, `beta_identity`, `beta_identity_error`, `eta`; per grid
+//! `model/<lattice>/level/<n>`: the same fit attributes and datasets `l_open`, `saddle_gap`,
+//! `half_width`, `half_width_error`, `flux`, `l_blocked`, `half_length`, `half_length_error`
+//! (NaN where a measurement failed).
+
+use crate::ladder::{LadderData, LadderLevel};
+use anyhow::{Result, bail};
+use critical::scaling::{
+    EdgeOptions, ExponentFit, blocked_half_length, fit_exponent, open_half_width,
+};
+use orchestrator::{
+    InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
+};
+use serde_json::json;
+use store::{ArtefactReader, ArtefactWriter};
+
+/// The `exponents` stage kind.
+pub struct ExponentsKind;
+
+/// Bump when the artefact's content changes for the same inputs.
+pub const CODE_VERSION: u64 = 1;
+
+/// The exponents, in table order.
+pub const NAMES: [&str; 4] = ["zeta", "upsilon", "chi", "beta"];
+
+/// The paper's values (Dapp & Müser 2015): ζ, υ, χ ± 0.01, β = 3.45 (no error given).
+pub const PAPER: [(f64, f64); 4] = [(1.20, 0.01), (0.45, 0.01), (0.60, 0.01), (3.45, f64::NAN)];
+
+/// The paper's conjectured exact values 6/5, 9/20, 3/5 and 3·6/5 + 9/20 − 3/5 = 69/20.
+pub const CONJECTURED: [(f64, &str); 4] = [
+    (6.0 / 5.0, "6/5"),
+    (9.0 / 20.0, "9/20"),
+    (3.0 / 5.0, "3/5"),
+    (69.0 / 20.0, "69/20"),
+];
+
+/// Greek symbol of an exponent name.
+pub fn symbol(name: &str) -> &'static str {
+    match name {
+        "zeta" => "ζ",
+        "upsilon" => "υ",
+        "chi" => "χ",
+        "beta" => "β",
+        _ => "?",
+    }
+}
+
+/// Measurements on one grid.
+#[derive(Clone, Debug, Default)]
+pub struct LevelMeasure {
+    /// Grid exponent.
+    pub n: u32,
+    /// Reduced loads l < 0.
+    pub l_open: Vec<f64>,
+    /// Loads (E* h0/λ) of those rungs.
+    pub load_open: Vec<f64>,
+    /// Gap at the saddle node (h0).
+    pub saddle_gap: Vec<f64>,
+    /// Open half-width r_c (λ) and its fit error.
+    pub half_width: Vec<(f64, f64)>,
+    /// Flux (NaN where the fluid does not percolate).
+    pub flux: Vec<f64>,
+    /// Reduced loads l > 0.
+    pub l_blocked: Vec<f64>,
+    /// Blocked half-length a (λ) and its fit error.
+    pub half_length: Vec<(f64, f64)>,
+}
+
+/// Measures one ladder grid; failures become NaN and a note.
+pub fn measure(level: &LadderLevel, opts: &EdgeOptions, notes: &mut Vec<String>) -> LevelMeasure {
+    let mut m = LevelMeasure {
+        n: level.n,
+        ..Default::default()
+    };
+    for r in &level.rungs {
+        if !r.converged {
+            notes.push(format!(
+                "n = {}, l = {}: contact solve not converged, left out",
+                level.n, r.l
+            ));
+            continue;
+        }
+        if r.l < 0.0 {
+            m.l_open.push(r.l);
+            m.load_open.push(r.load);
+            let g = r.window.saddle_gap();
+            m.saddle_gap.push(if g > 0.0 { g } else { f64::NAN });
+            m.half_width.push(match open_half_width(&r.window, opts) {
+                Ok(e) => (e.r, e.r_error),
+                Err(e) => {
+                    notes.push(format!("n = {}, l = {}: open width: {e}", level.n, r.l));
+                    (f64::NAN, f64::NAN)
+                }
+            });
+            m.flux.push(if r.percolating && r.flux > 0.0 {
+                r.flux
+            } else {
+                f64::NAN
+            });
+        } else if r.l > 0.0 {
+            m.l_blocked.push(r.l);
+            m.half_length.push(match blocked_half_length(&r.window) {
+                Ok(e) => (e.r, e.r_error),
+                Err(e) => {
+                    notes.push(format!("n = {}, l = {}: blocked length: {e}", level.n, r.l));
+                    (f64::NAN, f64::NAN)
+                }
+            });
+        }
+    }
+    m
+}
+
+/// The four exponent fits of one grid (in [`NAMES`] order).
+pub fn level_fits(m: &LevelMeasure) -> [Result<ExponentFit, String>; 4] {
+    let w: Vec<f64> = m.half_width.iter().map(|v| v.0).collect();
+    let a: Vec<f64> = m.half_length.iter().map(|v| v.0).collect();
+    [
+        fit_exponent(&m.l_open, &m.saddle_gap),
+        fit_exponent(&m.l_open, &w),
+        fit_exponent(&m.l_blocked, &a),
+        fit_exponent(&m.l_open, &m.flux),
+    ]
+}
+
+/// One exponent of one model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Exponent {
+    /// Value (finest grid with a fit).
+    pub value: f64,
+    /// 1σ from the fit.
+    pub fit_error: f64,
+    /// Largest difference to the other grids (NaN with one).
+    pub grid_spread: f64,
+    /// sqrt(fit² + spread²) (NaN parts count as 0 unless both are NaN).
+    pub error: f64,
+    /// Grid of the value.
+    pub n: u32,
+    /// Rungs fitted.
+    pub points: usize,
+    /// Prefactor A of A |l|^e.
+    pub prefactor: f64,
+}
+
+impl Exponent {
+    /// No fit on any grid.
+    pub const NONE: Exponent = Exponent {
+        value: f64::NAN,
+        fit_error: f64::NAN,
+        grid_spread: f64::NAN,
+        error: f64::NAN,
+        n: 0,
+        points: 0,
+        prefactor: f64::NAN,
+    };
+}
+
+fn nan0(v: f64) -> f64 {
+    if v.is_nan() { 0.0 } else { v }
+}
+
+/// Combines per-grid fits (ascending n) as the module docs say.
+pub fn combine(per_grid: &[(u32, Option<ExponentFit>)]) -> Exponent {
+    let Some((n, fin)) = per_grid
+        .iter()
+        .rev()
+        .find_map(|(n, f)| f.as_ref().map(|f| (*n, f)))
+    else {
+        return Exponent::NONE;
+    };
+    let others: Vec<f64> = per_grid
+        .iter()
+        .filter(|(m, f)| *m != n && f.is_some())
+        .map(|(_, f)| f.as_ref().expect("some").value)
+        .collect();
+    let spread = others
+        .iter()
+        .map(|v| (v - fin.value).abs())
+        .fold(f64::NAN, f64::max);
+    let error = if fin.error.is_nan() && spread.is_nan() {
+        f64::NAN
+    } else {
+        nan0(fin.error).hypot(nan0(spread))
+    };
+    Exponent {
+        value: fin.value,
+        fit_error: fin.error,
+        grid_spread: spread,
+        error,
+        n,
+        points: fin.points,
+        prefactor: fin.prefactor,
+    }
+}
+
+/// The exponents of one model as read back.
+#[derive(Clone, Debug)]
+pub struct ModelExponents {
+    /// Model name.
+    pub lattice: String,
+    /// In [`NAMES`] order.
+    pub exponents: [Exponent; 4],
+    /// ζ with L_c free (finest grid) and its fit error.
+    pub zeta_lc_free: (f64, f64),
+    /// 3ζ + υ − χ and its error.
+    pub beta_identity: (f64, f64),
+    /// Curvature ratio of the saddle.
+    pub eta: f64,
+    /// Per-grid measurements (ascending n).
+    pub levels: Vec<LevelMeasure>,
+}
+
+impl ModelExponents {
+    /// An exponent by name.
+    pub fn get(&self, name: &str) -> Exponent {
+        NAMES
+            .iter()
+            .position(|n| *n == name)
+            .map_or(Exponent::NONE, |k| self.exponents[k])
+    }
+}
+
+/// The identity 3ζ + υ − χ with its error (quadrature).
+pub fn identity(z: &Exponent, u: &Exponent, c: &Exponent) -> (f64, f64) {
+    (
+        3.0 * z.value + u.value - c.value,
+        (9.0 * z.error * z.error + u.error * u.error + c.error * c.error).sqrt(),
+    )
+}
+
+impl StageKind for ExponentsKind {
+    fn name(&self) -> &str {
+        "exponents"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "near-critical exponents ζ, υ, χ, β per model from `ladder` stages, with fit and grid-spread error bars; the identity β = 3ζ + υ − χ"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new("span", ParamType::float_range(0.05, 5.0))
+                .default(0.5)
+                .doc(
+                    "square-root onset: fit the loaded nodes within span · r_c of the contact line",
+                ),
+            ParamSpec::new("min_nodes", ParamType::int_range(3, 50))
+                .default(3)
+                .doc("square-root onset: but at least this many nodes"),
+        ]
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        vec![InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model")]
+    }
+    fn cost(&self, _params: &Params) -> f64 {
+        0.05
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let opts = EdgeOptions {
+            span: params.f64("span")?,
+            min_nodes: params.i64("min_nodes")? as usize,
+        };
+        let mut models = Vec::new();
+        let mut summary = serde_json::Map::new();
+        for r in inputs.all("ladder") {
+            let d = LadderData::read(r)?;
+            let name = d.lattice.name();
+            if models.contains(&name) {
+                bail!("two `ladder` inputs for the {name} model; give one per model");
+            }
+            models.push(name);
+            let at = format!("model/{name}");
+            let mut notes = Vec::new();
+            let mut per: [Vec<(u32, Option<ExponentFit>)>; 4] = Default::default();
+            let mut zeta_free = (f64::NAN, f64::NAN, f64::NAN);
+            for lv in &d.levels {
+                let m = measure(lv, &opts, &mut notes);
+                let fits = level_fits(&m);
+                let la = format!("{at}/level/{}", lv.n);
+                for (k, f) in fits.into_iter().enumerate() {
+                    write_fit(out, &la, NAMES[k], f.as_ref().ok())?;
+                    if let Err(e) = &f {
+                        notes.push(format!("n = {}: no {} fit: {e}", lv.n, symbol(NAMES[k])));
+                    }
+                    per[k].push((lv.n, f.ok()));
+                }
+                // ζ with L_c free (needs 4 open samples: 3 parameters and one dof)
+                let (ld, gd): (Vec<f64>, Vec<f64>) = m
+                    .load_open
+                    .iter()
+                    .zip(&m.saddle_gap)
+                    .filter(|(_, g)| g.is_finite())
+                    .map(|(l, g)| (*l, *g))
+                    .unzip();
+                if ld.len() >= 4
+                    && let Ok(f) =
+                        analysis::fit_saddle_gap(&ld, &gd, None, analysis::ErrorScale::ReducedChi2)
+                {
+                    let z = f.get("zeta").unwrap_or((f64::NAN, f64::NAN));
+                    let lc = f.get("L_c").map_or(f64::NAN, |v| v.0);
+                    out.set_attr_at(&la, "zeta_lc_free", z.0)?;
+                    out.set_attr_at(&la, "zeta_lc_free_error", z.1)?;
+                    out.set_attr_at(&la, "l_c_fit", lc)?;
+                    out.set_attr_at(&la, "l_c", lv.l_c)?;
+                    zeta_free = (z.0, z.1, lc);
+                }
+                write_measure(out, &la, &m)?;
+            }
+            let ex: Vec<Exponent> = per.iter().map(|p| combine(p)).collect();
+            for (k, e) in ex.iter().enumerate() {
+                let nm = NAMES[k];
+                out.set_attr_at(&at, nm, e.value)?;
+                out.set_attr_at(&at, &format!("{nm}_fit_error"), e.fit_error)?;
+                out.set_attr_at(&at, &format!("{nm}_grid_spread"), e.grid_spread)?;
+                out.set_attr_at(&at, &format!("{nm}_error"), e.error)?;
+                out.set_attr_at(&at, &format!("{nm}_n"), e.n as i64)?;
+                out.set_attr_at(&at, &format!("{nm}_points"), e.points as i64)?;
+                out.set_attr_at(&at, &format!("{nm}_prefactor"), e.prefactor)?;
+            }
+            let (bi, be) = identity(&ex[0], &ex[1], &ex[2]);
+            out.set_attr_at(&at, "beta_identity", bi)?;
+            out.set_attr_at(&at, "beta_identity_error", be)?;
+            out.set_attr_at(&at, "zeta_lc_free", zeta_free.0)?;
+            out.set_attr_at(&at, "zeta_lc_free_error", zeta_free.1)?;
+            out.set_attr_at(&at, "l_c_fit", zeta_free.2)?;
+            out.set_attr_at(&at, "eta", d.eta)?;
+            for note in &notes {
+                ctx.warn(format!("{name}: {note}"));
+            }
+            summary.insert(
+                name.to_string(),
+                json!({
+                    "zeta": [ex[0].value, ex[0].error],
+                    "upsilon": [ex[1].value, ex[1].error],
+                    "chi": [ex[2].value, ex[2].error],
+                    "beta": [ex[3].value, ex[3].error],
+                    "beta_identity": [bi, be],
+                    "zeta_lc_free": [zeta_free.0, zeta_free.1],
+                }),
+            );
+        }
+        if models.is_empty() {
+            bail!("`exponents` needs at least one `ladder` input");
+        }
+        out.set_attr("models", json!(models))?;
+        Ok(StageReport::with_stats(serde_json::Value::Object(summary)))
+    }
+}
+
+fn write_fit(
+    out: &mut ArtefactWriter,
+    at: &str,
+    name: &str,
+    f: Option<&ExponentFit>,
+) -> Result<()> {
+    let g = |v: fn(&ExponentFit) -> f64| f.map_or(f64::NAN, v);
+    out.set_attr_at(at, name, g(|f| f.value))?;
+    out.set_attr_at(at, &format!("{name}_fit_error"), g(|f| f.error))?;
+    out.set_attr_at(at, &format!("{name}_prefactor"), g(|f| f.prefactor))?;
+    out.set_attr_at(
+        at,
+        &format!("{name}_points"),
+        f.map_or(0, |f| f.points as i64),
+    )?;
+    Ok(())
+}
+
+fn write_measure(out: &mut ArtefactWriter, at: &str, m: &LevelMeasure) -> Result<()> {
+    out.set_attr_at(at, "n", m.n as i64)?;
+    out.write_f64_1d(&format!("{at}/l_open"), &m.l_open)?;
+    out.write_f64_1d(&format!("{at}/load_open"), &m.load_open)?;
+    out.write_f64_1d(&format!("{at}/saddle_gap"), &m.saddle_gap)?;
+    let (w, we): (Vec<f64>, Vec<f64>) = m.half_width.iter().copied().unzip();
+    out.write_f64_1d(&format!("{at}/half_width"), &w)?;
+    out.write_f64_1d(&format!("{at}/half_width_error"), &we)?;
+    out.write_f64_1d(&format!("{at}/flux"), &m.flux)?;
+    out.write_f64_1d(&format!("{at}/l_blocked"), &m.l_blocked)?;
+    let (a, ae): (Vec<f64>, Vec<f64>) = m.half_length.iter().copied().unzip();
+    out.write_f64_1d(&format!("{at}/half_length"), &a)?;
+    out.write_f64_1d(&format!("{at}/half_length_error"), &ae)?;
+    Ok(())
+}
+
+/// Reads an `exponents` artefact: every model, in the artefact's order.
+pub fn read(r: &ArtefactReader) -> Result<Vec<ModelExponents>> {
+    let models: Vec<String> = serde_json::from_value(r.attr_json("models")?)?;
+    let mut out = Vec::new();
+    for name in models {
+        let at = format!("model/{name}");
+        let a = |k: &str| r.attr_f64_at(&at, k);
+        let mut exps = [Exponent::NONE; 4];
+        for (k, nm) in NAMES.iter().enumerate() {
+            exps[k] = Exponent {
+                value: a(nm)?,
+                fit_error: a(&format!("{nm}_fit_error"))?,
+                grid_spread: a(&format!("{nm}_grid_spread"))?,
+                error: a(&format!("{nm}_error"))?,
+                n: r.attr_i64_at(&at, &format!("{nm}_n"))? as u32,
+                points: r.attr_i64_at(&at, &format!("{nm}_points"))? as usize,
+                prefactor: a(&format!("{nm}_prefactor"))?,
+            };
+        }
+        let mut levels = Vec::new();
+        for lv in r.members(&format!("{at}/level"))? {
+            let la = format!("{at}/level/{lv}");
+            let f = |k: &str| r.read_f64_1d(&format!("{la}/{k}"));
+            let zip = |a: Vec<f64>, b: Vec<f64>| a.into_iter().zip(b).collect::<Vec<_>>();
+            levels.push(LevelMeasure {
+                n: r.attr_i64_at(&la, "n")? as u32,
+                l_open: f("l_open")?,
+                load_open: f("load_open")?,
+                saddle_gap: f("saddle_gap")?,
+                half_width: zip(f("half_width")?, f("half_width_error")?),
+                flux: f("flux")?,
+                l_blocked: f("l_blocked")?,
+                half_length: zip(f("half_length")?, f("half_length_error")?),
+            });
+        }
+        levels.sort_by_key(|l| l.n);
+        out.push(ModelExponents {
+            exponents: exps,
+            zeta_lc_free: (a("zeta_lc_free")?, a("zeta_lc_free_error")?),
+            beta_identity: (a("beta_identity")?, a("beta_identity_error")?),
+            eta: a("eta")?,
+            levels,
+            lattice: name,
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fit(v: f64, e: f64) -> Option<ExponentFit> {
+        Some(ExponentFit {
+            value: v,
+            error: e,
+            prefactor: 1.0,
+            points: 4,
+        })
+    }
+
+    #[test]
+    fn the_finest_grid_gives_the_value_and_the_others_the_spread() {
+        let e = combine(&[
+            (8, fit(1.25, 0.01)),
+            (9, fit(1.22, 0.002)),
+            (10, fit(1.21, 0.003)),
+        ]);
+        assert_eq!((e.value, e.n), (1.21, 10));
+        assert!((e.grid_spread - 0.04).abs() < 1e-12);
+        assert!((e.error - 0.003f64.hypot(0.04)).abs() < 1e-12);
+        // a grid without a fit is skipped; one grid: no spread
+        let e = combine(&[(8, fit(1.25, 0.01)), (9, None)]);
+        assert_eq!(e.n, 8);
+        assert!(e.grid_spread.is_nan() && e.error == 0.01);
+        assert!(combine(&[(8, None)]).value.is_nan());
+    }
+
+    #[test]
+    fn identity_of_the_conjectured_exponents_is_69_20() {
+        let ex = |v: f64| Exponent {
+            value: v,
+            error: 0.01,
+            ..Exponent::NONE
+        };
+        let (b, e) = identity(&ex(1.2), &ex(0.45), &ex(0.6));
+        assert!((b - CONJECTURED[3].0).abs() < 1e-12);
+        assert!((e - (11.0f64).sqrt() * 0.01).abs() < 1e-12);
+    }
+}

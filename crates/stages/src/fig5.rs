@@ -1,0 +1,328 @@
+//! The near-critical scenes, shared by the `figure` and `table` kinds: Figure 5, the β panel of
+//! Figure 6 (bottom left) and the exponent tables.
+//!
+//! # Figure 5 (`fig5`; inputs `ladder`: one per model, `exponents`)
+//! From each model's finest ladder grid, in each model's own units: lengths along the channel
+//! in units of the blocked half-length `A_χ |l|^χ`, across it in units of the open half-width
+//! `A_υ |l|^υ`, gaps in units of the saddle gap `A_ζ |l|^ζ` (A and the exponents from that
+//! model's fits). So every model's curves at every l share the points the fits pin down (the
+//! saddle gap 1, the contact line at ±1 across the open channel, the bridge's end at ±1 along the
+//! blocked one) and the collapse shows whether the shapes between them agree. The paper chose
+//! the square model's units at |l| = 0.01 for all models instead; with per-model units the
+//! models fall on one master curve per sign of l. At l = 0 the same units without the |l|
+//! factors are used: the critical contact line r⊥ ∝ r∥^{υ/χ} is invariant under the rescaling.
+//! (a) contact lines (blue l < 0, green l = 0, red l > 0); (b) the gap on the channel axis
+//! against the distance from the saddle, one marker per model, one colour per l. A model whose
+//! fits failed (too coarse a grid) is drawn with the conjectured exponents and unit prefactors,
+//! with a warning. The paper's analytic approximations (black lines) are not drawn.
+//!
+//! # β (`fig6_beta`; input `exponents`)
+//! The flux through the cell against (L_c − L)/L_c, log–log, each model normalised by its flux
+//! at the ladder's largest |l| below L_c, with a power law fitted to all models' points together
+//! ([`beta_panel`]: the reader Figure 6's bottom-left panel can take).
+//!
+//! # Tables (`exponents`; input `exponents`)
+//! - `exponents.csv`: per model and exponent (ζ, υ, χ, β and `beta_identity` = 3ζ + υ − χ):
+//!   `model`, `exponent`, `value`, `fit_error`, `grid_spread`, `error`, `n` (grid of the value),
+//!   `points`, `paper`, `paper_error`, `conjectured`, `conjectured_value`, `deviation` (value −
+//!   paper), `deviation_sigma` (in units of `error`); `zeta_lc_free` rows give ζ with L_c free.
+//! - `ladder_measurements.csv`: per model, grid and rung: `model`, `n`, `l`, `saddle_gap`,
+//!   `half_width`, `half_width_error`, `half_length`, `half_length_error`, `flux`.
+
+use crate::exponents::{self, CONJECTURED, ModelExponents, NAMES, PAPER};
+use crate::ladder::LadderData;
+use anyhow::Result;
+use critical::scaling::{axis_gap, contact_lines};
+use figures::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
+use figures::scenes::fig6::{NormalisedFlux, PowerLawFit};
+use figures::style::Model;
+use orchestrator::{InputSpec, Inputs};
+use store::ArtefactReader;
+use tables::Table;
+
+/// Inputs of the `fig5` scene.
+pub fn inputs() -> Vec<InputSpec> {
+    vec![
+        InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model"),
+        InputSpec::one("exponents", &["exponents"]).doc("the exponents fitted to those ladders"),
+    ]
+}
+
+/// Inputs of the `fig6_beta` and `exponents` scenes.
+pub fn exponent_inputs() -> Vec<InputSpec> {
+    vec![InputSpec::one("exponents", &["exponents"]).doc("the near-critical exponents")]
+}
+
+fn model_of(name: &str) -> Result<Model> {
+    Model::ALL
+        .into_iter()
+        .find(|m| m.name() == name)
+        .ok_or_else(|| anyhow::anyhow!("unknown lattice `{name}`"))
+}
+
+/// Exponent and prefactor for the rescaling, with the conjectured fallback.
+fn scale(e: &ModelExponents, k: usize, warn: &mut Vec<String>) -> (f64, f64) {
+    let x = e.exponents[k];
+    if x.value.is_finite() && x.prefactor.is_finite() && x.prefactor > 0.0 {
+        (x.value, x.prefactor)
+    } else {
+        warn.push(format!(
+            "{}: no {} fit; Figure 5 rescales it with the conjectured {} and unit prefactor",
+            e.lattice,
+            exponents::symbol(NAMES[k]),
+            CONJECTURED[k].1
+        ));
+        (CONJECTURED[k].0, 1.0)
+    }
+}
+
+/// Figure 5's data (see the module docs); the second value lists warnings.
+pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>)> {
+    let ex = exponents::read(inputs.one("exponents")?)?;
+    let mut warn = Vec::new();
+    let mut d = Fig5Data {
+        contact_axes: (
+            "$r$_∥ / ($A$_χ |$l$|^{$χ$})".into(),
+            "$r$_⊥ / ($A$_υ |$l$|^{$υ$})".into(),
+        ),
+        gap_axes: (
+            "$r$_∥ / ($A$_χ |$l$|^{$χ$})".into(),
+            "$g$ / ($A$_ζ |$l$|^{$ζ$})".into(),
+        ),
+        ..Default::default()
+    };
+    let mut ladders: Vec<LadderData> = inputs
+        .all("ladder")
+        .iter()
+        .map(LadderData::read)
+        .collect::<Result<_>>()?;
+    ladders.sort_by_key(|l| Model::ALL.iter().position(|m| m.name() == l.lattice.name()));
+    const X_MAX: f64 = 3.0;
+    for lad in &ladders {
+        let name = lad.lattice.name();
+        let Some(e) = ex.iter().find(|e| e.lattice == name) else {
+            warn.push(format!(
+                "{name}: not in the `exponents` input; left out of Figure 5"
+            ));
+            continue;
+        };
+        let (zeta, a_z) = scale(e, 0, &mut warn);
+        let (ups, a_u) = scale(e, 1, &mut warn);
+        let (chi, a_c) = scale(e, 2, &mut warn);
+        let level = lad.levels.last().expect("read checks");
+        for r in &level.rungs {
+            if !r.converged {
+                continue;
+            }
+            let al = r.l.abs();
+            let (sx, sy, sg) = if r.l == 0.0 {
+                (a_c, a_u, a_z)
+            } else {
+                (a_c * al.powf(chi), a_u * al.powf(ups), a_z * al.powf(zeta))
+            };
+            let mut pts = Vec::new();
+            for (x, y) in contact_lines(&r.window) {
+                let (px, py) = (x / sx, y / sy);
+                if px.is_nan() || px.abs() > X_MAX || py.abs() > X_MAX {
+                    if pts.last().is_some_and(|p: &(f64, f64)| !p.0.is_nan()) {
+                        pts.push((f64::NAN, f64::NAN));
+                    }
+                } else {
+                    pts.push((px, py));
+                }
+            }
+            if pts.iter().any(|p| !p.0.is_nan()) {
+                d.contact_lines.push(ContactLine {
+                    l: r.l,
+                    points: pts,
+                });
+            }
+            if r.l != 0.0 {
+                let (dist, gap) = axis_gap(&r.window);
+                let (mut x, mut y) = (Vec::new(), Vec::new());
+                let keep: Vec<usize> = (0..dist.len()).filter(|&k| dist[k] / sx <= 4.0).collect();
+                let stride = keep.len().div_ceil(30).max(1);
+                for &k in keep.iter().step_by(stride) {
+                    x.push(dist[k] / sx);
+                    y.push(gap[k] / sg);
+                }
+                d.profiles.push(GapProfile {
+                    model: model_of(name)?,
+                    l: r.l,
+                    distance: x,
+                    gap: y,
+                });
+            }
+        }
+    }
+    Ok((d, warn))
+}
+
+/// The β panel's data from an `exponents` artefact: per model the flux at l < 0 (finest grid)
+/// against (L_c − L)/L_c, normalised by its value at the largest |l|, and a power law fitted
+/// to all models' points together (None with fewer than two points).
+pub fn beta_panel(r: &ArtefactReader) -> Result<(Vec<NormalisedFlux>, Option<PowerLawFit>)> {
+    let ex = exponents::read(r)?;
+    let mut out = Vec::new();
+    let (mut ax, mut ay) = (Vec::new(), Vec::new());
+    for e in &ex {
+        let Some(lv) = e.levels.last() else { continue };
+        let mut pts: Vec<(f64, f64)> = lv
+            .l_open
+            .iter()
+            .zip(&lv.flux)
+            .filter(|(_, q)| q.is_finite() && **q > 0.0)
+            .map(|(l, q)| (l.abs(), *q))
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let q0 = pts.last().expect("non-empty").1;
+        let (x, y): (Vec<f64>, Vec<f64>) = pts.iter().map(|(l, q)| (*l, q / q0)).unzip();
+        ax.extend(&x);
+        ay.extend(&y);
+        out.push(NormalisedFlux {
+            model: model_of(&e.lattice)?,
+            distance: x,
+            flux: y,
+            flux_err: None,
+        });
+    }
+    let fit = (ax.len() >= 2)
+        .then(|| analysis::power_law_fit(&ax, &ay, None, analysis::ErrorScale::ReducedChi2).ok())
+        .flatten()
+        .map(|f| {
+            let (a, _) = f.get("A").unwrap_or((f64::NAN, f64::NAN));
+            let (b, s) = f.get("beta").unwrap_or((f64::NAN, f64::NAN));
+            PowerLawFit {
+                exponent: b,
+                exponent_err: (f.dof > 0 && s.is_finite()).then_some(s),
+                prefactor: a,
+            }
+        });
+    Ok((out, fit))
+}
+
+/// `exponents.csv` (module docs).
+pub fn exponent_table(r: &ArtefactReader) -> Result<Table> {
+    let ex = exponents::read(r)?;
+    let (mut model, mut name, mut value, mut fit_e, mut spread, mut err) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
+    let (mut n, mut points, mut paper, mut paper_e, mut conj, mut conj_v) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
+    for e in &ex {
+        let mut push = |nm: &str, x: exponents::Exponent, k: Option<usize>| {
+            model.push(e.lattice.clone());
+            name.push(nm.to_string());
+            value.push(x.value);
+            fit_e.push(x.fit_error);
+            spread.push(x.grid_spread);
+            err.push(x.error);
+            n.push(x.n as i64);
+            points.push(x.points as i64);
+            let (p, pe) = k.map_or((f64::NAN, f64::NAN), |k| PAPER[k]);
+            paper.push(p);
+            paper_e.push(pe);
+            conj.push(k.map_or(String::new(), |k| CONJECTURED[k].1.to_string()));
+            conj_v.push(k.map_or(f64::NAN, |k| CONJECTURED[k].0));
+        };
+        for (k, nm) in NAMES.iter().enumerate() {
+            push(nm, e.exponents[k], Some(k));
+        }
+        let z = e.get("zeta");
+        push(
+            "zeta_lc_free",
+            exponents::Exponent {
+                value: e.zeta_lc_free.0,
+                fit_error: e.zeta_lc_free.1,
+                grid_spread: f64::NAN,
+                error: e.zeta_lc_free.1,
+                ..z
+            },
+            Some(0),
+        );
+        push(
+            "beta_identity",
+            exponents::Exponent {
+                value: e.beta_identity.0,
+                fit_error: f64::NAN,
+                grid_spread: f64::NAN,
+                error: e.beta_identity.1,
+                ..z
+            },
+            Some(3),
+        );
+    }
+    let dev: Vec<f64> = value.iter().zip(&paper).map(|(v, p)| v - p).collect();
+    let dev_s: Vec<f64> = dev.iter().zip(&err).map(|(d, e)| d / e).collect();
+    Ok(Table::new()
+        .with_str("model", model)
+        .with_str("exponent", name)
+        .with_f64("value", value)
+        .with_f64("fit_error", fit_e)
+        .with_f64("grid_spread", spread)
+        .with_f64("error", err)
+        .with_i64("n", n)
+        .with_i64("points", points)
+        .with_f64("paper", paper)
+        .with_f64("paper_error", paper_e)
+        .with_str("conjectured", conj)
+        .with_f64("conjectured_value", conj_v)
+        .with_f64("deviation", dev)
+        .with_f64("deviation_sigma", dev_s))
+}
+
+/// `ladder_measurements.csv` (module docs).
+pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
+    let ex = exponents::read(r)?;
+    let mut c: (Vec<String>, Vec<i64>, Vec<f64>) = (vec![], vec![], vec![]);
+    let mut v: [Vec<f64>; 6] = Default::default();
+    for e in &ex {
+        for lv in &e.levels {
+            for k in 0..lv.l_open.len() {
+                c.0.push(e.lattice.clone());
+                c.1.push(lv.n as i64);
+                c.2.push(lv.l_open[k]);
+                let row = [
+                    lv.saddle_gap[k],
+                    lv.half_width[k].0,
+                    lv.half_width[k].1,
+                    f64::NAN,
+                    f64::NAN,
+                    lv.flux[k],
+                ];
+                for (col, x) in v.iter_mut().zip(row) {
+                    col.push(x);
+                }
+            }
+            for k in 0..lv.l_blocked.len() {
+                c.0.push(e.lattice.clone());
+                c.1.push(lv.n as i64);
+                c.2.push(lv.l_blocked[k]);
+                let row = [
+                    f64::NAN,
+                    f64::NAN,
+                    f64::NAN,
+                    lv.half_length[k].0,
+                    lv.half_length[k].1,
+                    f64::NAN,
+                ];
+                for (col, x) in v.iter_mut().zip(row) {
+                    col.push(x);
+                }
+            }
+        }
+    }
+    let [g, w, we, a, ae, q] = v;
+    Ok(Table::new()
+        .with_str("model", c.0)
+        .with_i64("n", c.1)
+        .with_f64("l", c.2)
+        .with_f64("saddle_gap", g)
+        .with_f64("half_width", w)
+        .with_f64("half_width_error", we)
+        .with_f64("half_length", a)
+        .with_f64("half_length_error", ae)
+        .with_f64("flux", q))
+}

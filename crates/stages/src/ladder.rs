@@ -1,0 +1,454 @@
+//! `ladder`: hard-wall solves at reduced loads l = (L − L_c)/L_c around the critical load of one
+//! model, on one or more unshifted 2^n grids (coarse to fine, each level warm-started from the
+//! one before), keeping a window of the gap and the contact pressure around one saddle and the
+//! Reynolds flux through the cell (crates/critical/src/ladder.rs).
+//!
+//! # L_c
+//! From the `critical` input, level by level: every ladder grid n must be a level of that stage
+//! (same model, computed on the unshifted grid — `shifts = 0` — so that its L_c belongs to the
+//! very grid the ladder solves on). The sub-grid L_c (saddle-gap fit) is used where the level has
+//! one, else the grid's bisected L_c (`l_c_source` says which).
+//!
+//! # Parameters
+//! `ns` (ascending grid exponents), `ls` (reduced loads, default the paper's ±0.002, ±0.005,
+//! ±0.01, ±0.02 plus 0 for the contact line at L_c), `window` (half-size of the stored window
+//! around the saddle, λ), `tol_gap` (Polonsky–Keer, h0), `flow` (Reynolds flux at every rung),
+//! `flow_tol`.
+//!
+//! # Artefact
+//! - root attributes `lattice`, `ns`, `ls`, `window`, `l_c` (finest level), `saddle_x`,
+//!   `saddle_y` (λ), `channel_axis` ("x"/"y": the flow through the saddle and the flux's
+//!   direction), `eta`, `saddle_height`, cell `lx`, `ly`;
+//! - per level `level/<n>`: attributes `n`, `nx`, `ny`, `l_c`, `l_c_source` ("subgrid" or
+//!   "grid"), `l_c_grid`, `d_par`, `d_perp` (window spacings along and across the channel, λ),
+//!   `wall_s`, `iterations`; datasets (one entry per rung, ascending l) `l`, `load`,
+//!   `contact_area`, `saddle_gap`, `iterations`, `converged`, `retried`, `flux`, `percolating`,
+//!   `flow_converged`; windows `rung/<k>/gap`, `rung/<k>/pressure` (first index along the
+//!   channel, saddle at the centre).
+
+use crate::critical::CriticalLevel;
+use crate::surface::lattice_from_name;
+use anyhow::{Context, Result, anyhow, bail};
+use contact::Solution;
+use critical::ladder::{LadderOptions, Rung, Window, axis_saddle, solve_ladder};
+use orchestrator::{
+    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
+    StageReport,
+};
+use reynolds::{FlowAxis, FlowOptions};
+use serde_json::json;
+use store::{ArtefactReader, ArtefactWriter};
+use surface::{Lattice, Surface};
+
+/// The `ladder` stage kind.
+pub struct LadderKind;
+
+/// Bump when the artefact's content changes for the same parameters.
+pub const CODE_VERSION: u64 = 1;
+
+/// The paper's ladder, plus l = 0 (the contact line at L_c).
+pub const DEFAULT_LS: [f64; 9] = [-0.02, -0.01, -0.005, -0.002, 0.0, 0.002, 0.005, 0.01, 0.02];
+
+fn int_list(params: &Params, key: &str) -> Result<Vec<u32>> {
+    Ok(params
+        .get(key)?
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_i64())
+                .map(|v| v as u32)
+                .collect()
+        })
+        .unwrap_or_default())
+}
+
+impl StageKind for LadderKind {
+    fn name(&self) -> &str {
+        "ladder"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "hard-wall solves at reduced loads around L_c (from a `critical` input), warm-started, coarse to fine; window around one saddle and the flux per rung"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new(
+                "ns",
+                ParamType::Array {
+                    elem: Box::new(ParamType::int_range(
+                        surface::N_MIN as i64,
+                        surface::N_MAX as i64,
+                    )),
+                    min_len: 1,
+                    max_len: Some(6),
+                },
+            )
+            .doc("grid exponents, strictly ascending; each a level of the `critical` input"),
+            ParamSpec::new(
+                "ls",
+                ParamType::Array {
+                    elem: Box::new(ParamType::float_range(-0.5, 0.5)),
+                    min_len: 1,
+                    max_len: Some(64),
+                },
+            )
+            .default(json!(DEFAULT_LS))
+            .doc("reduced loads (L − L_c)/L_c, distinct, in [−0.5, 0.5]"),
+            ParamSpec::new("window", ParamType::float_range(0.005, 0.5))
+                .default(0.12)
+                .doc("half-size of the stored window around the saddle (λ)"),
+            ParamSpec::new("tol_gap", ParamType::float_range(1e-14, 1e-4))
+                .default(1e-10)
+                .doc("Polonsky–Keer tolerance on the constraint violation (h0)"),
+            ParamSpec::new("flow", ParamType::Bool)
+                .default(true)
+                .doc("Reynolds flux through the cell along the saddle's channel at every rung"),
+            ParamSpec::new("flow_tol", ParamType::float_range(1e-14, 1e-3))
+                .default(1e-10)
+                .doc("flow: target true relative residual"),
+        ]
+    }
+    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
+        let ns = int_list(params, "ns").map_err(|e| ParamIssue::new("ns", e.to_string()))?;
+        if ns.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(ParamIssue::new(
+                "ns",
+                format!("{ns:?}: allowed a strictly ascending list of grid exponents"),
+            ));
+        }
+        let mut ls = params
+            .f64_array("ls")
+            .map_err(|e| ParamIssue::new("ls", e.to_string()))?;
+        ls.sort_by(f64::total_cmp);
+        if ls.windows(2).any(|w| w[1] == w[0]) {
+            return Err(ParamIssue::new(
+                "ls",
+                format!("{ls:?}: allowed distinct reduced loads"),
+            ));
+        }
+        Ok(())
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        vec![
+            InputSpec::one("critical", &["critical"])
+                .doc("L_c of the model on the ladder's grids (unshifted: shifts = 0)"),
+        ]
+    }
+    fn cost(&self, params: &Params) -> f64 {
+        let k = params.f64_array("ls").map(|v| v.len()).unwrap_or(9) as f64;
+        int_list(params, "ns")
+            .unwrap_or_default()
+            .iter()
+            .map(|&n| 4f64.powi(n as i32) / 4f64.powi(9) * k * 0.5)
+            .sum()
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let crit = inputs.one("critical")?;
+        let levels = CriticalLevel::read_all(crit)?;
+        let lattice = levels[0].lattice;
+        let ns = int_list(params, "ns")?;
+        let mut ls = params.f64_array("ls")?;
+        ls.sort_by(f64::total_cmp);
+        let opts = LadderOptions {
+            tol_gap: params.f64("tol_gap")?,
+            window: params.f64("window")?,
+            ..Default::default()
+        };
+        let flow = params.bool("flow")?;
+        let fopts = FlowOptions {
+            tolerance: params.f64("flow_tol")?,
+            ..Default::default()
+        };
+        // L_c per level, checked before any solve
+        let mut l_cs = Vec::new();
+        for &n in &ns {
+            let lv = levels.iter().find(|l| l.n == n).ok_or_else(|| {
+                anyhow!(
+                    "ns: grid n = {n} is not a level of the `critical` input `{}` (levels {:?}); \
+                     add it to that stage's `ns`",
+                    crit.path().display(),
+                    levels.iter().map(|l| l.n).collect::<Vec<_>>()
+                )
+            })?;
+            if lv.shift_rule != 0 {
+                bail!(
+                    "the `critical` input `{}` averages over {m}×{m} sub-grid shifts; the ladder \
+                     solves on the unshifted grid and needs its L_c: set shifts = 0 there",
+                    crit.path().display(),
+                    m = lv.shift_rule
+                );
+            }
+            let grid = lv.get("l_c").map(|v| v.0).unwrap_or(f64::NAN);
+            let (l_c, source) = if lv.l_c_subgrid.0.is_finite() {
+                (lv.l_c_subgrid.0, "subgrid")
+            } else {
+                ctx.warn(format!(
+                    "n = {n}: no sub-grid L_c (the channel is not resolved at the saddle-gap \
+                     samples); using the grid's bisected L_c"
+                ));
+                (grid, "grid")
+            };
+            l_cs.push((l_c, source, grid));
+        }
+
+        let weights: Vec<f64> = ns.iter().map(|&n| 4f64.powi(n as i32)).collect();
+        let total: f64 = weights.iter().sum();
+        let mut done = 0.0;
+        let mut coarse: Option<Vec<Solution>> = None;
+        let mut frame0 = None;
+        let mut unconverged = 0usize;
+        let mut not_flowing = Vec::new();
+        let mut per_level = Vec::new();
+        for (k, &n) in ns.iter().enumerate() {
+            let t0 = std::time::Instant::now();
+            let s = Surface::new(lattice, n)?;
+            let frame = axis_saddle(&s)?;
+            let (l_c, source, l_c_grid) = l_cs[k];
+            let axis = if frame.channel_axis == 0 {
+                FlowAxis::X
+            } else {
+                FlowAxis::Y
+            };
+            let keep = k + 1 < ns.len();
+            let mut kept = Vec::new();
+            let mut flows = Vec::new();
+            let mut flow_err: Option<anyhow::Error> = None;
+            let nr = ls.len();
+            let rungs = {
+                let mut on_rung = |r: &Rung, sol: &Solution| {
+                    if keep {
+                        kept.push(sol.clone());
+                    }
+                    if flow && flow_err.is_none() {
+                        match reynolds::solve(sol.gap.view(), s.grid.lx, s.grid.ly, axis, &fopts) {
+                            Ok(f) => flows.push((f.flux, f.percolating, f.converged)),
+                            Err(e) => {
+                                flow_err = Some(anyhow!("flow at n = {n}, l = {}: {e}", r.l));
+                            }
+                        }
+                    }
+                    let f = (flows.len().max(1) as f64) / nr as f64;
+                    ctx.progress(
+                        0.95 * (done + f * weights[k]) / total,
+                        &format!("n = {n}, l = {:+}", r.l),
+                    );
+                };
+                solve_ladder(&s, &frame, l_c, &ls, &opts, coarse.as_deref(), &mut on_rung)
+                    .with_context(|| format!("{} ladder on n = {n}", lattice.name()))?
+            };
+            if let Some(e) = flow_err {
+                return Err(e);
+            }
+            done += weights[k];
+            coarse = keep.then_some(kept);
+            let at = format!("level/{n}");
+            write_level(out, &at, &rungs)?;
+            out.set_attr_at(&at, "n", n as i64)?;
+            out.set_attr_at(&at, "nx", s.grid.nx as i64)?;
+            out.set_attr_at(&at, "ny", s.grid.ny as i64)?;
+            out.set_attr_at(&at, "l_c", l_c)?;
+            out.set_attr_at(&at, "l_c_source", source)?;
+            out.set_attr_at(&at, "l_c_grid", l_c_grid)?;
+            out.set_attr_at(&at, "d_par", rungs[0].window.d_par)?;
+            out.set_attr_at(&at, "d_perp", rungs[0].window.d_perp)?;
+            let iterations: usize = rungs.iter().map(|r| r.iterations).sum();
+            out.set_attr_at(&at, "iterations", iterations as i64)?;
+            let wall = t0.elapsed().as_secs_f64();
+            out.set_attr_at(&at, "wall_s", wall)?;
+            let (flux, perc, fconv): (Vec<f64>, Vec<u8>, Vec<u8>) = if flow {
+                let mut a = (vec![], vec![], vec![]);
+                for (q, p, c) in &flows {
+                    a.0.push(*q);
+                    a.1.push(*p as u8);
+                    a.2.push(*c as u8);
+                }
+                a
+            } else {
+                (vec![f64::NAN; nr], vec![0; nr], vec![0; nr])
+            };
+            out.write_f64_1d(&format!("{at}/flux"), &flux)?;
+            out.write_u8_1d(&format!("{at}/percolating"), &perc)?;
+            out.write_u8_1d(&format!("{at}/flow_converged"), &fconv)?;
+            unconverged += rungs.iter().filter(|r| !r.converged).count();
+            if flow {
+                for (r, (_, p, c)) in rungs.iter().zip(&flows) {
+                    if r.l < 0.0 && !p {
+                        not_flowing.push(format!("n = {n}, l = {}", r.l));
+                    }
+                    if !c && *p {
+                        ctx.warn(format!(
+                            "n = {n}, l = {}: the flow solve did not converge",
+                            r.l
+                        ));
+                    }
+                }
+            }
+            per_level.push(json!({
+                "n": n, "l_c": l_c, "l_c_source": source, "iterations": iterations, "wall_s": wall,
+            }));
+            frame0 = Some((frame, s.grid));
+        }
+        if unconverged > 0 {
+            ctx.warn(format!(
+                "{unconverged} rungs did not converge (contact solver): their windows are stored \
+                 with converged = 0"
+            ));
+        }
+        if !not_flowing.is_empty() {
+            ctx.warn(format!(
+                "the fluid does not percolate below L_c at {}: the grid closes the channel \
+                 before the sub-grid L_c",
+                not_flowing.join("; ")
+            ));
+        }
+        let (frame, grid) = frame0.expect("at least one level");
+        out.set_cell(grid.lx, grid.ly)?;
+        out.set_attr("lattice", lattice.name())?;
+        out.set_attr("ns", json!(ns))?;
+        out.set_attr("ls", json!(ls))?;
+        out.set_attr("window", opts.window)?;
+        out.set_attr("l_c", l_cs.last().expect("levels").0)?;
+        out.set_attr("saddle_x", frame.x)?;
+        out.set_attr("saddle_y", frame.y)?;
+        out.set_attr(
+            "channel_axis",
+            if frame.channel_axis == 0 { "x" } else { "y" },
+        )?;
+        out.set_attr("eta", frame.eta)?;
+        out.set_attr("saddle_height", frame.height)?;
+        ctx.progress(1.0, "written");
+        Ok(StageReport::with_stats(json!({ "levels": per_level })))
+    }
+}
+
+fn write_level(out: &mut ArtefactWriter, at: &str, rungs: &[Rung]) -> Result<()> {
+    let col = |f: &dyn Fn(&Rung) -> f64| rungs.iter().map(f).collect::<Vec<_>>();
+    out.write_f64_1d(&format!("{at}/l"), &col(&|r| r.l))?;
+    out.write_f64_1d(&format!("{at}/load"), &col(&|r| r.load))?;
+    out.write_f64_1d(&format!("{at}/contact_area"), &col(&|r| r.contact_area))?;
+    out.write_f64_1d(
+        &format!("{at}/saddle_gap"),
+        &col(&|r| r.window.saddle_gap()),
+    )?;
+    out.write_i64_1d(
+        &format!("{at}/iterations"),
+        &rungs
+            .iter()
+            .map(|r| r.iterations as i64)
+            .collect::<Vec<_>>(),
+    )?;
+    out.write_u8_1d(
+        &format!("{at}/converged"),
+        &rungs.iter().map(|r| r.converged as u8).collect::<Vec<_>>(),
+    )?;
+    out.write_u8_1d(
+        &format!("{at}/retried"),
+        &rungs.iter().map(|r| r.retried as u8).collect::<Vec<_>>(),
+    )?;
+    for (k, r) in rungs.iter().enumerate() {
+        out.write_f64_2d(&format!("{at}/rung/{k}/gap"), r.window.gap.view())?;
+        out.write_f64_2d(&format!("{at}/rung/{k}/pressure"), r.window.pressure.view())?;
+    }
+    Ok(())
+}
+
+/// One rung as read back.
+#[derive(Clone, Debug)]
+pub struct RungData {
+    /// Reduced load.
+    pub l: f64,
+    /// Load (E* h0/λ).
+    pub load: f64,
+    /// Contact area fraction.
+    pub contact_area: f64,
+    /// Flux through the cell along the channel (NaN without flow).
+    pub flux: f64,
+    /// The fluid percolates along the channel axis.
+    pub percolating: bool,
+    /// The contact solve converged.
+    pub converged: bool,
+    /// The window around the saddle.
+    pub window: Window,
+}
+
+/// One grid of a ladder as read back.
+#[derive(Clone, Debug)]
+pub struct LadderLevel {
+    /// Grid exponent.
+    pub n: u32,
+    /// The L_c the reduced loads refer to.
+    pub l_c: f64,
+    /// "subgrid" or "grid".
+    pub l_c_source: String,
+    /// Rungs, ascending l.
+    pub rungs: Vec<RungData>,
+}
+
+/// A `ladder` artefact as read back.
+#[derive(Clone, Debug)]
+pub struct LadderData {
+    /// Model.
+    pub lattice: Lattice,
+    /// Curvature ratio of the saddle.
+    pub eta: f64,
+    /// Levels, ascending n.
+    pub levels: Vec<LadderLevel>,
+}
+
+impl LadderData {
+    /// Reads a `ladder` artefact.
+    pub fn read(r: &ArtefactReader) -> Result<Self> {
+        let lattice = lattice_from_name(&r.attr_str("lattice")?)?;
+        let mut levels = Vec::new();
+        for name in r.members("level")? {
+            let at = format!("level/{name}");
+            let l = r.read_f64_1d(&format!("{at}/l"))?;
+            let load = r.read_f64_1d(&format!("{at}/load"))?;
+            let area = r.read_f64_1d(&format!("{at}/contact_area"))?;
+            let flux = r.read_f64_1d(&format!("{at}/flux"))?;
+            let perc = r.read_u8_1d(&format!("{at}/percolating"))?;
+            let conv = r.read_u8_1d(&format!("{at}/converged"))?;
+            let (d_par, d_perp) = (r.attr_f64_at(&at, "d_par")?, r.attr_f64_at(&at, "d_perp")?);
+            let mut rungs = Vec::new();
+            for k in 0..l.len() {
+                rungs.push(RungData {
+                    l: l[k],
+                    load: load[k],
+                    contact_area: area[k],
+                    flux: flux[k],
+                    percolating: perc[k] != 0,
+                    converged: conv[k] != 0,
+                    window: Window {
+                        d_par,
+                        d_perp,
+                        gap: r.read_f64_2d(&format!("{at}/rung/{k}/gap"))?,
+                        pressure: r.read_f64_2d(&format!("{at}/rung/{k}/pressure"))?,
+                    },
+                });
+            }
+            levels.push(LadderLevel {
+                n: r.attr_i64_at(&at, "n")? as u32,
+                l_c: r.attr_f64_at(&at, "l_c")?,
+                l_c_source: r.attr_str_at(&at, "l_c_source")?,
+                rungs,
+            });
+        }
+        if levels.is_empty() {
+            bail!("{} has no ladder levels", r.path().display());
+        }
+        levels.sort_by_key(|l| l.n);
+        Ok(LadderData {
+            lattice,
+            eta: r.attr_f64("eta")?,
+            levels,
+        })
+    }
+}
