@@ -32,6 +32,7 @@
 use crate::exponents::{self, CONJECTURED, ModelExponents, NAMES, PAPER};
 use crate::ladder::LadderData;
 use anyhow::Result;
+use critical::ladder::Window;
 use critical::scaling::{axis_gap, contact_lines};
 use figures::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
 use figures::scenes::fig6::{NormalisedFlux, PowerLawFit};
@@ -76,6 +77,50 @@ fn scale(e: &ModelExponents, k: usize, warn: &mut Vec<String>) -> (f64, f64) {
     }
 }
 
+/// Exponents and prefactors of one model's rescaling (module docs): lengths along the channel
+/// in `a_c |l|^chi`, across in `a_u |l|^upsilon`, gaps in `a_z |l|^zeta`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Units {
+    /// ζ.
+    pub zeta: f64,
+    /// Prefactor of the saddle gap.
+    pub a_z: f64,
+    /// υ.
+    pub upsilon: f64,
+    /// Prefactor of the open half-width.
+    pub a_u: f64,
+    /// χ.
+    pub chi: f64,
+    /// Prefactor of the blocked half-length.
+    pub a_c: f64,
+}
+
+/// One rung rescaled: its contact lines (r∥, r⊥) and the gap on the channel axis (distance,
+/// gap) in the model's units at |l| (without the |l| factors at l = 0).
+#[allow(clippy::type_complexity)]
+pub fn rescale_rung(w: &Window, l: f64, u: &Units) -> (Vec<(f64, f64)>, Vec<f64>, Vec<f64>) {
+    let al = l.abs();
+    let (sx, sy, sg) = if l == 0.0 {
+        (u.a_c, u.a_u, u.a_z)
+    } else {
+        (
+            u.a_c * al.powf(u.chi),
+            u.a_u * al.powf(u.upsilon),
+            u.a_z * al.powf(u.zeta),
+        )
+    };
+    let line = contact_lines(w)
+        .into_iter()
+        .map(|(x, y)| (x / sx, y / sy))
+        .collect();
+    let (dist, gap) = axis_gap(w);
+    (
+        line,
+        dist.iter().map(|x| x / sx).collect(),
+        gap.iter().map(|g| g / sg).collect(),
+    )
+}
+
 /// Figure 5's data (see the module docs); the second value lists warnings.
 pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>)> {
     let ex = exponents::read(inputs.one("exponents")?)?;
@@ -109,20 +154,22 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>)> {
         let (zeta, a_z) = scale(e, 0, &mut warn);
         let (ups, a_u) = scale(e, 1, &mut warn);
         let (chi, a_c) = scale(e, 2, &mut warn);
+        let units = Units {
+            zeta,
+            a_z,
+            upsilon: ups,
+            a_u,
+            chi,
+            a_c,
+        };
         let level = lad.levels.last().expect("read checks");
         for r in &level.rungs {
             if !r.converged {
                 continue;
             }
-            let al = r.l.abs();
-            let (sx, sy, sg) = if r.l == 0.0 {
-                (a_c, a_u, a_z)
-            } else {
-                (a_c * al.powf(chi), a_u * al.powf(ups), a_z * al.powf(zeta))
-            };
+            let (line, dist, gap) = rescale_rung(&r.window, r.l, &units);
             let mut pts = Vec::new();
-            for (x, y) in contact_lines(&r.window) {
-                let (px, py) = (x / sx, y / sy);
+            for (px, py) in line {
                 if px.is_nan() || px.abs() > X_MAX || py.abs() > X_MAX {
                     if pts.last().is_some_and(|p: &(f64, f64)| !p.0.is_nan()) {
                         pts.push((f64::NAN, f64::NAN));
@@ -138,14 +185,13 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>)> {
                 });
             }
             if r.l != 0.0 {
-                let (dist, gap) = axis_gap(&r.window);
-                let (mut x, mut y) = (Vec::new(), Vec::new());
-                let keep: Vec<usize> = (0..dist.len()).filter(|&k| dist[k] / sx <= 4.0).collect();
+                let keep: Vec<usize> = (0..dist.len()).filter(|&k| dist[k] <= 4.0).collect();
                 let stride = keep.len().div_ceil(30).max(1);
-                for &k in keep.iter().step_by(stride) {
-                    x.push(dist[k] / sx);
-                    y.push(gap[k] / sg);
-                }
+                let (x, y) = keep
+                    .iter()
+                    .step_by(stride)
+                    .map(|&k| (dist[k], gap[k]))
+                    .unzip();
                 d.profiles.push(GapProfile {
                     model: model_of(name)?,
                     l: r.l,
@@ -325,4 +371,91 @@ pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
         .with_f64("half_length", a)
         .with_f64("half_length_error", ae)
         .with_f64("flux", q))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use analysis::{Curve, collapse_quality};
+    use ndarray::Array2;
+
+    /// Windows made to collapse: on grids whose spacings scale as |l|^χ and |l|^υ, the pressure
+    /// and gap are |l|-powers times fixed functions of the scaled coordinates X, Y — an open
+    /// channel |Y| < 1 + X²/4 for l < 0, a bridge |X| < 1 + Y²/4 for l > 0 (square-root
+    /// pressure onsets, as at a contact line).
+    fn window(l: f64, u: &Units) -> Window {
+        let k = 12;
+        let al = l.abs();
+        let (dx, dy) = (0.1 * u.a_c * al.powf(u.chi), 0.1 * u.a_u * al.powf(u.upsilon));
+        let shape = (2 * k + 1, 2 * k + 1);
+        let xy = |a: usize, b: usize| ((a as f64 - k as f64) * 0.1, (b as f64 - k as f64) * 0.1);
+        let depth = |a: usize, b: usize| {
+            let (x, y) = xy(a, b);
+            if l < 0.0 {
+                y.abs() - (1.0 + x * x / 4.0)
+            } else {
+                1.0 + y * y / 4.0 - x.abs()
+            }
+        };
+        let pressure = Array2::from_shape_fn(shape, |(a, b)| 3.0 * al * depth(a, b).max(0.0).sqrt());
+        let gap = Array2::from_shape_fn(shape, |(a, b)| {
+            u.a_z * al.powf(u.zeta) * (-depth(a, b)).max(0.0).powf(1.5)
+        });
+        Window {
+            d_par: dx,
+            d_perp: dy,
+            gap,
+            pressure,
+        }
+    }
+
+    #[test]
+    fn rescaling_collapses_data_made_to_collapse_exactly() {
+        let u = Units {
+            zeta: 1.2,
+            a_z: 0.8,
+            upsilon: 0.45,
+            a_u: 0.3,
+            chi: 0.6,
+            a_c: 0.15,
+        };
+        for sign in [-1.0, 1.0] {
+            let ls: Vec<f64> = [0.002, 0.005, 0.01, 0.02].iter().map(|v| sign * v).collect();
+            let rescaled: Vec<_> = ls.iter().map(|&l| rescale_rung(&window(l, &u), l, &u)).collect();
+            for r in &rescaled[1..] {
+                // identical contact lines and axis gaps, point for point
+                assert_eq!(r.0.len(), rescaled[0].0.len());
+                for (p, q) in r.0.iter().zip(&rescaled[0].0) {
+                    assert!(
+                        (p.0.is_nan() && q.0.is_nan())
+                            || ((p.0 - q.0).abs() < 1e-9 && (p.1 - q.1).abs() < 1e-9),
+                        "{p:?} vs {q:?}"
+                    );
+                }
+                for (g, h) in r.2.iter().zip(&rescaled[0].2) {
+                    assert!((g - h).abs() < 1e-9 * h.abs().max(1.0));
+                }
+            }
+            // the collapse measure of the analysis crate agrees: zero spread
+            let curves: Vec<Curve> = ls
+                .iter()
+                .zip(&rescaled)
+                .map(|(&l, r)| Curve { l, x: r.1.clone(), y: r.2.clone() })
+                .collect();
+            let q = collapse_quality(&curves, 0.0, 0.0).unwrap();
+            assert!(q.spread < 1e-9, "{q:?}");
+            // and wrong exponents do not collapse
+            let wrong = Units { zeta: 1.0, ..u };
+            let bad: Vec<Curve> = ls
+                .iter()
+                .map(|&l| {
+                    let r = rescale_rung(&window(l, &u), l, &wrong);
+                    Curve { l, x: r.1, y: r.2 }
+                })
+                .collect();
+            if sign < 0.0 {
+                assert!(collapse_quality(&bad, 0.0, 0.0).unwrap().spread > 0.1);
+            }
+        }
+    }
 }
