@@ -161,7 +161,7 @@ fn edge_between(r1: f64, p1: f64, r2: f64, p2: f64, d: f64, dir: f64) -> f64 {
 /// Channel open at the saddle (l ≤ 0): for every row r∥ the first loaded node on either side of
 /// the axis, the edge placed by [`edge_between`] — two curves r⊥ = ±w(r∥)/2. Channel blocked
 /// (l > 0): for every column r⊥ the end of the loaded run through r∥ = 0 — two curves
-/// r∥ = ±f(r⊥).
+/// r∥ = ±f(r⊥); columns whose run reaches the window's edge are left out.
 pub fn contact_lines(w: &Window) -> Vec<(f64, f64)> {
     let (kp, kq) = (w.k_par(), w.k_perp());
     let p = &w.pressure;
@@ -218,6 +218,13 @@ pub fn contact_lines(w: &Window) -> Vec<(f64, f64)> {
                         break;
                     }
                     a = next;
+                }
+                if a == 0 || a + 1 == col.len() {
+                    // the run reaches the window's edge: the line lies outside
+                    if out.last().is_some_and(|q| !q.0.is_nan()) {
+                        out.push((f64::NAN, f64::NAN));
+                    }
+                    continue;
                 }
                 let inner = if dir > 0.0 { a.wrapping_sub(1) } else { a + 1 };
                 let (r2, p2) = match col.get(inner) {

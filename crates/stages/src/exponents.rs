@@ -357,7 +357,7 @@ impl StageKind for ExponentsKind {
             out.set_attr_at(&at, "zeta_lc_free_error", zeta_free.1)?;
             out.set_attr_at(&at, "l_c_fit", zeta_free.2)?;
             out.set_attr_at(&at, "eta", d.eta)?;
-            for note in &notes {
+            for note in group_notes(&notes) {
                 ctx.warn(format!("{name}: {note}"));
             }
             summary.insert(
@@ -378,6 +378,42 @@ impl StageKind for ExponentsKind {
         out.set_attr("models", json!(models))?;
         Ok(StageReport::with_stats(serde_json::Value::Object(summary)))
     }
+}
+
+/// Groups notes of the form "n = N, l = L: reason" by reason: "reason (n = N: l = L1, L2; ...)".
+/// Other notes pass unchanged.
+fn group_notes(notes: &[String]) -> Vec<String> {
+    let mut groups: Vec<(String, Vec<(String, String)>)> = Vec::new();
+    let mut out = Vec::new();
+    for note in notes {
+        let parsed = note.strip_prefix("n = ").and_then(|rest| {
+            let (n, rest) = rest.split_once(", l = ")?;
+            let (l, reason) = rest.split_once(": ")?;
+            Some((n.to_string(), l.to_string(), reason.to_string()))
+        });
+        match parsed {
+            Some((n, l, reason)) => match groups.iter_mut().find(|g| g.0 == reason) {
+                Some(g) => g.1.push((n, l)),
+                None => groups.push((reason, vec![(n, l)])),
+            },
+            None => out.push(note.clone()),
+        }
+    }
+    for (reason, at) in groups {
+        let mut by_n: Vec<(String, Vec<String>)> = Vec::new();
+        for (n, l) in at {
+            match by_n.iter_mut().find(|b| b.0 == n) {
+                Some(b) => b.1.push(l),
+                None => by_n.push((n, vec![l])),
+            }
+        }
+        let list: Vec<String> = by_n
+            .iter()
+            .map(|(n, ls)| format!("n = {n}: l = {}", ls.join(", ")))
+            .collect();
+        out.insert(0, format!("{reason} ({})", list.join("; ")));
+    }
+    out
 }
 
 fn write_fit(

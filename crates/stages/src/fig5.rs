@@ -12,9 +12,8 @@
 //! models fall on one master curve per sign of l. At l = 0 the same units without the |l|
 //! factors are used: the critical contact line r⊥ ∝ r∥^{υ/χ} is invariant under the rescaling.
 //! (a) contact lines (blue l < 0, green l = 0, red l > 0); (b) the gap on the channel axis
-//! against the distance from the saddle, one marker per model, one colour per l. A model whose
-//! fits failed (too coarse a grid) is drawn with the conjectured exponents and unit prefactors,
-//! with a warning. The paper's analytic approximations (black lines) are not drawn.
+//! against the distance from the saddle, one marker per model, one colour per l. A model without all
+//! three fits (too coarse a grid) is left out, with a warning. The paper's analytic approximations (black lines) are not drawn.
 //!
 //! # β (`fig6_beta`; input `exponents`)
 //! The flux through the cell against (L_c − L)/L_c, log–log, each model normalised by its flux
@@ -61,19 +60,18 @@ fn model_of(name: &str) -> Result<Model> {
         .ok_or_else(|| anyhow::anyhow!("unknown lattice `{name}`"))
 }
 
-/// Exponent and prefactor for the rescaling, with the conjectured fallback.
-fn scale(e: &ModelExponents, k: usize, warn: &mut Vec<String>) -> (f64, f64) {
+/// Exponent and prefactor for the rescaling; `None` (and a warning) without a fit.
+fn scale(e: &ModelExponents, k: usize, warn: &mut Vec<String>) -> Option<(f64, f64)> {
     let x = e.exponents[k];
     if x.value.is_finite() && x.prefactor.is_finite() && x.prefactor > 0.0 {
-        (x.value, x.prefactor)
+        Some((x.value, x.prefactor))
     } else {
         warn.push(format!(
-            "{}: no {} fit; Figure 5 rescales it with the conjectured {} and unit prefactor",
+            "{}: no {} fit (grid too coarse for the channel); the model is left out of Figure 5",
             e.lattice,
-            exponents::symbol(NAMES[k]),
-            CONJECTURED[k].1
+            exponents::symbol(NAMES[k])
         ));
-        (CONJECTURED[k].0, 1.0)
+        None
     }
 }
 
@@ -151,9 +149,13 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>)> {
             ));
             continue;
         };
-        let (zeta, a_z) = scale(e, 0, &mut warn);
-        let (ups, a_u) = scale(e, 1, &mut warn);
-        let (chi, a_c) = scale(e, 2, &mut warn);
+        let (Some((zeta, a_z)), Some((ups, a_u)), Some((chi, a_c))) = (
+            scale(e, 0, &mut warn),
+            scale(e, 1, &mut warn),
+            scale(e, 2, &mut warn),
+        ) else {
+            continue;
+        };
         let units = Units {
             zeta,
             a_z,
@@ -386,7 +388,10 @@ mod tests {
     fn window(l: f64, u: &Units) -> Window {
         let k = 12;
         let al = l.abs();
-        let (dx, dy) = (0.1 * u.a_c * al.powf(u.chi), 0.1 * u.a_u * al.powf(u.upsilon));
+        let (dx, dy) = (
+            0.1 * u.a_c * al.powf(u.chi),
+            0.1 * u.a_u * al.powf(u.upsilon),
+        );
         let shape = (2 * k + 1, 2 * k + 1);
         let xy = |a: usize, b: usize| ((a as f64 - k as f64) * 0.1, (b as f64 - k as f64) * 0.1);
         let depth = |a: usize, b: usize| {
@@ -397,7 +402,8 @@ mod tests {
                 1.0 + y * y / 4.0 - x.abs()
             }
         };
-        let pressure = Array2::from_shape_fn(shape, |(a, b)| 3.0 * al * depth(a, b).max(0.0).sqrt());
+        let pressure =
+            Array2::from_shape_fn(shape, |(a, b)| 3.0 * al * depth(a, b).max(0.0).sqrt());
         let gap = Array2::from_shape_fn(shape, |(a, b)| {
             u.a_z * al.powf(u.zeta) * (-depth(a, b)).max(0.0).powf(1.5)
         });
@@ -420,8 +426,14 @@ mod tests {
             a_c: 0.15,
         };
         for sign in [-1.0, 1.0] {
-            let ls: Vec<f64> = [0.002, 0.005, 0.01, 0.02].iter().map(|v| sign * v).collect();
-            let rescaled: Vec<_> = ls.iter().map(|&l| rescale_rung(&window(l, &u), l, &u)).collect();
+            let ls: Vec<f64> = [0.002, 0.005, 0.01, 0.02]
+                .iter()
+                .map(|v| sign * v)
+                .collect();
+            let rescaled: Vec<_> = ls
+                .iter()
+                .map(|&l| rescale_rung(&window(l, &u), l, &u))
+                .collect();
             for r in &rescaled[1..] {
                 // identical contact lines and axis gaps, point for point
                 assert_eq!(r.0.len(), rescaled[0].0.len());
@@ -440,7 +452,11 @@ mod tests {
             let curves: Vec<Curve> = ls
                 .iter()
                 .zip(&rescaled)
-                .map(|(&l, r)| Curve { l, x: r.1.clone(), y: r.2.clone() })
+                .map(|(&l, r)| Curve {
+                    l,
+                    x: r.1.clone(),
+                    y: r.2.clone(),
+                })
                 .collect();
             let q = collapse_quality(&curves, 0.0, 0.0).unwrap();
             assert!(q.spread < 1e-9, "{q:?}");

@@ -93,11 +93,21 @@ fn the_ladder_sits_at_its_reduced_loads_around_the_critical_stage() {
             }
         }
         // flux falls towards L_c
-        let q: Vec<f64> = lv.rungs.iter().filter(|r| r.l < 0.0).map(|r| r.flux).collect();
+        let q: Vec<f64> = lv
+            .rungs
+            .iter()
+            .filter(|r| r.l < 0.0)
+            .map(|r| r.flux)
+            .collect();
         assert!(q[1] < q[0], "{q:?}");
     }
     let t = std::fs::read_to_string(dir.path().join("results/tables/exponents.csv")).unwrap();
-    assert!(t.lines().next().unwrap().starts_with("model,exponent,value"));
+    assert!(
+        t.lines()
+            .next()
+            .unwrap()
+            .starts_with("model,exponent,value")
+    );
     assert_eq!(t.lines().count(), 1 + 6, "{t}");
     assert!(dir.path().join("figures/fig5.png").exists());
     assert!(dir.path().join("figures/fig6_beta.png").exists());

@@ -330,7 +330,19 @@ pub fn figure(d: &Fig6Data) -> Result<Figure> {
 pub fn beta_figure(d: &Fig6Data) -> Result<Figure> {
     let (w, h) = (420.0, 360.0);
     let mut f = Figure::new(w, h);
-    f.xy(Rect::new(0.0, 0.0, w, h), bottom_left(d)?);
+    let mut p = bottom_left(d)?;
+    let mut models: Vec<Model> = d.normalised.iter().map(|n| n.model).collect();
+    models.sort_by_key(|m| Model::ALL.iter().position(|x| x == m));
+    models.dedup();
+    for m in models {
+        p.legend_extra.push(LegendEntry {
+            label: m.name().into(),
+            stroke: None,
+            marker: Some(MarkerStyle::open(model_marker(m), model_color(m)).size(6.0)),
+        });
+    }
+    p.legend = LegendPos::BottomRight;
+    f.xy(Rect::new(0.0, 0.0, w, h), p);
     Ok(f)
 }
 
