@@ -140,7 +140,7 @@ pub fn blocked_half_length(w: &Window) -> Result<EdgeFit, String> {
 /// open side `dir` (±1). Without `p2`, half a spacing.
 fn edge_between(r1: f64, p1: f64, r2: f64, p2: f64, d: f64, dir: f64) -> f64 {
     let half = r1 + dir * 0.5 * d;
-    if !(p2 > 0.0) {
+    if p2.is_nan() || p2 <= 0.0 {
         return half;
     }
     let slope = (p2 * p2 - p1 * p1) / (r2 - r1); // d(p²)/dr

@@ -42,6 +42,7 @@ use crate::{fig1, fig2, fig3, fig4, fig6, resolution};
 use anyhow::Result;
 use figures::Colormap;
 use figures::scenes::fig2::{Branch, Fig2Data, LoadLoop};
+use figures::scenes::fig6::Fig6Data;
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
     StageReport,
