@@ -24,7 +24,9 @@
 //! - `exponents.csv`: per model and exponent (ζ, υ, χ, β and `beta_identity` = 3ζ + υ − χ):
 //!   `model`, `exponent`, `value`, `fit_error`, `grid_spread`, `error`, `n` (grid of the value),
 //!   `points`, `paper`, `paper_error`, `conjectured`, `conjectured_value`, `deviation` (value −
-//!   paper), `deviation_sigma` (in units of `error`); `zeta_lc_free` rows give ζ with L_c free.
+//!   paper), `deviation_sigma` (in units of `error`); `zeta_lc_free` rows give ζ with L_c free,
+//!   `beta_minus_identity` rows the identity check β − (3ζ + υ − χ) (expected 0, in the `paper`
+//!   column) with both errors combined.
 //! - `ladder_measurements.csv`: per model, grid and rung: `model`, `n`, `l`, `saddle_gap`,
 //!   `half_width`, `half_width_error`, `half_length`, `half_length_error`, `flux`.
 
@@ -260,7 +262,7 @@ pub fn exponent_table(r: &ArtefactReader) -> Result<Table> {
     let (mut n, mut points, mut paper, mut paper_e, mut conj, mut conj_v) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
     for e in &ex {
-        let mut push = |nm: &str, x: exponents::Exponent, k: Option<usize>| {
+        let mut push = |nm: &str, x: exponents::Exponent, k: Option<usize>, zero: bool| {
             model.push(e.lattice.clone());
             name.push(nm.to_string());
             value.push(x.value);
@@ -269,14 +271,18 @@ pub fn exponent_table(r: &ArtefactReader) -> Result<Table> {
             err.push(x.error);
             n.push(x.n as i64);
             points.push(x.points as i64);
-            let (p, pe) = k.map_or((f64::NAN, f64::NAN), |k| PAPER[k]);
+            let (p, pe) = match k {
+                Some(k) => PAPER[k],
+                None if zero => (0.0, f64::NAN),
+                None => (f64::NAN, f64::NAN),
+            };
             paper.push(p);
             paper_e.push(pe);
             conj.push(k.map_or(String::new(), |k| CONJECTURED[k].1.to_string()));
             conj_v.push(k.map_or(f64::NAN, |k| CONJECTURED[k].0));
         };
         for (k, nm) in NAMES.iter().enumerate() {
-            push(nm, e.exponents[k], Some(k));
+            push(nm, e.exponents[k], Some(k), false);
         }
         let z = e.get("zeta");
         push(
@@ -289,6 +295,7 @@ pub fn exponent_table(r: &ArtefactReader) -> Result<Table> {
                 ..z
             },
             Some(0),
+            false,
         );
         push(
             "beta_identity",
@@ -300,6 +307,20 @@ pub fn exponent_table(r: &ArtefactReader) -> Result<Table> {
                 ..z
             },
             Some(3),
+            false,
+        );
+        let b = e.get("beta");
+        push(
+            "beta_minus_identity",
+            exponents::Exponent {
+                value: b.value - e.beta_identity.0,
+                fit_error: f64::NAN,
+                grid_spread: f64::NAN,
+                error: b.error.hypot(e.beta_identity.1),
+                ..b
+            },
+            None,
+            true,
         );
     }
     let dev: Vec<f64> = value.iter().zip(&paper).map(|(v, p)| v - p).collect();

@@ -108,7 +108,7 @@ fn the_ladder_sits_at_its_reduced_loads_around_the_critical_stage() {
             .unwrap()
             .starts_with("model,exponent,value")
     );
-    assert_eq!(t.lines().count(), 1 + 6, "{t}");
+    assert_eq!(t.lines().count(), 1 + 7, "{t}");
     assert!(dir.path().join("figures/fig5.png").exists());
     assert!(dir.path().join("figures/fig6_beta.png").exists());
 }
