@@ -11,6 +11,8 @@
 //! the square model's units at |l| = 0.01 for all models instead; with per-model units the
 //! models fall on one master curve per sign of l. At l = 0 the same units without the |l|
 //! factors are used: the critical contact line r⊥ ∝ r∥^{υ/χ} is invariant under the rescaling.
+//! Rungs whose width (l < 0) or length (l > 0) could not be measured are left out, as they are
+//! of the fits.
 //! (a) contact lines (blue l < 0, green l = 0, red l > 0); (b) the gap on the channel axis
 //! against the distance from the saddle, one marker per model, one colour per l. A model without all
 //! three fits (too coarse a grid) is left out, with a warning. The paper's analytic approximations (black lines) are not drawn.
@@ -167,8 +169,25 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>)> {
             a_c,
         };
         let level = lad.levels.last().expect("read checks");
+        // rungs whose width or length could not be measured (channel below the grid's
+        // resolution) are left out, as they are of the fits
+        let measured = |l: f64| {
+            let m = e.levels.iter().find(|m| m.n == level.n);
+            let ok = |ls: &[f64], v: &[(f64, f64)]| {
+                ls.iter().zip(v).any(|(x, v)| *x == l && v.0.is_finite())
+            };
+            m.is_some_and(|m| {
+                if l < 0.0 {
+                    ok(&m.l_open, &m.half_width)
+                } else if l > 0.0 {
+                    ok(&m.l_blocked, &m.half_length)
+                } else {
+                    true
+                }
+            })
+        };
         for r in &level.rungs {
-            if !r.converged {
+            if !r.converged || !measured(r.l) {
                 continue;
             }
             let (line, dist, gap) = rescale_rung(&r.window, r.l, &units);
