@@ -28,6 +28,13 @@
 //! `model/<lattice>/level/<n>`: the same fit attributes and datasets `l_open`, `saddle_gap`,
 //! `half_width`, `half_width_error`, `flux`, `l_blocked`, `half_length`, `half_length_error`
 //! (NaN where a measurement failed).
+//!
+//! Figure 6's bottom-left panel reads the same artefact as its `ladder` input (contract in
+//! crates/stages/src/fig6.rs): per model `ladder/<lattice>/distance` ((L_c − L)/L_c of the
+//! finest grid's rungs below L_c where the fluid flows) and `ladder/<lattice>/flux` (the flux
+//! normalised by its value at the largest distance, [`normalised_flux`]); root attributes
+//! `beta`, `beta_err`, `beta_prefactor` of a power law fitted to all models' points together
+//! ([`pooled_beta`]; the per-model β are the `model/<lattice>` attributes).
 
 use crate::ladder::{LadderData, LadderLevel};
 use anyhow::{Result, bail};
@@ -147,6 +154,37 @@ pub fn level_fits(m: &LevelMeasure) -> [Result<ExponentFit, String>; 4] {
         fit_exponent(&m.l_blocked, &a),
         fit_exponent(&m.l_open, &m.flux),
     ]
+}
+
+/// Figure 6's bottom-left points of one grid: (L_c − L)/L_c = |l| for the rungs below L_c where
+/// the fluid flows, and the flux normalised by its value at the largest such |l|; ascending |l|.
+pub fn normalised_flux(m: &LevelMeasure) -> (Vec<f64>, Vec<f64>) {
+    let mut pts: Vec<(f64, f64)> = m
+        .l_open
+        .iter()
+        .zip(&m.flux)
+        .filter(|(_, q)| q.is_finite() && **q > 0.0)
+        .map(|(l, q)| (l.abs(), *q))
+        .collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let Some(&(_, q0)) = pts.last() else {
+        return (Vec::new(), Vec::new());
+    };
+    pts.iter().map(|(l, q)| (*l, q / q0)).unzip()
+}
+
+/// A power law fitted to the normalised points of all models together: (β, 1σ or NaN without
+/// a degree of freedom, prefactor). None with fewer than two points.
+pub fn pooled_beta(points: &[(Vec<f64>, Vec<f64>)]) -> Option<(f64, f64, f64)> {
+    let x: Vec<f64> = points.iter().flat_map(|p| p.0.iter().copied()).collect();
+    let y: Vec<f64> = points.iter().flat_map(|p| p.1.iter().copied()).collect();
+    if x.len() < 2 {
+        return None;
+    }
+    let f = analysis::power_law_fit(&x, &y, None, analysis::ErrorScale::ReducedChi2).ok()?;
+    let (a, _) = f.get("A")?;
+    let (b, e) = f.get("beta")?;
+    Some((b, if f.dof > 0 { e } else { f64::NAN }, a))
 }
 
 /// One exponent of one model.
@@ -294,6 +332,7 @@ impl StageKind for ExponentsKind {
             min_nodes: params.i64("min_nodes")? as usize,
         };
         let mut models = Vec::new();
+        let mut flux_points = Vec::new();
         let mut summary = serde_json::Map::new();
         for r in inputs.all("ladder") {
             let d = LadderData::read(r)?;
@@ -339,6 +378,14 @@ impl StageKind for ExponentsKind {
                 }
                 write_measure(out, &la, &m)?;
             }
+            if let Some(lv) = d.levels.last() {
+                let (x, y) = normalised_flux(&measure(lv, &opts, &mut Vec::new()));
+                if !x.is_empty() {
+                    out.write_f64_1d(&format!("ladder/{name}/distance"), &x)?;
+                    out.write_f64_1d(&format!("ladder/{name}/flux"), &y)?;
+                    flux_points.push((x, y));
+                }
+            }
             let ex: Vec<Exponent> = per.iter().map(|p| combine(p)).collect();
             for (k, e) in ex.iter().enumerate() {
                 let nm = NAMES[k];
@@ -376,6 +423,14 @@ impl StageKind for ExponentsKind {
             bail!("`exponents` needs at least one `ladder` input");
         }
         out.set_attr("models", json!(models))?;
+        if let Some((b, e, a)) = pooled_beta(&flux_points) {
+            out.set_attr("beta", b)?;
+            if e.is_finite() {
+                out.set_attr("beta_err", e)?;
+            }
+            out.set_attr("beta_prefactor", a)?;
+            summary.insert("beta_pooled".into(), json!([b, e]));
+        }
         Ok(StageReport::with_stats(serde_json::Value::Object(summary)))
     }
 }

@@ -1,5 +1,6 @@
-//! The near-critical scenes, shared by the `figure` and `table` kinds: Figure 5, the β panel of
-//! Figure 6 (bottom left) and the exponent tables.
+//! The near-critical scenes, shared by the `figure` and `table` kinds: Figure 5 and the exponent
+//! tables. (Figure 6's bottom-left panel takes the `exponents` stage as its `ladder` input:
+//! crates/stages/src/exponents.rs.)
 //!
 //! # Figure 5 (`fig5`; inputs `ladder`: one per model, `exponents`)
 //! From each model's finest ladder grid, in each model's own units: lengths along the channel
@@ -17,11 +18,6 @@
 //! against the distance from the saddle, one marker per model, one colour per l. A model without all
 //! three fits (too coarse a grid) is left out, with a warning. The paper's analytic approximations (black lines) are not drawn.
 //!
-//! # β (`fig6_beta`; input `exponents`)
-//! The flux through the cell against (L_c − L)/L_c, log–log, each model normalised by its flux
-//! at the ladder's largest |l| below L_c, with a power law fitted to all models' points together
-//! ([`beta_panel`]: the reader Figure 6's bottom-left panel can take).
-//!
 //! # Tables (`exponents`; input `exponents`)
 //! - `exponents.csv`: per model and exponent (ζ, υ, χ, β and `beta_identity` = 3ζ + υ − χ):
 //!   `model`, `exponent`, `value`, `fit_error`, `grid_spread`, `error`, `n` (grid of the value),
@@ -38,7 +34,6 @@ use anyhow::Result;
 use critical::ladder::Window;
 use critical::scaling::{axis_gap, contact_lines};
 use figures::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
-use figures::scenes::fig6::{NormalisedFlux, PowerLawFit};
 use figures::style::Model;
 use orchestrator::{InputSpec, Inputs};
 use store::ArtefactReader;
@@ -52,7 +47,7 @@ pub fn inputs() -> Vec<InputSpec> {
     ]
 }
 
-/// Inputs of the `fig6_beta` and `exponents` scenes.
+/// Inputs of the `exponents` table scene.
 pub fn exponent_inputs() -> Vec<InputSpec> {
     vec![InputSpec::one("exponents", &["exponents"]).doc("the near-critical exponents")]
 }
@@ -225,52 +220,6 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>)> {
         }
     }
     Ok((d, warn))
-}
-
-/// The β panel's data from an `exponents` artefact: per model the flux at l < 0 (finest grid)
-/// against (L_c − L)/L_c, normalised by its value at the largest |l|, and a power law fitted
-/// to all models' points together (None with fewer than two points).
-pub fn beta_panel(r: &ArtefactReader) -> Result<(Vec<NormalisedFlux>, Option<PowerLawFit>)> {
-    let ex = exponents::read(r)?;
-    let mut out = Vec::new();
-    let (mut ax, mut ay) = (Vec::new(), Vec::new());
-    for e in &ex {
-        let Some(lv) = e.levels.last() else { continue };
-        let mut pts: Vec<(f64, f64)> = lv
-            .l_open
-            .iter()
-            .zip(&lv.flux)
-            .filter(|(_, q)| q.is_finite() && **q > 0.0)
-            .map(|(l, q)| (l.abs(), *q))
-            .collect();
-        if pts.is_empty() {
-            continue;
-        }
-        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let q0 = pts.last().expect("non-empty").1;
-        let (x, y): (Vec<f64>, Vec<f64>) = pts.iter().map(|(l, q)| (*l, q / q0)).unzip();
-        ax.extend(&x);
-        ay.extend(&y);
-        out.push(NormalisedFlux {
-            model: model_of(&e.lattice)?,
-            distance: x,
-            flux: y,
-            flux_err: None,
-        });
-    }
-    let fit = (ax.len() >= 2)
-        .then(|| analysis::power_law_fit(&ax, &ay, None, analysis::ErrorScale::ReducedChi2).ok())
-        .flatten()
-        .map(|f| {
-            let (a, _) = f.get("A").unwrap_or((f64::NAN, f64::NAN));
-            let (b, s) = f.get("beta").unwrap_or((f64::NAN, f64::NAN));
-            PowerLawFit {
-                exponent: b,
-                exponent_err: (f.dof > 0 && s.is_finite()).then_some(s),
-                prefactor: a,
-            }
-        });
-    Ok((out, fit))
 }
 
 /// `exponents.csv` (module docs).

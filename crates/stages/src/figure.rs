@@ -22,8 +22,6 @@
 //!   `square`, `triangular`: `resolution` stages; see [`crate::resolution`]).
 //! - `fig5`: Figure 5, near-critical contact lines and axis gaps collapsed by the scaling
 //!   (inputs `ladder`, one per model, and `exponents`; crates/stages/src/fig5.rs).
-//! - `fig6_beta`: Figure 6's bottom-left panel on its own, normalised flux against
-//!   (L_c − L)/L_c with the fitted β (input `exponents`).
 //! - `fig1`: elastic displacement at zero load with adhesion for the three models (inputs
 //!   `hexagonal`, `square`, `triangular`: zero-load γ0 `sweep`s with fields at `gamma0`,
 //!   default 0.2), lattice overlays from the surfaces' critical points ([`fig1`]); attribute
@@ -42,7 +40,6 @@ use crate::{fig1, fig2, fig3, fig4, fig6, resolution};
 use anyhow::Result;
 use figures::Colormap;
 use figures::scenes::fig2::{Branch, Fig2Data, LoadLoop};
-use figures::scenes::fig6::Fig6Data;
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
     StageReport,
@@ -64,7 +61,6 @@ pub const SCENES: &[&str] = &[
     "fig4",
     "fig5",
     "fig6",
-    "fig6_beta",
     "convergence",
 ];
 
@@ -212,7 +208,6 @@ impl StageKind for FigureKind {
             Ok("fig4") => fig4::inputs(),
             Ok("convergence") => resolution::scene_inputs(),
             Ok("fig5") => fig5::inputs(),
-            Ok("fig6_beta") => fig5::exponent_inputs(),
             _ => Vec::new(),
         }
     }
@@ -315,23 +310,6 @@ impl StageKind for FigureKind {
                 out.set_attr("contact_lines", data.contact_lines.len() as i64)?;
                 out.set_attr("profiles", data.profiles.len() as i64)?;
                 figures::scenes::fig5::figure(&data)?
-            }
-            "fig6_beta" => {
-                let (normalised, fit) = fig5::beta_panel(inputs.one("exponents")?)?;
-                if normalised.is_empty() {
-                    ctx.warn("no model has a flux below L_c: the β panel is empty");
-                }
-                let data = figures::scenes::fig6::Fig6Data {
-                    flow: Vec::new(),
-                    load_label: String::new(),
-                    flux_label: String::new(),
-                    flux_log: false,
-                    normalised,
-                    distance_label: "($L$_c − $L$) / $L$_c".into(),
-                    fit,
-                    current: None,
-                };
-                figures::scenes::fig6::beta_figure(&data)?
             }
             other => anyhow::bail!("scene `{other}`: allowed {}", SCENES.join(", ")),
         };

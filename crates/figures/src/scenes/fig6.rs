@@ -325,27 +325,6 @@ pub fn figure(d: &Fig6Data) -> Result<Figure> {
     Ok(f)
 }
 
-/// The bottom-left panel alone (normalised flux against L_c − L with the fitted slope β), for
-/// when the near-critical data are shown without the rest of Figure 6.
-pub fn beta_figure(d: &Fig6Data) -> Result<Figure> {
-    let (w, h) = (420.0, 360.0);
-    let mut f = Figure::new(w, h);
-    let mut p = bottom_left(d)?;
-    let mut models: Vec<Model> = d.normalised.iter().map(|n| n.model).collect();
-    models.sort_by_key(|m| Model::ALL.iter().position(|x| x == m));
-    models.dedup();
-    for m in models {
-        p.legend_extra.push(LegendEntry {
-            label: m.name().into(),
-            stroke: None,
-            marker: Some(MarkerStyle::open(model_marker(m), model_color(m)).size(6.0)),
-        });
-    }
-    p.legend = LegendPos::BottomRight;
-    f.xy(Rect::new(0.0, 0.0, w, h), p);
-    Ok(f)
-}
-
 /// Renders Figure 6 to `<out_stem>.png` and `.svg`.
 pub fn render(d: &Fig6Data, out_stem: &Path) -> Result<Vec<PathBuf>> {
     figure(d)?.render(out_stem)
