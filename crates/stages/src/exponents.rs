@@ -9,7 +9,8 @@
 //!   channel) against |l| (l < 0);
 //! - χ: the blocked channel's half-length a (Hertzian pressure along the channel axis) against l
 //!   (l > 0);
-//! - β: the flux through the cell against |l| = (L_c − L)/L_c (l < 0, fluid percolating).
+//! - β: the flux through the cell against |l| = (L_c − L)/L_c (l < 0, fluid percolating, flow
+//!   solve converged).
 //!
 //! A rung whose measurement fails (channel not resolved, contact outside the window, fit
 //! failure) is left out of that fit with a warning; a fit needs 2 rungs (its error needs 3).
@@ -125,11 +126,18 @@ pub fn measure(level: &LadderLevel, opts: &EdgeOptions, notes: &mut Vec<String>)
                     (f64::NAN, f64::NAN)
                 }
             });
-            m.flux.push(if r.percolating && r.flux > 0.0 {
-                r.flux
-            } else {
-                f64::NAN
-            });
+            m.flux
+                .push(if r.percolating && r.flux > 0.0 && r.flow_converged {
+                    r.flux
+                } else {
+                    if r.percolating && !r.flow_converged {
+                        notes.push(format!(
+                            "n = {}, l = {}: flow solve not converged, flux left out",
+                            level.n, r.l
+                        ));
+                    }
+                    f64::NAN
+                });
         } else if r.l > 0.0 {
             m.l_blocked.push(r.l);
             m.half_length.push(match blocked_half_length(&r.window) {

@@ -373,6 +373,8 @@ pub struct RungData {
     pub flux: f64,
     /// The fluid percolates along the channel axis.
     pub percolating: bool,
+    /// The flow solve converged (false without flow).
+    pub flow_converged: bool,
     /// The contact solve converged.
     pub converged: bool,
     /// The window around the saddle.
@@ -415,6 +417,7 @@ impl LadderData {
             let area = r.read_f64_1d(&format!("{at}/contact_area"))?;
             let flux = r.read_f64_1d(&format!("{at}/flux"))?;
             let perc = r.read_u8_1d(&format!("{at}/percolating"))?;
+            let fconv = r.read_u8_1d(&format!("{at}/flow_converged"))?;
             let conv = r.read_u8_1d(&format!("{at}/converged"))?;
             let (d_par, d_perp) = (r.attr_f64_at(&at, "d_par")?, r.attr_f64_at(&at, "d_perp")?);
             let mut rungs = Vec::new();
@@ -425,6 +428,7 @@ impl LadderData {
                     contact_area: area[k],
                     flux: flux[k],
                     percolating: perc[k] != 0,
+                    flow_converged: fconv[k] != 0,
                     converged: conv[k] != 0,
                     window: Window {
                         d_par,
