@@ -52,7 +52,7 @@ use store::{ArtefactReader, ArtefactWriter};
 pub struct ExponentsKind;
 
 /// Bump when the artefact's content changes for the same inputs.
-pub const CODE_VERSION: u64 = 1;
+pub const CODE_VERSION: u64 = 2;
 
 /// The exponents, in table order.
 pub const NAMES: [&str; 4] = ["zeta", "upsilon", "chi", "beta"];
@@ -341,6 +341,7 @@ impl StageKind for ExponentsKind {
         };
         let mut models = Vec::new();
         let mut flux_points = Vec::new();
+        let mut heads = Vec::new();
         let mut summary = serde_json::Map::new();
         for r in inputs.all("ladder") {
             let d = LadderData::read(r)?;
@@ -405,6 +406,17 @@ impl StageKind for ExponentsKind {
                 out.set_attr_at(&at, &format!("{nm}_points"), e.points as i64)?;
                 out.set_attr_at(&at, &format!("{nm}_prefactor"), e.prefactor)?;
             }
+            for (k, e) in ex.iter().enumerate() {
+                let (pv, pe) = PAPER[k];
+                heads.push(
+                    crate::headline::Headline::new(
+                        format!("{} {name}", NAMES[k]),
+                        e.value,
+                        e.error,
+                    )
+                    .paper(pv, pe),
+                );
+            }
             let (bi, be) = identity(&ex[0], &ex[1], &ex[2]);
             out.set_attr_at(&at, "beta_identity", bi)?;
             out.set_attr_at(&at, "beta_identity_error", be)?;
@@ -431,6 +443,7 @@ impl StageKind for ExponentsKind {
             bail!("`exponents` needs at least one `ladder` input");
         }
         out.set_attr("models", json!(models))?;
+        crate::headline::write(out, &heads)?;
         if let Some((b, e, a)) = pooled_beta(&flux_points) {
             out.set_attr("beta", b)?;
             if e.is_finite() {
