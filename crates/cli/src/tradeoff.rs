@@ -57,10 +57,10 @@ pub fn run(a: Args) -> Result<()> {
                 .into_owned()
         })
         .collect();
-    let rows = tradeoff::assess(&entries, &presets);
+    let rows = tradeoff::sorted(tradeoff::assess(&entries, &presets), &presets);
     let table = tradeoff::table(&rows)?;
     tables::write_csv(&table, Path::new("results/tables/tradeoff.csv"))?;
-    let md = table.to_markdown(tables::FloatFormat::Significant(4));
+    let md = tradeoff::summary_table(&rows).to_markdown(tables::FloatFormat::Significant(4));
     store::fsutil::write_atomic(Path::new("results/tables/tradeoff.md"), md.as_bytes())?;
     let data = tradeoff::figure_data(&rows);
     if data.curves.is_empty() {

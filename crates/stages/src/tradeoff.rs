@@ -176,6 +176,53 @@ pub fn table(rows: &[Assessed]) -> Result<Table> {
         .with_str("stage", rows.iter().map(|r| r.entry.stage.clone())))
 }
 
+/// The rows sorted by quantity, then preset in `presets` order.
+pub fn sorted(mut rows: Vec<Assessed>, presets: &[String]) -> Vec<Assessed> {
+    let rank = |p: &str| presets.iter().position(|q| q == p).unwrap_or(usize::MAX);
+    rows.sort_by(|a, b| {
+        (a.entry.headline.name.as_str(), rank(&a.entry.preset))
+            .cmp(&(b.entry.headline.name.as_str(), rank(&b.entry.preset)))
+    });
+    rows
+}
+
+/// The README's trade table: quantity, preset, value, error against the finest preset (for
+/// the finest: its own error bar), the paper's value ± error, whether the paper's error bar is
+/// reached, cost and peak memory.
+pub fn summary_table(rows: &[Assessed]) -> Table {
+    let f = |g: &dyn Fn(&Assessed) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
+    let opt = |x: Option<f64>| x.unwrap_or(f64::NAN);
+    Table::new()
+        .with_str(
+            "quantity",
+            rows.iter().map(|r| r.entry.headline.name.clone()),
+        )
+        .with_str(
+            "preset",
+            rows.iter().map(|r| {
+                if r.reference {
+                    format!("{} (reference)", r.entry.preset)
+                } else {
+                    r.entry.preset.clone()
+                }
+            }),
+        )
+        .with_f64("value", f(&|r| r.entry.headline.value))
+        .with_f64("error", f(&|r| r.error))
+        .with_f64("paper", f(&|r| opt(r.entry.headline.paper)))
+        .with_f64("paper error bar", f(&|r| opt(r.entry.headline.paper_error)))
+        .with_str(
+            "within it",
+            rows.iter().map(|r| match r.reaches_paper_error {
+                Some(true) => "yes".to_string(),
+                Some(false) => "no".to_string(),
+                None => String::new(),
+            }),
+        )
+        .with_f64("cost (s)", f(&|r| r.entry.cost_s))
+        .with_f64("peak (MiB)", f(&|r| r.entry.peak_mib))
+}
+
 /// Relative error against cost, one curve per quantity, points labelled by preset; points
 /// without a positive finite error (e.g. a reference without an error bar) are left out.
 pub fn figure_data(rows: &[Assessed]) -> TradeoffData {
@@ -187,7 +234,17 @@ pub fn figure_data(rows: &[Assessed]) -> TradeoffData {
         let c = curves
             .entry(r.entry.headline.name.as_str())
             .or_insert_with(|| TradeoffCurve {
-                label: r.entry.headline.name.clone(),
+                // names are plain text: escape the label markup
+                label: r
+                    .entry
+                    .headline
+                    .name
+                    .replace('\\', "\\\\")
+                    .replace('_', "\\_")
+                    .replace('^', "\\^")
+                    .replace('$', "\\$")
+                    .replace('{', "\\{")
+                    .replace('}', "\\}"),
                 ..Default::default()
             });
         c.cost.push(r.entry.cost_s);
@@ -265,6 +322,22 @@ mod tests {
         assert_eq!(by("draft", "b").reaches_paper_error, None);
         let t = table(&a).unwrap();
         assert_eq!(t.n_rows(), 4);
+        let s = sorted(a.clone(), &presets);
+        let order: Vec<(&str, &str)> = s
+            .iter()
+            .map(|r| (r.entry.headline.name.as_str(), r.entry.preset.as_str()))
+            .collect();
+        assert_eq!(
+            order,
+            [
+                ("a", "smoke"),
+                ("a", "draft"),
+                ("a", "paper"),
+                ("b", "draft")
+            ]
+        );
+        let st = summary_table(&s);
+        assert_eq!(st.str("preset").unwrap()[2], "paper (reference)");
         let d = figure_data(&a);
         assert_eq!(d.curves.len(), 1, "b has no finite error");
         assert_eq!(d.curves[0].cost.len(), 3);

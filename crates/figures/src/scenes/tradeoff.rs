@@ -108,10 +108,19 @@ pub fn figure(d: &TradeoffData) -> Result<Figure> {
             label: Some("target".into()),
         });
     }
-    p.legend = LegendPos::TopRight;
-    let mut f = Figure::new(COLUMN_WIDTH, 360.0);
-    f.xy(Rect::new(0.0, 0.0, COLUMN_WIDTH, 360.0), p);
-    Ok(f)
+    // many quantities: beyond 6 curves the legend goes beside the panel
+    if d.curves.len() <= 6 {
+        p.legend = LegendPos::TopRight;
+        let mut f = Figure::new(COLUMN_WIDTH, 360.0);
+        f.xy(Rect::new(0.0, 0.0, COLUMN_WIDTH, 360.0), p);
+        Ok(f)
+    } else {
+        let height = (360.0f64).max(40.0 + 19.0 * d.curves.len() as f64);
+        p.legend = LegendPos::At(1.04, 0.0);
+        let mut f = Figure::new(COLUMN_WIDTH + 300.0, height);
+        f.xy(Rect::new(0.0, 0.0, COLUMN_WIDTH, height), p);
+        Ok(f)
+    }
 }
 
 /// Renders the trade-off figure to `<out_stem>.png` and `.svg`.
