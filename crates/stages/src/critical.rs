@@ -53,7 +53,8 @@ pub const CODE_VERSION: u64 = 2;
 /// Largest shift rule m (m² solves per grid).
 pub const MAX_SHIFTS: i64 = 8;
 
-fn ns(params: &Params) -> Result<Vec<u32>> {
+/// The grid exponents `ns` (the list of a `critical` or `ladder` stage).
+pub(crate) fn ns(params: &Params) -> Result<Vec<u32>> {
     Ok(params
         .get("ns")?
         .as_array()
@@ -64,6 +65,22 @@ fn ns(params: &Params) -> Result<Vec<u32>> {
                 .collect()
         })
         .unwrap_or_default())
+}
+
+/// The `ns` parameter: at most `max_len` grid exponents in the surface's range.
+pub(crate) fn ns_spec(max_len: usize, doc: &str) -> ParamSpec {
+    ParamSpec::new(
+        "ns",
+        ParamType::Array {
+            elem: Box::new(ParamType::int_range(
+                surface::N_MIN as i64,
+                surface::N_MAX as i64,
+            )),
+            min_len: 1,
+            max_len: Some(max_len),
+        },
+    )
+    .doc(doc)
 }
 
 impl StageKind for CriticalKind {
@@ -83,18 +100,10 @@ impl StageKind for CriticalKind {
                 ParamType::one_of(&["square", "triangular", "hexagonal"]),
             )
             .doc("which model"),
-            ParamSpec::new(
-                "ns",
-                ParamType::Array {
-                    elem: Box::new(ParamType::int_range(
-                        surface::N_MIN as i64,
-                        surface::N_MAX as i64,
-                    )),
-                    min_len: 1,
-                    max_len: Some(10),
-                },
-            )
-            .doc("grid exponents, strictly ascending: 2^n × 2^n nodes each"),
+            ns_spec(
+                10,
+                "grid exponents, strictly ascending: 2^n × 2^n nodes each",
+            ),
             ParamSpec::new("shifts", ParamType::int_range(0, MAX_SHIFTS))
                 .default(0)
                 .doc("m × m sub-grid shifts (midpoint rule on [0, ½)²); 0 = unshifted grid only"),

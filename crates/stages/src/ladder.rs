@@ -49,19 +49,6 @@ pub const CODE_VERSION: u64 = 1;
 /// The paper's ladder, plus l = 0 (the contact line at L_c).
 pub const DEFAULT_LS: [f64; 9] = [-0.02, -0.01, -0.005, -0.002, 0.0, 0.002, 0.005, 0.01, 0.02];
 
-fn int_list(params: &Params, key: &str) -> Result<Vec<u32>> {
-    Ok(params
-        .get(key)?
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_i64())
-                .map(|v| v as u32)
-                .collect()
-        })
-        .unwrap_or_default())
-}
-
 impl StageKind for LadderKind {
     fn name(&self) -> &str {
         "ladder"
@@ -74,18 +61,10 @@ impl StageKind for LadderKind {
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
-            ParamSpec::new(
-                "ns",
-                ParamType::Array {
-                    elem: Box::new(ParamType::int_range(
-                        surface::N_MIN as i64,
-                        surface::N_MAX as i64,
-                    )),
-                    min_len: 1,
-                    max_len: Some(6),
-                },
-            )
-            .doc("grid exponents, strictly ascending; each a level of the `critical` input"),
+            crate::critical::ns_spec(
+                6,
+                "grid exponents, strictly ascending; each a level of the `critical` input",
+            ),
             ParamSpec::new(
                 "ls",
                 ParamType::Array {
@@ -111,7 +90,7 @@ impl StageKind for LadderKind {
         ]
     }
     fn check(&self, params: &Params) -> Result<(), ParamIssue> {
-        let ns = int_list(params, "ns").map_err(|e| ParamIssue::new("ns", e.to_string()))?;
+        let ns = crate::critical::ns(params).map_err(|e| ParamIssue::new("ns", e.to_string()))?;
         if ns.windows(2).any(|w| w[1] <= w[0]) {
             return Err(ParamIssue::new(
                 "ns",
@@ -138,7 +117,7 @@ impl StageKind for LadderKind {
     }
     fn cost(&self, params: &Params) -> f64 {
         let k = params.f64_array("ls").map(|v| v.len()).unwrap_or(9) as f64;
-        int_list(params, "ns")
+        crate::critical::ns(params)
             .unwrap_or_default()
             .iter()
             .map(|&n| 4f64.powi(n as i32) / 4f64.powi(9) * k * 0.5)
@@ -154,7 +133,7 @@ impl StageKind for LadderKind {
         let crit = inputs.one("critical")?;
         let levels = CriticalLevel::read_all(crit)?;
         let lattice = levels[0].lattice;
-        let ns = int_list(params, "ns")?;
+        let ns = crate::critical::ns(params)?;
         let mut ls = params.f64_array("ls")?;
         ls.sort_by(f64::total_cmp);
         let opts = LadderOptions {
