@@ -40,18 +40,9 @@ use std::time::Instant;
 
 const CHILD: &str = "HARDWALL_CHILD";
 
-fn env_list<T: std::str::FromStr>(name: &str, default: &str) -> Vec<T> {
-    std::env::var(name)
-        .unwrap_or_else(|_| default.to_string())
-        .split(',')
-        .filter(|s| !s.trim().is_empty())
-        .map(|s| {
-            s.trim()
-                .parse()
-                .unwrap_or_else(|_| panic!("{name}: cannot parse {s:?}"))
-        })
-        .collect()
-}
+#[path = "../../../bench/env_list.rs"]
+mod env_list;
+use env_list::env_list;
 
 fn env_f64(name: &str, default: f64) -> f64 {
     std::env::var(name)

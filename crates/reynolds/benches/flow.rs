@@ -21,18 +21,9 @@ use ndarray::Array2;
 use reynolds::{FlowAxis, FlowOptions, solve};
 use std::io::Write;
 
-fn env_list<T: std::str::FromStr>(name: &str, default: &str) -> Vec<T> {
-    std::env::var(name)
-        .unwrap_or_else(|_| default.to_string())
-        .split(',')
-        .filter(|s| !s.trim().is_empty())
-        .map(|s| {
-            s.trim()
-                .parse()
-                .unwrap_or_else(|_| panic!("{name}: cannot parse {s:?}"))
-        })
-        .collect()
-}
+#[path = "../../../bench/env_list.rs"]
+mod env_list;
+use env_list::env_list;
 
 fn gap_field(n: usize, eps: f64) -> Array2<f64> {
     let tau = std::f64::consts::TAU;

@@ -95,11 +95,7 @@ impl StageKind for CriticalKind {
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
-            ParamSpec::new(
-                "lattice",
-                ParamType::one_of(&["square", "triangular", "hexagonal"]),
-            )
-            .doc("which model"),
+            crate::surface::lattice_spec(),
             ns_spec(
                 10,
                 "grid exponents, strictly ascending: 2^n × 2^n nodes each",

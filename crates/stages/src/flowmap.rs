@@ -29,7 +29,7 @@
 
 use crate::gapfile;
 use anyhow::{Result, anyhow, bail};
-use contact::{Interaction, Method, Model, Solution, SolverOptions};
+use contact::{Interaction, Method, Solution, SolverOptions};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
     StageReport,
@@ -142,20 +142,16 @@ impl StageKind for FlowMapKind {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let surf = inputs.one("surface")?;
-        let heights = surf.read_f64_2d(fields::HEIGHT)?;
-        let (lx, ly) = surf.cell()?;
-        let (nx, ny) = heights.dim();
-        let grid = contact::Grid {
-            nx,
-            ny,
+        let crate::surface::SurfaceInput {
+            mut model,
             lx,
             ly,
-            shift: (0.0, 0.0),
-        };
-        let p_fc = surf.attr_f64("p_fc_grid")?;
-        let lattice = surf.attr_str("lattice")?;
-        let n_exp = surf.attr_i64("n")?;
+            nx,
+            ny,
+            p_fc,
+            lattice,
+            n: n_exp,
+        } = crate::surface::SurfaceInput::read(inputs.one("surface")?)?;
         let axis = gapfile::parse_axis(params.str("axis")?)?;
         let l = params.f64("l")?;
         let rel_width = params.f64("rel_width")?;
@@ -165,7 +161,6 @@ impl StageKind for FlowMapKind {
             method: Method::PolonskyKeer,
             ..Default::default()
         };
-        let mut model = Model::from_heights(grid, heights.view()).map_err(|e| anyhow!("{e}"))?;
         let mut probes: Vec<Probe> = Vec::new();
         let mut solve = |load: f64, warm: Option<&Solution>| -> Result<Solution> {
             model

@@ -19,6 +19,63 @@ pub struct SurfaceKind;
 /// Bump when the artefact's content changes for the same parameters.
 pub const CODE_VERSION: u64 = 1;
 
+/// A `surface` artefact read back as a contact problem: the model on the stored grid and
+/// heights, with the grid's full-contact pressure and the model's name and grid exponent.
+pub struct SurfaceInput {
+    /// The contact problem (grid, heights, elastic kernel).
+    pub model: contact::Model,
+    /// Cell size (λ).
+    pub lx: f64,
+    /// Cell size (λ).
+    pub ly: f64,
+    /// Nodes along x and y.
+    pub nx: usize,
+    /// Nodes along y.
+    pub ny: usize,
+    /// Full-contact pressure of the sampled heights (E* h0/λ).
+    pub p_fc: f64,
+    /// Model name.
+    pub lattice: String,
+    /// Grid exponent.
+    pub n: i64,
+}
+
+impl SurfaceInput {
+    /// Reads a `surface` artefact (unshifted grid).
+    pub fn read(surf: &store::ArtefactReader) -> Result<Self> {
+        let heights = surf.read_f64_2d(fields::HEIGHT)?;
+        let (lx, ly) = surf.cell()?;
+        let (nx, ny) = heights.dim();
+        let grid = contact::Grid {
+            nx,
+            ny,
+            lx,
+            ly,
+            shift: (0.0, 0.0),
+        };
+        Ok(Self {
+            model: contact::Model::from_heights(grid, heights.view())
+                .map_err(|e| anyhow!("{e}"))?,
+            lx,
+            ly,
+            nx,
+            ny,
+            p_fc: surf.attr_f64("p_fc_grid")?,
+            lattice: surf.attr_str("lattice")?,
+            n: surf.attr_i64("n")?,
+        })
+    }
+}
+
+/// The `lattice` parameter: one of the three models.
+pub fn lattice_spec() -> ParamSpec {
+    ParamSpec::new(
+        "lattice",
+        ParamType::one_of(&["square", "triangular", "hexagonal"]),
+    )
+    .doc("which model")
+}
+
 /// Parses a lattice name.
 pub fn lattice_from_name(name: &str) -> Result<Lattice> {
     Lattice::ALL
@@ -39,11 +96,7 @@ impl StageKind for SurfaceKind {
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
-            ParamSpec::new(
-                "lattice",
-                ParamType::one_of(&["square", "triangular", "hexagonal"]),
-            )
-            .doc("which model"),
+            lattice_spec(),
             ParamSpec::new(
                 "n",
                 ParamType::int_range(surface::N_MIN as i64, surface::N_MAX as i64),

@@ -65,7 +65,7 @@
 //! stage's warnings, and left out of jump detection; downstream kinds must not use them silently.
 
 use anyhow::{Context, Result, anyhow, bail};
-use contact::{ContactError, Interaction, Method, Model, Solution, SolverOptions};
+use contact::{ContactError, Interaction, Method, Solution, SolverOptions};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
     StageReport,
@@ -748,21 +748,16 @@ impl StageKind for SweepKind {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let surf = inputs.one("surface")?;
-        let heights = surf.read_f64_2d(store::fields::HEIGHT)?;
-        let (lx, ly) = surf.cell()?;
-        let (nx, ny) = heights.dim();
-        let grid = contact::Grid {
-            nx,
-            ny,
+        let crate::surface::SurfaceInput {
+            mut model,
             lx,
             ly,
-            shift: (0.0, 0.0),
-        };
-        let p_fc = surf.attr_f64("p_fc_grid")?;
-        let lattice = surf.attr_str("lattice")?;
-        let n_exp = surf.attr_i64("n")?;
-        let mut model = Model::from_heights(grid, heights.view()).map_err(|e| anyhow!("{e}"))?;
+            nx,
+            ny,
+            p_fc,
+            lattice,
+            n: n_exp,
+        } = crate::surface::SurfaceInput::read(inputs.one("surface")?)?;
 
         let base = interaction_of(params)?;
         base.validate().map_err(|e| anyhow!("{e}"))?;

@@ -48,6 +48,22 @@ pub struct Assessed {
     pub reaches_paper_error: Option<bool>,
 }
 
+/// Position of preset `p` in `presets` (unknown presets last).
+fn preset_rank(presets: &[String], p: &str) -> usize {
+    presets.iter().position(|q| q == p).unwrap_or(usize::MAX)
+}
+
+impl Assessed {
+    /// "yes" / "no": whether the paper's error bar is reached; empty if unknown.
+    fn verdict(&self) -> String {
+        match self.reaches_paper_error {
+            Some(true) => "yes".into(),
+            Some(false) => "no".into(),
+            None => String::new(),
+        }
+    }
+}
+
 /// Reads the headline numbers of every cached stage of `pipeline` with each params file.
 pub fn collect(
     registry: &Registry,
@@ -113,7 +129,7 @@ fn cost(plan: &Plan, ws: &Workspace, name: &str) -> Result<(f64, f64)> {
 
 /// Judges every entry against the last preset (in `presets` order) that has its quantity.
 pub fn assess(entries: &[Entry], presets: &[String]) -> Vec<Assessed> {
-    let rank = |p: &str| presets.iter().position(|q| q == p).unwrap_or(usize::MAX);
+    let rank = |p: &str| preset_rank(presets, p);
     let mut reference: BTreeMap<&str, &Entry> = BTreeMap::new();
     for e in entries {
         let slot = reference.entry(e.headline.name.as_str()).or_insert(e);
@@ -163,14 +179,7 @@ pub fn table(rows: &[Assessed]) -> Result<Table> {
         .with_f64("relative_error", f(&|r| r.relative_error))
         .with_f64("paper", f(&|r| opt(r.entry.headline.paper)))
         .with_f64("paper_error", f(&|r| opt(r.entry.headline.paper_error)))
-        .with_str(
-            "reaches_paper_error",
-            rows.iter().map(|r| match r.reaches_paper_error {
-                Some(true) => "yes".to_string(),
-                Some(false) => "no".to_string(),
-                None => String::new(),
-            }),
-        )
+        .with_str("reaches_paper_error", rows.iter().map(Assessed::verdict))
         .with_f64("cost_s", f(&|r| r.entry.cost_s))
         .with_f64("peak_mib", f(&|r| r.entry.peak_mib))
         .with_str("stage", rows.iter().map(|r| r.entry.stage.clone())))
@@ -178,7 +187,7 @@ pub fn table(rows: &[Assessed]) -> Result<Table> {
 
 /// The rows sorted by quantity, then preset in `presets` order.
 pub fn sorted(mut rows: Vec<Assessed>, presets: &[String]) -> Vec<Assessed> {
-    let rank = |p: &str| presets.iter().position(|q| q == p).unwrap_or(usize::MAX);
+    let rank = |p: &str| preset_rank(presets, p);
     rows.sort_by(|a, b| {
         (a.entry.headline.name.as_str(), rank(&a.entry.preset))
             .cmp(&(b.entry.headline.name.as_str(), rank(&b.entry.preset)))
@@ -211,14 +220,7 @@ pub fn summary_table(rows: &[Assessed]) -> Table {
         .with_f64("error", f(&|r| r.error))
         .with_f64("paper", f(&|r| opt(r.entry.headline.paper)))
         .with_f64("paper error bar", f(&|r| opt(r.entry.headline.paper_error)))
-        .with_str(
-            "within it",
-            rows.iter().map(|r| match r.reaches_paper_error {
-                Some(true) => "yes".to_string(),
-                Some(false) => "no".to_string(),
-                None => String::new(),
-            }),
-        )
+        .with_str("within it", rows.iter().map(Assessed::verdict))
         .with_f64("cost (s)", f(&|r| r.entry.cost_s))
         .with_f64("peak (MiB)", f(&|r| r.entry.peak_mib))
 }
