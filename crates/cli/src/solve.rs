@@ -37,7 +37,7 @@ pub struct Args {
     /// (E* h0/λ) for FIRE. Defaults 1e-10 and 1e-8.
     #[arg(long)]
     tol: Option<f64>,
-    /// Minimiser: auto, polonsky-keer or fire.
+    /// Minimiser: auto, polonsky-keer (stiffness-preconditioned), polonsky-keer-plain or fire.
     #[arg(long, default_value = "auto")]
     method: String,
     /// Iteration cap.

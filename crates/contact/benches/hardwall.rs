@@ -21,6 +21,8 @@
 //! - `HARDWALL_THREADS` rayon pool sizes, default `1,2`;
 //! - `HARDWALL_TOL` violation bound, default 1e-10;
 //! - `HARDWALL_MIN_CPU` repeat a case until this much CPU time is spent (s), default 1;
+//! - `HARDWALL_PLAIN` grid exponents where Polonsky–Keer without the stiffness preconditioner
+//!   (`PolonskyKeer::PLAIN`) also runs, single-threaded, for comparison; default `8,9,10`;
 //! - `HARDWALL_FIRE` grid exponents for the FIRE cost table (hard wall: same problem; adhesion:
 //!   γ0 = 0.2, ρ = 0.04, zero load), default `8,9,10`; empty to skip;
 //! - `HARDWALL_DUMP=DIR` writes the heights and our pressure field per n (raw little-endian f64,
@@ -166,15 +168,18 @@ fn child(spec: &str) {
         let p_fc = surface.p_fc_grid();
         let mut model = Model::new(&surface).expect("model");
         let (sol, cpu, wall, reps, extra) = match kind {
-            "pk" => {
+            "pk" | "pk-plain" => {
                 let opts = SolverOptions {
                     tol_gap: tol,
                     method: Method::PolonskyKeer,
                     ..Default::default()
                 };
+                let pk = PolonskyKeer {
+                    preconditioned: kind == "pk",
+                };
                 let (sol, cpu, wall, reps) = timed(min_cpu, || {
                     model
-                        .solve(Interaction::HardWall, 0.3 * p_fc, &opts, None)
+                        .solve_with(&pk, Interaction::HardWall, 0.3 * p_fc, &opts, None)
                         .expect("solve")
                 });
                 (sol, cpu, wall, reps, String::new())
@@ -192,7 +197,7 @@ fn child(spec: &str) {
                 });
                 let pk = model
                     .solve_with(
-                        &PolonskyKeer,
+                        &PolonskyKeer::default(),
                         Interaction::HardWall,
                         0.3 * p_fc,
                         &SolverOptions {
@@ -255,7 +260,7 @@ fn child(spec: &str) {
             );
             std::fs::write(format!("{dir}/case_n{size}.json"), meta).expect("write meta");
         }
-        let (fft_cpu, fft_wall) = if kind == "pk" && std::env::var("HARDWALL_NO_FFT").is_err() {
+        let (fft_cpu, fft_wall) = if kind.starts_with("pk") && std::env::var("HARDWALL_NO_FFT").is_err() {
             fft_pair_cost(&surface)
         } else {
             (f64::NAN, f64::NAN)
@@ -309,6 +314,7 @@ fn main() {
     let ns: Vec<u32> = env_list("HARDWALL_NS", "8,9,10,11");
     let threads: Vec<usize> = env_list("HARDWALL_THREADS", "1,2");
     let fire_ns: Vec<u32> = env_list("HARDWALL_FIRE", "8,9,10");
+    let plain_ns: Vec<u32> = env_list("HARDWALL_PLAIN", "8,9,10");
     println!(
         "# cold hard-wall solve, square model, p = 0.3 p_fc, max violation <= {:e} h0 (Polonsky-Keer)",
         env_f64("HARDWALL_TOL", 1e-10)
@@ -318,12 +324,16 @@ fn main() {
         for &t in &threads {
             rows.push(run_child(&format!("pk:{e}:{t}")));
         }
+        if plain_ns.contains(&e) {
+            rows.push(run_child(&format!("pk-plain:{e}:1")));
+        }
     }
     let g = |r: &BTreeMap<String, String>, k: &str| r.get(k).cloned().unwrap_or_default();
     let f = |r: &BTreeMap<String, String>, k: &str| g(r, k).parse::<f64>().unwrap_or(f64::NAN);
     println!();
     println!(
-        "{:>5} {:>3} {:>8} {:>8} {:>5} {:>9} {:>8} {:>9} {:>10} {:>11} {:>12}",
+        "{:>9} {:>5} {:>3} {:>8} {:>8} {:>5} {:>9} {:>8} {:>9} {:>10} {:>11} {:>12}",
+        "solver",
         "n",
         "thr",
         "cpu_s",
@@ -338,7 +348,8 @@ fn main() {
     );
     for r in &rows {
         println!(
-            "{:>5} {:>3} {:>8.3} {:>8.3} {:>5} {:>9} {:>8.1} {:>9} {:>10.2} {:>11.2} {:>12.1}",
+            "{:>9} {:>5} {:>3} {:>8.3} {:>8.3} {:>5} {:>9} {:>8.1} {:>9} {:>10.2} {:>11.2} {:>12.1}",
+            g(r, "solver"),
             g(r, "n"),
             g(r, "threads"),
             f(r, "cpu_s"),

@@ -131,20 +131,27 @@ impl ElasticKernel {
             .convolve_with_in_place(field, &self.compliance);
     }
 
-    /// `G` applied with row callbacks: see [`Spectral::convolve_fused`].
-    pub fn displacement_fused<P, F>(
+    /// `G` (`stiffness = false`) or `K` (`true`) applied with row callbacks: see
+    /// [`Spectral::convolve_fused`].
+    pub fn apply_fused<P, F>(
         &mut self,
+        stiffness: bool,
         input: &mut [f64],
         prepare: P,
         output: Option<&mut [f64]>,
         finish: F,
-    ) -> (RowSums, RowSums)
+    ) -> (RowSums, f64, RowSums)
     where
         P: Fn(usize, &mut [f64]) -> RowSums + Sync,
         F: Fn(usize, &[f64], &mut [f64]) -> RowSums + Sync,
     {
+        let mult = if stiffness {
+            &self.stiffness
+        } else {
+            &self.compliance
+        };
         self.spectral
-            .convolve_fused(input, prepare, &self.compliance, output, finish)
+            .convolve_fused(input, prepare, mult, output, finish)
     }
 
     /// `u += G c` for a pressure `c` that is zero except at a few nodes, `sources` = (node index,

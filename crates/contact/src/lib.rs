@@ -7,8 +7,9 @@
 //!
 //! Two minimisers implement [`Minimizer`]:
 //! - [`polonsky_keer::PolonskyKeer`]: constrained conjugate gradients in the contact pressure
-//!   (Polonsky & Keer 1999) for the convex hard-wall problem. Converges to a bound on the
-//!   constraint violation (gap on the contact set, penetration off it).
+//!   (Polonsky & Keer 1999), preconditioned by the elastic stiffness (Vollebregt 2014), for the
+//!   convex hard-wall problem. Converges to a bound on the constraint violation (gap on the
+//!   contact set, penetration off it).
 //! - [`fire::Fire`]: FIRE relaxation of the displacement with Fourier-space mass weighting
 //!   (masses ∝ modal stiffness, Zhou, Moseler & Müser 2019) and the hard wall as a projection;
 //!   handles any interaction and follows metastable branches from warm starts. Converges to a
@@ -103,8 +104,11 @@ pub enum Method {
     /// Polonsky–Keer for the hard wall, FIRE otherwise.
     #[default]
     Auto,
-    /// Constrained conjugate gradients (hard wall only).
+    /// Constrained conjugate gradients, stiffness-preconditioned (hard wall only).
     PolonskyKeer,
+    /// Constrained conjugate gradients without the preconditioner (hard wall only; for
+    /// comparison).
+    PolonskyKeerPlain,
     /// Mass-weighted FIRE (any interaction).
     Fire,
 }
@@ -115,11 +119,12 @@ impl std::str::FromStr for Method {
         match s {
             "auto" => Ok(Method::Auto),
             "polonsky-keer" | "pk" => Ok(Method::PolonskyKeer),
+            "polonsky-keer-plain" | "pk-plain" => Ok(Method::PolonskyKeerPlain),
             "fire" => Ok(Method::Fire),
             _ => Err(ContactError::Parameter {
                 name: "method",
                 value: s.to_string(),
-                allowed: "\"auto\", \"polonsky-keer\" (hard wall only) or \"fire\"",
+                allowed: "\"auto\", \"polonsky-keer\", \"polonsky-keer-plain\" (hard wall only) or \"fire\"",
             }),
         }
     }
@@ -337,14 +342,16 @@ impl Model {
     ) -> Result<Solution, ContactError> {
         match opts.method {
             Method::Auto if interaction.is_hard_wall() && pressure > 0.0 => self.solve_with(
-                &polonsky_keer::PolonskyKeer,
+                &polonsky_keer::PolonskyKeer::default(),
                 interaction,
                 pressure,
                 opts,
                 warm,
             ),
-            Method::PolonskyKeer => self.solve_with(
-                &polonsky_keer::PolonskyKeer,
+            Method::PolonskyKeer | Method::PolonskyKeerPlain => self.solve_with(
+                &polonsky_keer::PolonskyKeer {
+                    preconditioned: opts.method == Method::PolonskyKeer,
+                },
                 interaction,
                 pressure,
                 opts,
@@ -437,10 +444,10 @@ impl Model {
                 "> 0 without adhesion (under force control a non-positive load has no equilibrium)",
             ));
         }
-        if method == "polonsky-keer" && !interaction.is_hard_wall() {
+        if method.starts_with("polonsky-keer") && !interaction.is_hard_wall() {
             return Err(ContactError::Parameter {
                 name: "method",
-                value: "polonsky-keer".into(),
+                value: method.into(),
                 allowed: "\"fire\" or \"auto\" for adhesion and repulsion (Polonsky–Keer solves the hard wall only)",
             });
         }

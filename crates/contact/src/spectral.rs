@@ -136,7 +136,9 @@ impl Spectral {
     ///    itself if `output` is `None`), then `finish(i, input_row, output_row)` is called with
     ///    the prepared input row (an empty slice in place, where it has been overwritten).
     ///
-    /// Returns the sums over rows, in row order, of what `prepare` and `finish` return.
+    /// Returns the sums over rows, in row order, of what `prepare` and `finish` return, and the
+    /// quadratic form `Σ_x input(x) · output(x)` taken in Fourier space while the spectrum is
+    /// multiplied (Parseval: `Σ_q multiplier(q) |input^(q)|²`), known before any output row.
     pub fn convolve_fused<P, F>(
         &mut self,
         input: &mut [f64],
@@ -144,7 +146,7 @@ impl Spectral {
         multiplier: &[f64],
         output: Option<&mut [f64]>,
         finish: F,
-    ) -> (RowSums, RowSums)
+    ) -> (RowSums, f64, RowSums)
     where
         P: Fn(usize, &mut [f64]) -> RowSums + Sync,
         F: Fn(usize, &[f64], &mut [f64]) -> RowSums + Sync,
@@ -182,7 +184,7 @@ impl Spectral {
             }
         }
         let before = self.sums.iter().fold([0.0; 4], |a, &b| add(a, b));
-        self.columns(multiplier);
+        let quadratic = self.columns(multiplier);
         let after = match output {
             Some(out) => {
                 assert_eq!(out.len(), nx * ny, "field length");
@@ -191,7 +193,7 @@ impl Spectral {
             }
             None => self.inverse(input, |i, row| finish(i, &[], row)),
         };
-        (before, after)
+        (before, quadratic, after)
     }
 
     /// Forward row transforms: `fill(i, buf)` writes row `i` into `buf`.
@@ -258,8 +260,10 @@ impl Spectral {
     }
 
     /// For every block of `BLOCK` spectral columns: gather, FFT along x, multiply, inverse FFT
-    /// along x, scatter back.
-    fn columns(&mut self, multiplier: &[f64]) {
+    /// along x, scatter back. Returns `Σ_q multiplier(q) |F(q)|²` over the full spectrum (the
+    /// half spectrum's columns other than 0 and ny/2 stand for two), summed block by block in
+    /// block order.
+    fn columns(&mut self, multiplier: &[f64]) -> f64 {
         let (nx, m) = (self.nx, self.m);
         assert_eq!(multiplier.len(), nx * m, "multiplier length");
         let (fwd, inv) = (&self.fwd, &self.inv);
@@ -288,8 +292,20 @@ impl Spectral {
             }
             fwd.process_with_scratch(buf, scratch);
             let mult = &multiplier[k * BLOCK * nx..(k * BLOCK + b) * nx];
-            for (v, &w) in buf.iter_mut().zip(mult) {
-                *v *= w;
+            let mut quadratic = 0.0;
+            for (c, (col, mult)) in buf
+                .chunks_exact_mut(nx)
+                .zip(mult.chunks_exact(nx))
+                .enumerate()
+            {
+                let j = k * BLOCK + c;
+                let twice = if j == 0 || j == m - 1 { 1.0 } else { 2.0 };
+                let mut q = 0.0;
+                for (v, &w) in col.iter_mut().zip(mult) {
+                    q += w * v.norm_sqr();
+                    *v *= w;
+                }
+                quadratic += twice * q;
             }
             inv.process_with_scratch(buf, scratch);
             for (i, mut row) in cols.rows_mut().into_iter().enumerate() {
@@ -300,18 +316,22 @@ impl Spectral {
                     *v = buf[c * nx + i];
                 }
             }
+            quadratic
         };
-        if parallel {
+        let quadratics: Vec<f64> = if parallel {
             view.axis_chunks_iter_mut(Axis(1), BLOCK)
                 .into_par_iter()
                 .enumerate()
-                .for_each_init(init, |s, x| block(x, s));
+                .map_init(init, |s, x| block(x, s))
+                .collect()
         } else {
             let mut s = init();
-            for x in view.axis_chunks_iter_mut(Axis(1), BLOCK).enumerate() {
-                block(x, &mut s);
-            }
-        }
+            view.axis_chunks_iter_mut(Axis(1), BLOCK)
+                .enumerate()
+                .map(|x| block(x, &mut s))
+                .collect()
+        };
+        quadratics.iter().sum()
     }
 }
 
@@ -429,7 +449,7 @@ mod tests {
         sp.convolve(&prepared, &natural, &mut want);
         let mut input = base.clone();
         let mut out = vec![0.0; nx * ny];
-        let (before, after) = sp.convolve_fused(
+        let (before, _, after) = sp.convolve_fused(
             &mut input,
             |i, row| {
                 row.iter_mut().for_each(|v| *v = 2.0 * *v + i as f64);
@@ -466,5 +486,42 @@ mod tests {
         let mut field = prepared.clone();
         sp.convolve_with_in_place(&mut field, &mult);
         assert_eq!(field, want);
+    }
+
+    /// The quadratic form returned by the fused convolution is Σ input · output, for a
+    /// multiplier of the kind the solvers use (a function of |q|, so even in q), on a grid with
+    /// nx ≠ ny, to rounding.
+    #[test]
+    fn quadratic_form_is_the_real_space_inner_product() {
+        let (nx, ny) = (64, 32);
+        let mut sp = Spectral::new(nx, ny);
+        let m = sp.half_len();
+        let natural: Vec<f64> = (0..nx * m)
+            .map(|k| {
+                let (a, b) = ((k / m) as f64, (k % m) as f64);
+                let a = a.min(nx as f64 - a);
+                (a * a + 3.0 * b * b).sqrt() / (nx * ny) as f64
+            })
+            .collect();
+        let mult = sp.multiplier(&natural);
+        let input: Vec<f64> = (0..nx * ny)
+            .map(|k| (((k * 29) % 37) as f64 - 18.0) * if k % 5 == 0 { 0.0 } else { 1.0 })
+            .collect();
+        let mut out = vec![0.0; nx * ny];
+        let mut inp = input.clone();
+        let (_, quadratic, _) = sp.convolve_fused(
+            &mut inp,
+            |_, _| [0.0; 4],
+            &mult,
+            Some(&mut out),
+            |_, _, _| [0.0; 4],
+        );
+        let direct: f64 = input.iter().zip(&out).map(|(a, b)| a * b).sum();
+        let scale: f64 = input.iter().zip(&out).map(|(a, b)| (a * b).abs()).sum();
+        assert!(
+            (quadratic - direct).abs() <= 1e-13 * scale,
+            "{quadratic} vs {direct}"
+        );
+        assert!(direct > 0.0);
     }
 }

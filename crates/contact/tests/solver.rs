@@ -117,7 +117,7 @@ fn minimisers_agree_on_the_hard_wall_problem() {
         let p = 0.2 * s.p_fc_grid();
         let pk = m
             .solve_with(
-                &PolonskyKeer,
+                &PolonskyKeer::default(),
                 Interaction::HardWall,
                 p,
                 &SolverOptions {
@@ -408,7 +408,7 @@ fn bad_input_gives_clear_errors() {
     }
     let e = msg(m.solve(Interaction::HardWall, 0.0, &o, None));
     assert!(e.contains("pressure = 0") && e.contains("> 0"), "{e}");
-    let e = msg(m.solve_with(&PolonskyKeer, ADHESION, 0.1, &o, None));
+    let e = msg(m.solve_with(&PolonskyKeer::default(), ADHESION, 0.1, &o, None));
     assert!(e.contains("polonsky-keer") && e.contains("fire"), "{e}");
     let e = msg(m.solve(
         Interaction::HardWall,
