@@ -195,10 +195,26 @@ pub enum StopReason {
     ResidualGrowth,
     /// The state holds NaN or infinite values.
     NonFinite,
+    /// The surface and the start were symmetric under inversion through the origin node
+    /// (r → −r, a symmetry of every model's sampling), the unconverged state is not: rounding
+    /// noise grew along an unstable mode. `defect` is max |u(r) − u(−r)| (h0).
+    LossOfSymmetry {
+        /// Largest displacement difference between inverted nodes (h0).
+        defect: f64,
+    },
 }
 
 impl fmt::Display for StopReason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let StopReason::LossOfSymmetry { defect } = self {
+            return write!(
+                f,
+                "the state lost the surface's inversion symmetry (max |u(r) − u(−r)| = {defect:.2e} h0 from a \
+                 symmetric start): it sits at an instability, where the branch ends; a tighter tolerance or \
+                 more iterations will not help — take a smaller load or γ0 step to locate the jump, or \
+                 warm-start from a state on the branch you want to follow"
+            );
+        }
         f.write_str(match self {
             StopReason::IterationCap => {
                 "iteration cap reached while the residual was still falling: raise max_iter, or warm-start \
@@ -216,6 +232,7 @@ impl fmt::Display for StopReason {
                 "the state became non-finite (NaN or infinity): a numerical breakdown; try the other \
                  method (polonsky-keer / fire) and please report the case"
             }
+            StopReason::LossOfSymmetry { .. } => unreachable!("written above"),
         })
     }
 }
@@ -401,6 +418,10 @@ impl Model {
             }
             None => self.cold_start(interaction, pressure),
         };
+        // Loss of symmetry is diagnosed only where there was symmetry to lose.
+        let symmetric_start = self.inversion_defect(&self.heights)
+            <= SYMMETRY_ROUNDING * self.h_max.abs().max(1.0)
+            && self.inversion_defect(&state.u) <= SYMMETRY_ROUNDING * max_abs(&state.u).max(1.0);
         let t0 = Instant::now();
         let mut stats = minimizer.relax(self, interaction, pressure, opts, &mut state)?;
         // Every result is judged by the same measures, whichever minimiser produced it: the
@@ -416,8 +437,28 @@ impl Model {
             stats.max_violation = f64::INFINITY;
             stats.force_residual = f64::INFINITY;
         }
+        if symmetric_start && !stats.converged && stats.reason != Some(StopReason::NonFinite) {
+            let defect = self.inversion_defect(&state.u);
+            if defect > SYMMETRY_LOST * max_abs(&state.u).max(1.0) {
+                stats.reason = Some(StopReason::LossOfSymmetry { defect });
+            }
+        }
         stats.wall_s = t0.elapsed().as_secs_f64();
         Ok(self.finish(interaction, pressure, state, stats))
+    }
+
+    /// max |f(r) − f(−r)| over the grid, with −r the node inverted through the origin node.
+    fn inversion_defect(&self, f: &[f64]) -> f64 {
+        let (nx, ny) = (self.grid.nx, self.grid.ny);
+        let mut d = 0.0f64;
+        for i in 0..nx {
+            let mi = (nx - i) % nx;
+            for j in 0..ny {
+                let mj = (ny - j) % ny;
+                d = d.max((f[i * ny + j] - f[mi * ny + mj]).abs());
+            }
+        }
+        d
     }
 
     fn check(
@@ -523,6 +564,17 @@ pub struct State {
     pub u: Vec<f64>,
     /// Pressure on the body (E* h0/λ).
     pub p: Vec<f64>,
+}
+
+/// Relative inversion defect up to which a field counts as symmetric (rounding of the sampled
+/// cosines and of the transforms stays near 1e-15).
+const SYMMETRY_ROUNDING: f64 = 1e-12;
+/// Relative inversion defect of an unconverged state beyond which the symmetry is lost: six
+/// orders above rounding, far beyond what a stalled but symmetric iteration produces.
+const SYMMETRY_LOST: f64 = 1e-6;
+
+fn max_abs(f: &[f64]) -> f64 {
+    f.iter().fold(0.0, |m, v| m.max(v.abs()))
 }
 
 /// A minimiser of the total energy at fixed mean pressure.

@@ -433,3 +433,105 @@ fn bad_input_gives_clear_errors() {
         "{e}"
     );
 }
+
+/// Stands in for rounding noise grown along an unstable mode: lifts one node off its inverted
+/// twin by `amount` and stops at the iteration cap.
+struct Lopsided {
+    amount: f64,
+}
+
+impl contact::Minimizer for Lopsided {
+    fn name(&self) -> &'static str {
+        "lopsided"
+    }
+    fn relax(
+        &self,
+        _: &mut Model,
+        _: Interaction,
+        _: f64,
+        opts: &SolverOptions,
+        state: &mut contact::State,
+    ) -> Result<contact::SolveStats, ContactError> {
+        state.u[1] += self.amount;
+        Ok(contact::SolveStats {
+            method: "lopsided",
+            iterations: opts.max_iter,
+            converged: false,
+            reason: Some(contact::StopReason::IterationCap),
+            max_violation: 1.0,
+            force_residual: 1.0,
+            wall_s: 0.0,
+            trace: Vec::new(),
+        })
+    }
+}
+
+/// An unconverged solve whose state broke the inversion symmetry of a symmetric surface and start
+/// says so (and what to do); one without symmetry to lose, or that kept it, keeps its own reason;
+/// real minimisers stopped early keep the symmetry to rounding, so they are not misdiagnosed.
+#[test]
+fn lost_symmetry_is_diagnosed_only_where_there_was_symmetry() {
+    use contact::StopReason;
+    let (s, mut m) = model(Lattice::Triangular, 5);
+    let load = 0.3 * s.p_fc_grid();
+    let opts = SolverOptions {
+        max_iter: 3,
+        ..Default::default()
+    };
+    let run = |m: &mut Model, amount: f64, warm: Option<&contact::Solution>| {
+        m.solve_with(&Lopsided { amount }, ADHESION, load, &opts, warm)
+            .unwrap()
+            .stats
+            .reason
+            .unwrap()
+    };
+    match run(&mut m, 1e-3, None) {
+        StopReason::LossOfSymmetry { defect } => {
+            assert!((defect - 1e-3).abs() < 1e-9, "{defect}");
+            let msg = StopReason::LossOfSymmetry { defect }.to_string();
+            assert!(msg.contains("instability") && msg.contains("smaller load"));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(run(&mut m, 0.0, None), StopReason::IterationCap);
+    // Every model's sampling has the symmetry, so the diagnosis is available for all three.
+    for l in Lattice::ALL {
+        let (s, mut other) = model(l, 4);
+        let r = other
+            .solve_with(
+                &Lopsided { amount: 1e-3 },
+                ADHESION,
+                0.3 * s.p_fc_grid(),
+                &opts,
+                None,
+            )
+            .unwrap();
+        assert!(
+            matches!(r.stats.reason, Some(StopReason::LossOfSymmetry { .. })),
+            "{l:?}"
+        );
+    }
+    // An asymmetric start has no symmetry to lose.
+    let mut warm = m
+        .solve(Interaction::HardWall, load, &SolverOptions::default(), None)
+        .unwrap();
+    warm.displacement[[1, 2]] += 1e-2;
+    assert_eq!(run(&mut m, 1e-3, Some(&warm)), StopReason::IterationCap);
+    // Real minimisers stopped after a few iterations: symmetric to rounding, reason kept.
+    for (inter, method) in [
+        (ADHESION, Method::Fire),
+        (Interaction::HardWall, Method::PolonskyKeer),
+    ] {
+        let o = SolverOptions {
+            max_iter: 5,
+            method,
+            ..Default::default()
+        };
+        let sol = m.solve(inter, load, &o, None).unwrap();
+        assert_eq!(
+            sol.stats.reason,
+            Some(StopReason::IterationCap),
+            "{method:?}"
+        );
+    }
+}
