@@ -266,6 +266,30 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
         let svg = std::fs::read_to_string(root.join(format!("figures/{stem}.svg"))).unwrap();
         assert!(svg.trim_end().ends_with("</svg>"), "{stem}.svg");
     }
+    // The extremes scene: every costly extreme case ran and passed its check (a failed check
+    // fails the stage, so the table exists only if all passed; both are asserted).
+    let x = tables::read_csv(
+        &root.join("results/tables/extremes.csv"),
+        &[
+            ("case", ColumnType::Str),
+            ("passed", ColumnType::Bool),
+            ("value", ColumnType::F64),
+        ],
+    )
+    .unwrap();
+    assert_eq!(
+        x.n_rows(),
+        8,
+        "largest grid, 1e-8 p_fc, p_fc(1 ∓ 1e-9), four near L_c"
+    );
+    assert!(x.bool("passed").unwrap().iter().all(|&p| p));
+    let (cases, values) = (x.str("case").unwrap(), x.f64("value").unwrap());
+    let flux = |l: &str| values[cases.iter().position(|c| c.starts_with(l)).unwrap()];
+    assert!(flux("L_c(1 − 1e-4)") > 0.0 && flux("L_c(1 + 1e-4)") == 0.0);
+    assert!(
+        flux("L_c(1 − 1e-3)") > flux("L_c(1 − 1e-4)"),
+        "the flux falls towards L_c"
+    );
     let c = tables::read_csv(
         &root.join("results/tables/critical.csv"),
         &[

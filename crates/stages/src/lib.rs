@@ -20,6 +20,7 @@
 
 pub mod critical;
 pub mod exponents;
+pub mod extremes;
 pub mod fig1;
 pub mod fig2;
 pub mod fig3;
@@ -58,6 +59,7 @@ pub fn registry() -> Registry {
     r.register(resolution::ResolutionKind);
     r.register(ladder::LadderKind);
     r.register(exponents::ExponentsKind);
+    r.register(extremes::ExtremesKind);
     r.register(mock::MockKind);
     r
 }

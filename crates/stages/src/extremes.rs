@@ -1,0 +1,383 @@
+//! `extremes`: the costly cases of the extremes suite, run at the preset's scale (the cheap ones
+//! are tests on small grids: `contact/tests/extremes.rs`, the reynolds tests). Each case is a
+//! solve with a check it must pass; the stage fails, naming every failed case, if one does not.
+//!
+//! # Cases (hard wall, the model of `lattice`)
+//! - **largest grid**: a cold solve at 0.3 p_fc on 2^`n_largest` × 2^`n_largest` nodes (13: 67 M
+//!   nodes, ≈ 7 GB) and on the next coarser grid. Check: both converge to `tol_gap` and their
+//!   contact areas differ by at most 8 grid spacings of the coarser grid (the area's
+//!   discretisation error is of the order of the contact line's length, < 4 λ, times dx).
+//! - **tiny load**: 1e-8 p_fc on 2^`n`. Check: converged, some contact, and only at nodes within
+//!   1e-3 h0 of the highest (Hertz: the contact is a few nodes around each maximum).
+//! - **just below / above full contact**: p_fc(1 ∓ 1e-9). Check: converged; some node open below,
+//!   every node closed above.
+//! - **near-critical**: L_c(1 + l) for each reduced load l of `ls` (down to |l| = 1e-4), on the
+//!   finest grid of the `critical` input, with that grid's bisected L_c (unshifted). Check:
+//!   converged; the fluid percolates below L_c and not above it; below, the Reynolds flux along
+//!   an open axis converges and is positive and finite; above, it is exactly zero.
+//!
+//! # Artefact
+//! `cases/*` one entry per case (the columns of the table) and the side output
+//! `results/tables/extremes.csv`: `case`, `n`, `load` (E* h0/λ), `value` (the checked quantity),
+//! `reference` (what it is checked against, NaN if nothing), `bound`, `passed`, `iterations`,
+//! `wall_s`, `check` (the check in words).
+
+use anyhow::{Context, Result, anyhow, bail};
+use contact::{Interaction, Lattice, Model, Solution, SolverOptions, Surface};
+use orchestrator::{
+    InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
+};
+use reynolds::{FlowAxis, FlowOptions};
+use serde_json::json;
+use store::ArtefactWriter;
+use tables::Table;
+
+use crate::critical::CriticalLevel;
+
+/// The `extremes` stage kind.
+pub struct ExtremesKind;
+
+/// Bump when the artefact's content changes for the same parameters.
+pub const CODE_VERSION: u64 = 1;
+
+/// Where the table goes.
+pub const TABLE: &str = "results/tables/extremes.csv";
+
+/// One case and its verdict.
+#[derive(Debug, Clone)]
+pub struct Case {
+    /// What was solved.
+    pub case: String,
+    /// Grid exponent.
+    pub n: u32,
+    /// Mean pressure (E* h0/λ).
+    pub load: f64,
+    /// The checked quantity.
+    pub value: f64,
+    /// What it is checked against (NaN if nothing).
+    pub reference: f64,
+    /// The bound of the check (NaN if none).
+    pub bound: f64,
+    /// Whether the check passed.
+    pub passed: bool,
+    /// Contact-solver iterations.
+    pub iterations: usize,
+    /// Wall time of the case (s).
+    pub wall_s: f64,
+    /// The check in words.
+    pub check: String,
+}
+
+/// The table of the cases.
+pub fn table(cases: &[Case]) -> Table {
+    Table::new()
+        .with_str("case", cases.iter().map(|c| c.case.clone()))
+        .with_i64("n", cases.iter().map(|c| c.n as i64))
+        .with_f64("load", cases.iter().map(|c| c.load))
+        .with_f64("value", cases.iter().map(|c| c.value))
+        .with_f64("reference", cases.iter().map(|c| c.reference))
+        .with_f64("bound", cases.iter().map(|c| c.bound))
+        .with_bool("passed", cases.iter().map(|c| c.passed))
+        .with_i64("iterations", cases.iter().map(|c| c.iterations as i64))
+        .with_f64("wall_s", cases.iter().map(|c| c.wall_s))
+        .with_str("check", cases.iter().map(|c| c.check.clone()))
+}
+
+fn solve(model: &mut Model, load: f64, tol_gap: f64) -> Result<Solution> {
+    let opts = SolverOptions {
+        tol_gap,
+        ..Default::default()
+    };
+    Ok(model.solve(Interaction::HardWall, load, &opts, None)?)
+}
+
+fn lattice_of(params: &Params) -> Result<Lattice> {
+    crate::surface::lattice_from_name(params.str("lattice")?)
+}
+
+impl StageKind for ExtremesKind {
+    fn name(&self) -> &str {
+        "extremes"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "costly extreme cases (largest grid, 1e-8 p_fc, p_fc(1 ± 1e-9), |l| down to 1e-4), each checked"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            crate::surface::lattice_spec(),
+            ParamSpec::new(
+                "n_largest",
+                ParamType::int_range(surface::N_MIN as i64 + 1, surface::N_MAX as i64),
+            )
+            .doc("the largest grid solved (and the next coarser one); 13 needs ≈ 7 GB"),
+            ParamSpec::new(
+                "n",
+                ParamType::int_range(surface::N_MIN as i64, surface::N_MAX as i64),
+            )
+            .doc("grid of the load extremes (1e-8 p_fc, p_fc(1 ± 1e-9))"),
+            ParamSpec::new(
+                "ls",
+                ParamType::Array {
+                    elem: Box::new(ParamType::float_range(-0.1, 0.1)),
+                    min_len: 1,
+                    max_len: Some(16),
+                },
+            )
+            .default(json!([-1e-4, 1e-4]))
+            .doc("reduced loads (L − L_c)/L_c at the critical input's finest grid, non-zero"),
+            ParamSpec::new("tol_gap", ParamType::float_range(1e-14, 1e-4))
+                .default(1e-10)
+                .doc("Polonsky–Keer tolerance on the constraint violation (h0)"),
+        ]
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        vec![
+            InputSpec::one("critical", &["critical"])
+                .doc("L_c on the grids of the near-critical cases (unshifted: shifts = 0)"),
+        ]
+    }
+    fn side_outputs(&self, _params: &Params) -> Vec<String> {
+        vec![TABLE.to_string()]
+    }
+    fn cost(&self, params: &Params) -> f64 {
+        let n = params.i64("n_largest").unwrap_or(10) as i32;
+        4f64.powi(n) / 4f64.powi(9) * 0.3
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let lattice = lattice_of(params)?;
+        let tol = params.f64("tol_gap")?;
+        let n_largest = params.i64("n_largest")? as u32;
+        let n_loads = params.i64("n")? as u32;
+        let ls = params.f64_array("ls")?;
+        if let Some(l) = ls.iter().find(|l| **l == 0.0) {
+            bail!("ls: {l} — the reduced loads must be non-zero (at l = 0 the check has no side)");
+        }
+        let crit = inputs.one("critical")?;
+        let levels = CriticalLevel::read_all(crit)?;
+        let level = levels.last().expect("read_all returns at least one level");
+        if level.lattice != lattice {
+            bail!(
+                "the `critical` input `{}` is for the {} model, this stage for the {}",
+                crit.path().display(),
+                level.lattice.name(),
+                lattice.name()
+            );
+        }
+        if level.shift_rule != 0 {
+            bail!(
+                "the `critical` input `{}` averages over sub-grid shifts; the near-critical cases \
+                 need the unshifted grid's L_c: set shifts = 0 there",
+                crit.path().display()
+            );
+        }
+        let l_c = level
+            .get("l_c")
+            .map(|v| v.0)
+            .ok_or_else(|| anyhow!("{}: no l_c", crit.path().display()))?;
+        let mut cases = Vec::new();
+        let timed = |f: &mut dyn FnMut() -> Result<Solution>| -> Result<(Solution, f64)> {
+            let t0 = std::time::Instant::now();
+            let s = f()?;
+            Ok((s, t0.elapsed().as_secs_f64()))
+        };
+        let conv = |s: &Solution| -> String {
+            match &s.stats.reason {
+                None if s.stats.converged => String::new(),
+                Some(r) => format!(" — not converged: {r}"),
+                None => " — not converged".into(),
+            }
+        };
+
+        // Largest grid and the next coarser one.
+        ctx.progress(0.0, &format!("largest grid n = {n_largest}"));
+        let mut areas = Vec::new();
+        for n in [n_largest - 1, n_largest] {
+            let s = Surface::new(lattice, n)?;
+            let load = 0.3 * s.p_fc_grid();
+            let dx = s.grid.dx();
+            let mut model = Model::new(&s)?;
+            drop(s);
+            let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
+            areas.push((
+                n,
+                sol.contact_area,
+                dx,
+                sol.stats.converged,
+                load,
+                wall,
+                sol,
+            ));
+        }
+        let (coarse, fine) = (&areas[0], &areas[1]);
+        let bound = 8.0 * coarse.2;
+        let diff = (fine.1 - coarse.1).abs();
+        cases.push(Case {
+            case: format!("largest grid: contact area at 0.3 p_fc{}", conv(&fine.6)),
+            n: fine.0,
+            load: fine.4,
+            value: fine.1,
+            reference: coarse.1,
+            bound,
+            passed: fine.3 && coarse.3 && diff <= bound,
+            iterations: fine.6.stats.iterations,
+            wall_s: fine.5,
+            check: format!(
+                "converged on 2^{} and 2^{}; |a − a(2^{})| ≤ 8 dx(2^{})",
+                fine.0, coarse.0, coarse.0, coarse.0
+            ),
+        });
+        drop(areas);
+
+        // Load extremes on 2^n.
+        ctx.progress(0.5, &format!("load extremes, n = {n_loads}"));
+        let s = Surface::new(lattice, n_loads)?;
+        let p_fc = s.p_fc_grid();
+        let h: Vec<f64> = s.heights.iter().copied().collect();
+        let h_max = h.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let nodes = h.len() as f64;
+        let mut model = Model::new(&s)?;
+        let load = 1e-8 * p_fc;
+        let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
+        let depth = sol
+            .pressure
+            .iter()
+            .zip(&h)
+            .filter(|(p, _)| **p > 0.0)
+            .map(|(_, h)| h_max - h)
+            .fold(0.0, f64::max);
+        let touching = sol.contact_area * nodes;
+        cases.push(Case {
+            case: format!("1e-8 p_fc: depth of the lowest contact node below the highest{}", conv(&sol)),
+            n: n_loads,
+            load,
+            value: depth,
+            reference: touching,
+            bound: 1e-3,
+            passed: sol.stats.converged && touching >= 1.0 && depth <= 1e-3,
+            iterations: sol.stats.iterations,
+            wall_s: wall,
+            check: "converged; contact (reference: contact nodes) only within 1e-3 h0 of the highest node".into(),
+        });
+        for (sign, what) in [(-1.0, "below"), (1.0, "above")] {
+            let load = p_fc * (1.0 + sign * 1e-9);
+            let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
+            let open = (1.0 - sol.contact_area) * nodes;
+            let ok = if sign < 0.0 { open >= 1.0 } else { open == 0.0 };
+            cases.push(Case {
+                case: format!(
+                    "p_fc(1 {} 1e-9): open nodes{}",
+                    if sign < 0.0 { "−" } else { "+" },
+                    conv(&sol)
+                ),
+                n: n_loads,
+                load,
+                value: open,
+                reference: f64::NAN,
+                bound: f64::NAN,
+                passed: sol.stats.converged && ok,
+                iterations: sol.stats.iterations,
+                wall_s: wall,
+                check: format!(
+                    "converged; {} full contact: {}",
+                    what,
+                    if sign < 0.0 {
+                        "some node open"
+                    } else {
+                        "no node open"
+                    }
+                ),
+            });
+        }
+        drop(model);
+        drop(s);
+
+        // Near-critical loads on the critical input's finest grid.
+        ctx.progress(0.75, &format!("near-critical loads, n = {}", level.n));
+        let s = Surface::new(lattice, level.n)?;
+        let (lx, ly) = (s.grid.lx, s.grid.ly);
+        let mut model = Model::new(&s)?;
+        let mut ls = ls;
+        ls.sort_by(f64::total_cmp);
+        for l in ls {
+            let load = l_c * (1.0 + l);
+            let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
+            let st = critical::FlowState::of_gap(sol.gap.view())
+                .with_context(|| format!("percolation at l = {l:e}"))?;
+            let below = l < 0.0;
+            let axis = if st.fluid_x { FlowAxis::X } else { FlowAxis::Y };
+            let flow = reynolds::solve(sol.gap.view(), lx, ly, axis, &FlowOptions::default())
+                .with_context(|| format!("Reynolds flow at l = {l:e}"))?;
+            let ok = if below {
+                st.fluid_any() && flow.converged && flow.flux.is_finite() && flow.flux > 0.0
+            } else {
+                !st.fluid_any() && !flow.percolating && flow.flux == 0.0
+            };
+            cases.push(Case {
+                case: format!(
+                    "L_c(1 {} {:e}): Reynolds flux{}",
+                    if below { "−" } else { "+" },
+                    l.abs(),
+                    conv(&sol)
+                ),
+                n: level.n,
+                load,
+                value: flow.flux,
+                reference: l_c,
+                bound: f64::NAN,
+                passed: sol.stats.converged && ok,
+                iterations: sol.stats.iterations,
+                wall_s: wall,
+                check: if below {
+                    "converged; the fluid percolates; the flux converges, finite and > 0".into()
+                } else {
+                    "converged; the fluid does not percolate; the flux is exactly 0".into()
+                },
+            });
+        }
+
+        let t = table(&cases);
+        let f = |k: &str| t.f64(k).map(|v| v.to_vec());
+        for k in ["load", "value", "reference", "bound", "wall_s"] {
+            out.write_f64_1d(&format!("cases/{k}"), &f(k)?)?;
+        }
+        for k in ["n", "iterations"] {
+            out.write_i64_1d(&format!("cases/{k}"), t.i64(k)?)?;
+        }
+        let passed: Vec<u8> = cases.iter().map(|c| c.passed as u8).collect();
+        out.write_u8_1d("cases/passed", &passed)?;
+        out.write_strings("cases/case", t.str("case")?)?;
+        out.write_strings("cases/check", t.str("check")?)?;
+        out.set_attr("lattice", lattice.name())?;
+        out.set_attr("l_c", l_c)?;
+        ctx.emit_file(TABLE, crate::table::csv_bytes(&t)?);
+        let failed: Vec<String> = cases
+            .iter()
+            .filter(|c| !c.passed)
+            .map(|c| {
+                format!(
+                    "{} (n = {}, value {:e}; check: {})",
+                    c.case, c.n, c.value, c.check
+                )
+            })
+            .collect();
+        if !failed.is_empty() {
+            bail!(
+                "extreme cases failed their checks:\n  {}",
+                failed.join("\n  ")
+            );
+        }
+        Ok(StageReport::with_stats(json!({
+            "cases": cases.len(),
+            "largest_nodes": 4f64.powi(n_largest as i32),
+        })))
+    }
+}
