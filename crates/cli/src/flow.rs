@@ -7,7 +7,7 @@
 //!
 //! Output: `conductivity` (a uniform gap g gives g³), `flux` (volume flux through the cell for a
 //! unit pressure drop), `percolating`, `converged`, `termination`, `iterations`, `residual`
-//! (true relative residual), `conservation_error`, `wall_s`, `nx`, `ny`, `lx`, `ly`, and some
+//! (true relative residual), `conservation_error`, `flux_error_estimate`, `wall_s`, `nx`, `ny`, `lx`, `ly`, and some
 //! more solver details. A solve that did not converge is still printed, with `converged: false`
 //! and a warning on stderr. With `--fields OUT.h5` the gap, pressure and current density
 //! (`current_x`, `current_y`) are written with the summary and provenance.

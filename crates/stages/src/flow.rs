@@ -27,7 +27,7 @@
 //!   `load` (E* h0/λ), `strength`, `contact_area`, `contact_converged` (u8), `flux` (volume
 //!   flux through the cell for a unit pressure drop), `conductivity` (effective; a uniform gap g
 //!   gives g³), `percolating` (u8), `converged` (u8), `termination`, `iterations`, `residual`,
-//!   `residual_floor`, `flux_rounding_error`, `conservation_error`, `flowing_nodes`,
+//!   `residual_floor`, `flux_rounding_error`, `conservation_error`, `flux_error_estimate`, `flowing_nodes`,
 //!   `removed_nodes`, `wall_s`;
 //! - `stops/*`, one entry per branch where the flow stops or starts between two solved points:
 //!   `branch`, `index_flowing` and `index_blocked` (into `points/*`), `load_flowing`,
@@ -54,7 +54,7 @@ use store::{ArtefactReader, ArtefactWriter, fields};
 pub struct FlowKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 4;
+pub const CODE_VERSION: u64 = 5;
 
 /// The group of a sweep point's fields.
 pub fn fields_group(branch: &str, index: usize) -> String {
@@ -575,6 +575,7 @@ fn write_rows(out: &mut ArtefactWriter, rows: &[Row], pts: &SweepPoints) -> Resu
     f(out, "residual_floor", &|r| r.res.residual_floor)?;
     f(out, "flux_rounding_error", &|r| r.res.flux_rounding_error)?;
     f(out, "conservation_error", &|r| r.res.conservation_error)?;
+    f(out, "flux_error_estimate", &|r| r.res.flux_error_estimate)?;
     i(out, "flowing_nodes", &|r| r.res.flowing_nodes as i64)?;
     i(out, "removed_nodes", &|r| r.res.removed_nodes as i64)?;
     f(out, "wall_s", &|r| r.res.wall_seconds)?;

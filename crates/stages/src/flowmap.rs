@@ -42,7 +42,7 @@ use store::{ArtefactWriter, fields};
 pub struct FlowMapKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 3;
+pub const CODE_VERSION: u64 = 4;
 
 /// Whether the fluid (g > 0, 4-connected) winds around the cell along `axis`.
 pub fn fluid_flows(gap: &ndarray::Array2<f64>, axis: FlowAxis) -> bool {

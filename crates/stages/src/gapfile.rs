@@ -189,6 +189,7 @@ pub fn flow_json(res: &FlowResult) -> Value {
         "residual_floor": res.residual_floor,
         "flux_rounding_error": res.flux_rounding_error,
         "conservation_error": res.conservation_error,
+        "flux_error_estimate": res.flux_error_estimate,
         "flowing_nodes": res.flowing_nodes,
         "removed_nodes": res.removed_nodes,
         "levels": res.levels,

@@ -44,7 +44,7 @@ use surface::{Lattice, Surface};
 pub struct LadderKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 1;
+pub const CODE_VERSION: u64 = 2;
 
 /// The paper's ladder, plus l = 0 (the contact line at L_c).
 pub const DEFAULT_LS: [f64; 9] = [-0.02, -0.01, -0.005, -0.002, 0.0, 0.002, 0.005, 0.01, 0.02];
