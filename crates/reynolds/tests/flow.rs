@@ -753,6 +753,28 @@ fn results_do_not_depend_on_the_number_of_threads() {
     assert!(results[0].converged && results[0].iterations <= 15);
 }
 
+/// max(0, ε + cos 2πx + cos 2πy + a cos 4πx cos 2πy + b sin 2π(x + 2y)) on n × n nodes: the
+/// constrictions close as ε → 0.
+fn bumpy(n: usize, eps: f64, a: f64, b: f64) -> Array2<f64> {
+    Array2::from_shape_fn((n, n), |(i, j)| {
+        let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+        (eps + (TAU * x).cos()
+            + (TAU * y).cos()
+            + a * (2.0 * TAU * x).cos() * (TAU * y).cos()
+            + b * (TAU * (x + 2.0 * y)).sin())
+        .max(0.0)
+    })
+}
+
+/// The flow along x on a unit cell solved to a relative residual of 1e-15.
+fn solve_tight(g: &Array2<f64>) -> FlowResult {
+    let o = FlowOptions {
+        tolerance: 1e-15,
+        ..opts()
+    };
+    solve(g.view(), 1.0, 1.0, FlowAxis::X, &o).unwrap()
+}
+
 /// A converged flux is the flux through every cross-section: on near-critical fields (a
 /// constriction closing, ε → 0, next to contact) a result flagged converged must agree with a
 /// solve to 1e-15 and conserve flux across the cell. (A relative residual alone does not bound
@@ -766,26 +788,9 @@ fn a_converged_flux_is_conserved_across_every_cross_section() {
     for &(a, b) in &[(0.0, 0.0), (0.3, 0.0), (0.2, 0.15)] {
         for k in 2..12 {
             let eps = 10f64.powf(-(k as f64) / 2.0);
-            let g = Array2::from_shape_fn((n, n), |(i, j)| {
-                let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
-                (eps + (TAU * x).cos()
-                    + (TAU * y).cos()
-                    + a * (2.0 * TAU * x).cos() * (TAU * y).cos()
-                    + b * (TAU * (x + 2.0 * y)).sin())
-                .max(0.0)
-            });
+            let g = bumpy(n, eps, a, b);
             let r = solve(g.view(), 1.0, 1.0, FlowAxis::X, &opts()).unwrap();
-            let tight = solve(
-                g.view(),
-                1.0,
-                1.0,
-                FlowAxis::X,
-                &FlowOptions {
-                    tolerance: 1e-15,
-                    ..opts()
-                },
-            )
-            .unwrap();
+            let tight = solve_tight(&g);
             if !r.converged || !r.percolating {
                 continue;
             }
@@ -815,24 +820,8 @@ fn the_flux_error_estimate_tracks_the_true_error() {
     let mut checked = 0;
     for k in [1, 3, 5, 7] {
         let eps = 10f64.powf(-(k as f64) / 2.0);
-        let g = Array2::from_shape_fn((n, n), |(i, j)| {
-            let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
-            (eps + (TAU * x).cos()
-                + (TAU * y).cos()
-                + 0.3 * (2.0 * TAU * x).cos() * (TAU * y).cos())
-            .max(0.0)
-        });
-        let tight = solve(
-            g.view(),
-            1.0,
-            1.0,
-            FlowAxis::X,
-            &FlowOptions {
-                tolerance: 1e-15,
-                ..opts()
-            },
-        )
-        .unwrap();
+        let g = bumpy(n, eps, 0.3, 0.0);
+        let tight = solve_tight(&g);
         assert!(tight.converged, "ε {eps:e}");
         for cap in 1..=6 {
             let r = solve(
