@@ -17,7 +17,7 @@ pub struct Args {
     pipeline: PathBuf,
     /// Params files, cheapest first; a quantity's reference is its value in the last one that
     /// has it.
-    #[arg(long = "params", num_args = 1.., default_values = ["params/smoke.toml", "params/draft.toml", "params/paper.toml"])]
+    #[arg(long = "params", num_args = 1.., default_values = ["params/smoke.toml", "params/draft.toml", "params/paper.toml", "params/reference.toml"])]
     params: Vec<PathBuf>,
     /// Run as if started in DIR (the project root).
     #[arg(short = 'C', long = "root", value_name = "DIR")]

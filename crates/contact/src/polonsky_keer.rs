@@ -8,8 +8,10 @@
 //! preconditioned gradient z = K g_S (K = G⁻¹ the stiffness, g_S the gap on S and zero off it),
 //! restricted to S with its mean there removed; conjugate direction t = z + β t_old on S with
 //! β = ⟨g, z⟩/⟨g_old, z_old⟩; exact line search τ = ⟨g, t⟩/⟨t, G t − mean_S(G t)⟩; step, clip
-//! to p ≥ 0, re-open nodes that penetrate (each gets the pressure that lifts it alone, −g/G(0),
-//! restarting the conjugacy), rescale to the imposed mean. Were S the whole cell, K would be G's
+//! to p ≥ 0, rescale to the imposed mean. Nodes that penetrate are marked free (pressure −0.0)
+//! and join the set the next direction is built on (restarting the conjugacy), as in
+//! Vollebregt's bound-constrained CG: giving each the pressure that lifts it alone (−g/G(0))
+//! overshoots when thousands re-open together and made 4096² solves cycle. Were S the whole cell, K would be G's
 //! exact inverse and one iteration would do; with S a part of it the preconditioned operator is
 //! still close to the identity away from the contact line, and the iteration count grows only
 //! slowly with the grid. [`PolonskyKeer::PLAIN`] is the original method (z = g): one transform
@@ -309,9 +311,16 @@ fn direction_row(
     [st.iter().sum(), sgt.iter().sum(), 0.0, 0.0]
 }
 
-/// Pass B over one row (preconditioned): writes the gap on the contact set,
-/// g = σU − h − shift on S and 0 off it, into `row` (the input of the stiffness transform);
-/// returns Σ g t and Σ g for the old direction t.
+/// Whether a node is free to move in the preconditioned iteration: it carries pressure, or it is
+/// a zero-pressure node marked (P = −0.0) by the last step as penetrating.
+#[inline(always)]
+fn free(p: f64) -> bool {
+    p.to_bits() != 0
+}
+
+/// Pass B over one row (preconditioned): writes the gap on the free set F (the contact set and
+/// the nodes marked penetrating), g = σU − h − shift on F and 0 off it, into `row` (the input
+/// of the stiffness transform); returns Σ g t and Σ g for the old direction t, and |F|.
 fn gradient_row(
     row: &mut [f64],
     u: &[f64],
@@ -321,29 +330,27 @@ fn gradient_row(
     sigma: f64,
     shift: f64,
 ) -> [f64; 4] {
-    let (mut sgt, mut sg) = ([0.0; L], [0.0; L]);
+    let (mut sgt, mut sg, mut count) = ([0.0; L], [0.0; L], [0.0; L]);
     for (k, row) in row.chunks_mut(L).enumerate() {
         for (l, out) in row.iter_mut().enumerate() {
             let j = k * L + l;
-            let g = if p[j] > 0.0 {
-                sigma * u[j] - h[j] - shift
-            } else {
-                0.0
-            };
+            let on = free(p[j]);
+            let g = if on { sigma * u[j] - h[j] - shift } else { 0.0 };
             *out = g;
             sgt[l] += g * t[j];
             sg[l] += g;
+            count[l] += if on { 1.0 } else { 0.0 };
         }
     }
-    [sgt.iter().sum(), sg.iter().sum(), 0.0, 0.0]
+    [sgt.iter().sum(), sg.iter().sum(), count.iter().sum(), 0.0]
 }
 
-/// Σ_S z over one row (S = {p > 0}).
+/// Σ_F z over one row (F the free set, see [`free`]).
 fn masked_sum(z: &[f64], p: &[f64]) -> f64 {
     let mut s = [0.0; L];
     for (k, z) in z.chunks(L).enumerate() {
         for (l, &v) in z.iter().enumerate() {
-            s[l] += if p[k * L + l] > 0.0 { v } else { 0.0 };
+            s[l] += if free(p[k * L + l]) { v } else { 0.0 };
         }
     }
     s.iter().sum()
@@ -364,7 +371,7 @@ fn direction_preconditioned_row(
     for (k, t) in t.chunks_mut(L).enumerate() {
         for (l, t) in t.iter_mut().enumerate() {
             let j = k * L + l;
-            let tj = if p[j] > 0.0 {
+            let tj = if free(p[j]) {
                 (z[j] - mz) + beta * (*t - m)
             } else {
                 0.0
@@ -390,19 +397,20 @@ fn gap_sums(u: &[f64], p: &[f64], h: &[f64], t: &[f64], reference: f64) -> [f64;
     [g.sum, g.sum2, g.count, g.t_on]
 }
 
-/// Line-search sums over one row of r = G t: Σ_S r and Σ r t (t vanishes off S).
+/// Line-search sums over one row of r = G t: Σ_F r and Σ r t (t vanishes off F; F = S
+/// without the preconditioner, which marks no node).
 fn line_row(r: &[f64], t: &[f64], p: &[f64]) -> [f64; 4] {
     let (mut sr, mut srt) = ([0.0; L], [0.0; L]);
     let (mut rc, mut tc, mut pc) = (r.chunks_exact(L), t.chunks_exact(L), p.chunks_exact(L));
     for ((r, t), p) in (&mut rc).zip(&mut tc).zip(&mut pc) {
         for l in 0..L {
-            sr[l] += if p[l] > 0.0 { r[l] } else { 0.0 };
+            sr[l] += if free(p[l]) { r[l] } else { 0.0 };
             srt[l] += r[l] * t[l];
         }
     }
     let (r, t, p) = (rc.remainder(), tc.remainder(), pc.remainder());
     for l in 0..r.len() {
-        sr[l] += if p[l] > 0.0 { r[l] } else { 0.0 };
+        sr[l] += if free(p[l]) { r[l] } else { 0.0 };
         srt[l] += r[l] * t[l];
     }
     [sr.iter().sum(), srt.iter().sum(), 0.0, 0.0]
@@ -480,7 +488,17 @@ fn step_pass<const TRACE: bool, const FULL: bool>(
         let target = *p - tau * t;
         let clipped = if target > 0.0 { target } else { 0.0 };
         let reopen = clipped == 0.0 && g < 0.0;
-        let new = if reopen { -reopen_by * g } else { clipped };
+        // reopen_by = 0 (preconditioned): mark the node free at zero pressure (−0.0); the next
+        // direction moves it with the rest of the free set
+        let new = if reopen {
+            if reopen_by == 0.0 {
+                -0.0
+            } else {
+                -reopen_by * g
+            }
+        } else {
+            clipped
+        };
         let un = *u - tau * r;
         *p = new;
         *u = un;
@@ -607,7 +625,9 @@ fn relax<const TRACE: bool>(
     let parallel = kernel.parallel();
 
     // Start: the given pressure, clipped and rescaled; uniform if it carries no load.
-    p.iter_mut().for_each(|v| *v = v.max(0.0));
+    // (+0.0 for every non-positive value: −0.0 marks free nodes in the preconditioned iteration)
+    p.iter_mut()
+        .for_each(|v| *v = if *v > 0.0 { *v } else { 0.0 });
     let sum: f64 = p.iter().sum();
     if sum > 0.0 && sum.is_finite() {
         let s = pressure * nf / sum;
@@ -736,10 +756,10 @@ fn relax<const TRACE: bool>(
         // r = G t, with the line-search sums taken as its rows come out. Preconditioned, the
         // gradient is first mapped by K (one more transform pair).
         let m = gs.t_on / count;
-        let (st, sgt, sr, srt) = if preconditioned {
-            // z = K g on the contact set (g zero off it), and δ = ⟨g, z − m_z⟩_S from Parseval.
+        let (st, sgt, sr, srt, free_count) = if preconditioned {
+            // z = K g on the free set F (g zero off it), and δ = ⟨g, z − m_z⟩_F from Parseval.
             let (uu, pp, tt): (&[f64], &[f64], &[f64]) = (u, p, &t);
-            let ([sg_t, sg, _, _], quadratic, [sz, _, _, _]) = kernel.apply_fused(
+            let ([sg_t, sg, free_count, _], quadratic, [sz, _, _, _]) = kernel.apply_fused(
                 true,
                 &mut z,
                 |i, row| {
@@ -757,7 +777,7 @@ fn relax<const TRACE: bool>(
                 None,
                 |i, _, z| [masked_sum(z, &pp[i * ny..(i + 1) * ny]), 0.0, 0.0, 0.0],
             );
-            let mz = sz / count;
+            let mz = sz / free_count;
             let delta = quadratic - mz * sg;
             let beta = if conjugate && g_old > 0.0 {
                 delta / g_old
@@ -776,8 +796,8 @@ fn relax<const TRACE: bool>(
                 Some(&mut r),
                 |i, t, r| line_row(r, t, &pp[i * ny..(i + 1) * ny]),
             );
-            // Σ_S g t = ⟨g, z − m_z⟩ + β ⟨g, t_old − m⟩.
-            (st, delta + beta * (sg_t - m * sg), sr, srt)
+            // Σ_F g t = ⟨g, z − m_z⟩ + β ⟨g, t_old − m⟩.
+            (st, delta + beta * (sg_t - m * sg), sr, srt, free_count)
         } else {
             // (g_old = 0 when the gap was exactly uniform on the contact set, e.g. a single node)
             let beta = if conjugate && g_old > 0.0 {
@@ -806,9 +826,9 @@ fn relax<const TRACE: bool>(
                 Some(&mut r),
                 |i, t, r| line_row(r, t, &pp[i * ny..(i + 1) * ny]),
             );
-            (st, sgt, sr, srt)
+            (st, sgt, sr, srt, count)
         };
-        let denom = srt - sr / count * st;
+        let denom = srt - sr / free_count * st;
         let tau = sgt / denom;
         // G is positive definite on zero-mean fields, so denom ≤ 0 means t ≈ 0: the gap is
         // uniform on the contact set and the violation is penetration outside it (as from a
@@ -835,13 +855,10 @@ fn relax<const TRACE: bool>(
                 .enumerate()
                 .collect();
             let tau_s = tau / sigma;
-            // Re-opened nodes get the pressure that lifts each alone (τ itself when it has the
-            // units of a stiffness, i.e. without the preconditioner).
-            let reopen_s = if preconditioned && reopen_only == 0 {
-                1.0 / (kernel.point_compliance() * sigma)
-            } else {
-                tau_s
-            };
+            // Penetrating nodes: preconditioned, marked free (the next direction moves them
+            // with the rest of the free set, as in Vollebregt's bound-constrained CG); plain,
+            // re-opened with p = −τ g (Polonsky–Keer).
+            let reopen_s = if preconditioned { 0.0 } else { tau_s };
             // The extremes of the next gap are needed only near convergence or for the periodic
             // stagnation check (see partial_ok).
             let full = (norm / count).sqrt() <= 1e4 * opts.tol_gap
@@ -941,7 +958,7 @@ fn relax<const TRACE: bool>(
     // set on average. Nodes carrying pressure are in contact: their gap (within the tolerance
     // of zero) is set to exactly zero, and no node is left below the substrate.
     for i in 0..n {
-        p[i] *= sigma;
+        p[i] = if p[i] > 0.0 { p[i] * sigma } else { 0.0 };
         u[i] = if p[i] > 0.0 {
             h[i]
         } else {
