@@ -18,8 +18,8 @@
 //! pair per iteration instead of two, but 4–6× more iterations.
 //!
 //! Measured (benches/hardwall.rs, square model, p = 0.3 p_fc, violation ≤ 1e-10, one thread):
-//! 21, 24, 28, 31 iterations at 256², 512², 1024², 2048² against 89, 117, 155, (219) plain; CPU
-//! time at 1024² 1.0 s against 2.8 s plain.
+//! 24, 26, 31, 33, 33 iterations at 256², 512², 1024², 4096², 8192² against 89, 117, 155 plain;
+//! CPU time at 1024² 1.2 s against 3.2 s plain.
 //!
 //! Cost per iteration: the stiffness transform pair (z, with ⟨g, z⟩ from Parseval in Fourier
 //! space) and the compliance pair (G t). The displacement G p is updated from G t and the
