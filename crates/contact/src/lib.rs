@@ -293,6 +293,8 @@ pub struct Model {
     grid: Grid,
     heights: Vec<f64>,
     h_max: f64,
+    /// The heights are symmetric under r → −r (to rounding): loss of symmetry can be diagnosed.
+    symmetric: bool,
     kernel: ElasticKernel,
 }
 
@@ -330,11 +332,14 @@ impl Model {
         }
         let heights: Vec<f64> = heights.iter().copied().collect();
         let h_max = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let symmetric =
+            inversion_defect(&grid, &heights) <= SYMMETRY_ROUNDING * h_max.abs().max(1.0);
         Ok(Model {
             kernel: ElasticKernel::new(&grid, 1.0),
             grid,
             heights,
             h_max,
+            symmetric,
         })
     }
 
@@ -418,10 +423,12 @@ impl Model {
             }
             None => self.cold_start(interaction, pressure),
         };
-        // Loss of symmetry is diagnosed only where there was symmetry to lose.
-        let symmetric_start = self.inversion_defect(&self.heights)
-            <= SYMMETRY_ROUNDING * self.h_max.abs().max(1.0)
-            && self.inversion_defect(&state.u) <= SYMMETRY_ROUNDING * max_abs(&state.u).max(1.0);
+        // Loss of symmetry is diagnosed only where there was symmetry to lose (a cold start is
+        // uniform, so only a warm start needs checking).
+        let symmetric_start = self.symmetric
+            && (warm.is_none()
+                || inversion_defect(&self.grid, &state.u)
+                    <= SYMMETRY_ROUNDING * max_abs(&state.u).max(1.0));
         let t0 = Instant::now();
         let mut stats = minimizer.relax(self, interaction, pressure, opts, &mut state)?;
         // Every result is judged by the same measures, whichever minimiser produced it: the
@@ -438,27 +445,13 @@ impl Model {
             stats.force_residual = f64::INFINITY;
         }
         if symmetric_start && !stats.converged && stats.reason != Some(StopReason::NonFinite) {
-            let defect = self.inversion_defect(&state.u);
+            let defect = inversion_defect(&self.grid, &state.u);
             if defect > SYMMETRY_LOST * max_abs(&state.u).max(1.0) {
                 stats.reason = Some(StopReason::LossOfSymmetry { defect });
             }
         }
         stats.wall_s = t0.elapsed().as_secs_f64();
         Ok(self.finish(interaction, pressure, state, stats))
-    }
-
-    /// max |f(r) − f(−r)| over the grid, with −r the node inverted through the origin node.
-    fn inversion_defect(&self, f: &[f64]) -> f64 {
-        let (nx, ny) = (self.grid.nx, self.grid.ny);
-        let mut d = 0.0f64;
-        for i in 0..nx {
-            let mi = (nx - i) % nx;
-            for j in 0..ny {
-                let mj = (ny - j) % ny;
-                d = d.max((f[i * ny + j] - f[mi * ny + mj]).abs());
-            }
-        }
-        d
     }
 
     fn check(
@@ -575,6 +568,20 @@ const SYMMETRY_LOST: f64 = 1e-6;
 
 fn max_abs(f: &[f64]) -> f64 {
     f.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+/// max |f(r) − f(−r)| over `grid`, with −r the node inverted through the origin node.
+fn inversion_defect(grid: &Grid, f: &[f64]) -> f64 {
+    let (nx, ny) = (grid.nx, grid.ny);
+    let mut d = 0.0f64;
+    for i in 0..nx {
+        let mi = (nx - i) % nx;
+        for j in 0..ny {
+            let mj = (ny - j) % ny;
+            d = d.max((f[i * ny + j] - f[mi * ny + mj]).abs());
+        }
+    }
+    d
 }
 
 /// A minimiser of the total energy at fixed mean pressure.

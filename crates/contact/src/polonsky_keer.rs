@@ -5,14 +5,15 @@
 //! Minimises the complementary energy Π(p) = ½⟨p, G p⟩ − ⟨p, h⟩ over p ≥ 0 with mean(p) = p̄,
 //! where G is the compliance (1/k(q) for q ≠ 0). Each iteration: gap g = Gp − h shifted so that
 //! its mean on the contact set S = {p > 0} vanishes (this shift is the body's rigid approach);
-//! preconditioned gradient z = K g_S (K = G⁻¹ the stiffness, g_S the gap on S and zero off it),
-//! restricted to S with its mean there removed; conjugate direction t = z + β t_old on S with
-//! β = ⟨g, z⟩/⟨g_old, z_old⟩; exact line search τ = ⟨g, t⟩/⟨t, G t − mean_S(G t)⟩; step, clip
-//! to p ≥ 0, rescale to the imposed mean. Nodes that penetrate are marked free (pressure −0.0)
-//! and join the set the next direction is built on (restarting the conjugacy), as in
-//! Vollebregt's bound-constrained CG: giving each the pressure that lifts it alone (−g/G(0))
-//! overshoots when thousands re-open together and made 4096² solves cycle. Were S the whole cell, K would be G's
-//! exact inverse and one iteration would do; with S a part of it the preconditioned operator is
+//! preconditioned gradient z = K g_F (K = G⁻¹ the stiffness, g_F the gap on the free set F and
+//! zero off it; F is S and the nodes the last step found penetrating), restricted to F with its
+//! mean there removed; conjugate direction t = z + β t_old on F with β = ⟨g, z⟩/⟨g_old, z_old⟩;
+//! exact line search τ = ⟨g, t⟩/⟨t, G t − mean_F(G t)⟩; step, clip to p ≥ 0, rescale to the
+//! imposed mean. Penetrating nodes are marked free (pressure −0.0) and join F for the next
+//! direction (restarting the conjugacy), as in Vollebregt's bound-constrained CG: giving each
+//! the pressure that lifts it alone (−g/G(0)) overshoots when thousands re-open together and
+//! made 4096² solves cycle. Were S the whole cell, K would be G's exact inverse and one
+//! iteration would do; with S a part of it the preconditioned operator is
 //! still close to the identity away from the contact line, and the iteration count grows only
 //! slowly with the grid. [`PolonskyKeer::PLAIN`] is the original method (z = g): one transform
 //! pair per iteration instead of two, but 4–6× more iterations.
@@ -356,8 +357,8 @@ fn masked_sum(z: &[f64], p: &[f64]) -> f64 {
     s.iter().sum()
 }
 
-/// Pass C over one row (preconditioned): the direction t = (z − m_z) + β (t − m) on S, 0 off
-/// it, with z = K g the preconditioned gradient and m_z, m the means on S (so Σ_S t = 0);
+/// Pass C over one row (preconditioned): the direction t = (z − m_z) + β (t − m) on the free set
+/// F, 0 off it, with z = K g the preconditioned gradient and m_z, m the means (so Σ_F t = 0);
 /// returns Σ t.
 fn direction_preconditioned_row(
     t: &mut [f64],
@@ -416,6 +417,25 @@ fn line_row(r: &[f64], t: &[f64], p: &[f64]) -> [f64; 4] {
     [sr.iter().sum(), srt.iter().sum(), 0.0, 0.0]
 }
 
+/// What the step does with a node that ends at zero pressure while penetrating.
+#[derive(Debug, Clone, Copy)]
+enum Reopen {
+    /// P = −κ' g (stored units): Polonsky–Keer's re-open with the step length.
+    By(f64),
+    /// P = −0.0: marked free, to move with the next direction (preconditioned).
+    MarkFree,
+}
+
+/// The scalars of one step pass, in stored units (true = σ × stored).
+#[derive(Debug, Clone, Copy)]
+struct Step {
+    /// τ' = τ/σ.
+    tau: f64,
+    reopen: Reopen,
+    sigma: f64,
+    shift: f64,
+}
+
 /// Result of the step pass (pass D).
 #[derive(Debug, Clone)]
 struct StepStats {
@@ -440,12 +460,10 @@ impl StepStats {
 }
 
 /// Pass D over one chunk starting at node `offset`, in stored units (true = σ × stored):
-/// P ← max(P − τ' t, 0) with τ' = τ/σ, re-opening nodes that penetrate (P = −κ' g, with κ' the
-/// stored re-open coefficient);
+/// P ← max(P − τ' t, 0) with τ' = τ/σ, re-opening nodes that penetrate as `step.reopen` says;
 /// U ← U − τ' r; the number of nodes corrected off the line is counted and the first
 /// [`DIRECT_CORRECTIONS`] are listed. Also takes the gap statistics of the new state at the same σ (pass A of the next
 /// iteration, valid when nothing was corrected and the rescaling is negligible).
-#[allow(clippy::too_many_arguments)]
 fn step_pass<const TRACE: bool, const FULL: bool>(
     offset: usize,
     p: &mut [f64],
@@ -453,10 +471,7 @@ fn step_pass<const TRACE: bool, const FULL: bool>(
     t: &[f64],
     r: &[f64],
     h: &[f64],
-    tau: f64,
-    reopen_by: f64,
-    sigma: f64,
-    shift: f64,
+    step: Step,
 ) -> StepStats {
     let mut psum = [0.0; L];
     let mut acc = GapLanes::new();
@@ -477,33 +492,27 @@ fn step_pass<const TRACE: bool, const FULL: bool>(
         t: f64,
         r: f64,
         h: f64,
-        tau: f64,
-        reopen_by: f64,
-        sigma: f64,
-        shift: f64,
+        step: Step,
         psum: &mut [f64; L],
         acc: &mut GapLanes,
     ) -> (f64, bool) {
+        let Step {
+            tau, sigma, shift, ..
+        } = step;
         let g = sigma * *u - h - shift;
         let target = *p - tau * t;
         let clipped = if target > 0.0 { target } else { 0.0 };
         let reopen = clipped == 0.0 && g < 0.0;
-        // reopen_by = 0 (preconditioned): mark the node free at zero pressure (−0.0); the next
-        // direction moves it with the rest of the free set
-        let new = if reopen {
-            if reopen_by == 0.0 {
-                -0.0
-            } else {
-                -reopen_by * g
-            }
-        } else {
-            clipped
+        let new = match (reopen, step.reopen) {
+            (false, _) => clipped,
+            (true, Reopen::By(k)) => -k * g,
+            (true, Reopen::MarkFree) => -0.0,
         };
         let un = *u - tau * r;
         *p = new;
         *u = un;
         psum[l] += new;
-        acc.node::<TRACE, false, FULL>(l, un, new, h, t, sigma, shift);
+        acc.node::<TRACE, false, FULL>(l, un, new, h, t, step.sigma, step.shift);
         (new - target, reopen)
     }
     let base = p.len() - p.len() % L;
@@ -534,8 +543,7 @@ fn step_pass<const TRACE: bool, const FULL: bool>(
         let mut reopen = [false; L];
         for l in 0..L {
             (cv[l], reopen[l]) = node::<TRACE, FULL>(
-                l, &mut p[l], &mut u[l], t[l], r[l], h[l], tau, reopen_by, sigma, shift, &mut psum,
-                &mut acc,
+                l, &mut p[l], &mut u[l], t[l], r[l], h[l], step, &mut psum, &mut acc,
             );
         }
         // Corrections are rare after the first iterations: test the block once.
@@ -551,8 +559,7 @@ fn step_pass<const TRACE: bool, const FULL: bool>(
     let (t, r, h) = (tc.remainder(), rc.remainder(), hc.remainder());
     for l in 0..p.len() {
         let (cv, reopen) = node::<TRACE, FULL>(
-            l, &mut p[l], &mut u[l], t[l], r[l], h[l], tau, reopen_by, sigma, shift, &mut psum,
-            &mut acc,
+            l, &mut p[l], &mut u[l], t[l], r[l], h[l], step, &mut psum, &mut acc,
         );
         if cv != 0.0 {
             record(base + l, cv, reopen, &mut s);
@@ -729,7 +736,7 @@ fn relax<const TRACE: bool>(
                     break;
                 }
                 // Accept only on an exactly recomputed displacement.
-                refresh(kernel, p, u, sigma);
+                refresh(kernel, p, u, sigma, |_, _, _| [0.0; 4]);
                 sigma = 1.0;
                 since_refresh = 0;
                 continue;
@@ -858,38 +865,25 @@ fn relax<const TRACE: bool>(
             // Penetrating nodes: preconditioned, marked free (the next direction moves them
             // with the rest of the free set, as in Vollebregt's bound-constrained CG); plain,
             // re-opened with p = −τ g (Polonsky–Keer).
-            let reopen_s = if preconditioned { 0.0 } else { tau_s };
+            let step = Step {
+                tau: tau_s,
+                reopen: if preconditioned {
+                    Reopen::MarkFree
+                } else {
+                    Reopen::By(tau_s)
+                },
+                sigma,
+                shift,
+            };
             // The extremes of the next gap are needed only near convergence or for the periodic
             // stagnation check (see partial_ok).
             let full = (norm / count).sqrt() <= 1e4 * opts.tol_gap
                 || stats.iterations.is_multiple_of(STATS_EVERY);
             chunked(jobs, parallel, |(k, ((p, u), ((t, r), h)))| {
                 if full {
-                    step_pass::<TRACE, true>(
-                        k * CHUNK,
-                        p,
-                        u,
-                        t,
-                        r,
-                        h,
-                        tau_s,
-                        reopen_s,
-                        sigma,
-                        shift,
-                    )
+                    step_pass::<TRACE, true>(k * CHUNK, p, u, t, r, h, step)
                 } else {
-                    step_pass::<TRACE, false>(
-                        k * CHUNK,
-                        p,
-                        u,
-                        t,
-                        r,
-                        h,
-                        tau_s,
-                        reopen_s,
-                        sigma,
-                        shift,
-                    )
+                    step_pass::<TRACE, false>(k * CHUNK, p, u, t, r, h, step)
                 }
             })
             .into_iter()
@@ -903,19 +897,10 @@ fn relax<const TRACE: bool>(
             // correction alone), and take the next iteration's gap sums from its rows as they
             // come out (without the extremes; the next iteration measures them if it needs them).
             let (hh, tt): (&[f64], &[f64]) = (h, &t);
-            let (_, _, [sum, sum2, count, t_on]) = kernel.apply_fused(
-                false,
-                p,
-                |_, row| {
-                    row.iter_mut().for_each(|v| *v *= sigma_new);
-                    [0.0; 4]
-                },
-                Some(u),
-                |i, p, u| {
-                    let o = i * ny..(i + 1) * ny;
-                    gap_sums(u, p, &hh[o.clone()], &tt[o], shift)
-                },
-            );
+            let [sum, sum2, count, t_on] = refresh(kernel, p, u, sigma_new, |i, p, u| {
+                let o = i * ny..(i + 1) * ny;
+                gap_sums(u, p, &hh[o.clone()], &tt[o], shift)
+            });
             sigma = 1.0;
             since_refresh = 0;
             if !TRACE {
@@ -947,7 +932,7 @@ fn relax<const TRACE: bool>(
         sigma = sigma_new;
         since_refresh += 1;
         if since_refresh >= REFRESH {
-            refresh(kernel, p, u, sigma);
+            refresh(kernel, p, u, sigma, |_, _, _| [0.0; 4]);
             sigma = 1.0;
             since_refresh = 0;
             ready = None;
@@ -968,9 +953,16 @@ fn relax<const TRACE: bool>(
     Ok(stats)
 }
 
-/// Exact recomputation: P ← σP, U ← G P (so σ becomes 1).
-fn refresh(kernel: &mut crate::elastic::ElasticKernel, p: &mut [f64], u: &mut [f64], sigma: f64) {
-    kernel.apply_fused(
+/// Exact recomputation: P ← σP, U ← G P (so σ becomes 1); `finish(i, p_row, u_row)` reduces
+/// over each row of the new state as it comes out (summed in row order).
+fn refresh(
+    kernel: &mut crate::elastic::ElasticKernel,
+    p: &mut [f64],
+    u: &mut [f64],
+    sigma: f64,
+    finish: impl Fn(usize, &[f64], &mut [f64]) -> crate::spectral::RowSums + Sync,
+) -> crate::spectral::RowSums {
+    let (_, _, sums) = kernel.apply_fused(
         false,
         p,
         |_, row| {
@@ -978,8 +970,9 @@ fn refresh(kernel: &mut crate::elastic::ElasticKernel, p: &mut [f64], u: &mut [f
             [0.0; 4]
         },
         Some(u),
-        |_, _, _| [0.0; 4],
+        finish,
     );
+    sums
 }
 
 #[cfg(test)]
