@@ -468,6 +468,21 @@ impl CriticalLevel {
         })
     }
 
+    /// Fails unless this level was solved on the unshifted grid (shifts = 0): `user` (e.g.
+    /// "the ladder") solves there and needs that grid's own L_c. `input` is the `critical`
+    /// artefact's path, named in the error.
+    pub fn require_unshifted(&self, input: &std::path::Path, user: &str) -> Result<()> {
+        if self.shift_rule != 0 {
+            bail!(
+                "the `critical` input `{}` averages over {m}×{m} sub-grid shifts; {user} solves on \
+                 the unshifted grid and needs its L_c: set shifts = 0 there",
+                input.display(),
+                m = self.shift_rule
+            );
+        }
+        Ok(())
+    }
+
     /// `(mean, sem)` of a named shift average.
     pub fn get(&self, name: &str) -> Option<(f64, f64)> {
         self.values

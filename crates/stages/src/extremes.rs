@@ -172,13 +172,7 @@ impl StageKind for ExtremesKind {
                 lattice.name()
             );
         }
-        if level.shift_rule != 0 {
-            bail!(
-                "the `critical` input `{}` averages over sub-grid shifts; the near-critical cases \
-                 need the unshifted grid's L_c: set shifts = 0 there",
-                crit.path().display()
-            );
-        }
+        level.require_unshifted(crit.path(), "the extremes stage's near-critical cases")?;
         let l_c = level
             .get("l_c")
             .map(|v| v.0)

@@ -43,8 +43,7 @@
 use crate::gapfile;
 use anyhow::{Context, Result, anyhow, bail};
 use orchestrator::{
-    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
-    StageReport,
+    InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
 };
 use reynolds::{FlowAxis, FlowOptions, FlowResult};
 use serde_json::{Value, json};
@@ -202,9 +201,6 @@ impl StageKind for FlowKind {
             .default(json!([]))
             .doc("loads (in the sweep's unit) at which the loading branch's conductivity is a headline number (log-linear between the neighbouring points)"),
         ]
-    }
-    fn check(&self, _params: &Params) -> Result<(), ParamIssue> {
-        Ok(())
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![

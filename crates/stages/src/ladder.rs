@@ -157,14 +157,7 @@ impl StageKind for LadderKind {
                     levels.iter().map(|l| l.n).collect::<Vec<_>>()
                 )
             })?;
-            if lv.shift_rule != 0 {
-                bail!(
-                    "the `critical` input `{}` averages over {m}×{m} sub-grid shifts; the ladder \
-                     solves on the unshifted grid and needs its L_c: set shifts = 0 there",
-                    crit.path().display(),
-                    m = lv.shift_rule
-                );
-            }
+            lv.require_unshifted(crit.path(), "the ladder")?;
             let grid = lv.get("l_c").map(|v| v.0).unwrap_or(f64::NAN);
             let (l_c, source) = if lv.l_c_subgrid.0.is_finite() {
                 (lv.l_c_subgrid.0, "subgrid")
