@@ -1,6 +1,9 @@
 # saddleflow tasks. `./bootstrap` installs just and the HDF5 library first.
 
 bin := env_var_or_default("CARGO_TARGET_DIR", "target") / "release/saddleflow"
+# Stages run in parallel on every core by default (stages share one rayon pool, so a
+# multithreaded stage and a single-threaded one beside it do not oversubscribe the cores).
+jobs := env_var_or_default("SADDLEFLOW_JOBS", num_cpus())
 # The scenes that report headline numbers (see `saddleflow tradeoff`).
 headline_scenes := "--only critical_table --only fig3 --only fig6 --only near_critical"
 # The reference preset's share: every headline number but Figure 3's γ thresholds (one level
@@ -17,12 +20,12 @@ build:
 
 # Main job: every scene at draft fidelity (minutes on 2 cores).
 draft *ARGS: build
-    {{bin}} run --params params/draft.toml {{ARGS}}
+    {{bin}} run --params params/draft.toml -j {{jobs}} {{ARGS}}
     {{bin}} status
 
 # Every scene at the paper's fidelity.
 paper *ARGS: build
-    {{bin}} run --params params/paper.toml {{ARGS}}
+    {{bin}} run --params params/paper.toml -j {{jobs}} {{ARGS}}
     {{bin}} status
 
 # Tiny grids: checks that every stage runs, not that numbers match the paper.
