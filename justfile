@@ -72,3 +72,11 @@ clean:
     rm -rf results/cache results/runs results/demo
     find figures -maxdepth 1 -type f \( -name '*.png' -o -name '*.svg' \) -delete
     find results/tables -maxdepth 1 -type f -name '*.csv' -delete
+
+# Start a single-node SLURM cluster on this machine (Debian's munge, slurmctld, slurmd; root).
+slurm-up:
+    scripts/slurm-up
+
+# Cancel every job and stop the single-node cluster.
+slurm-down:
+    scripts/slurm-down
