@@ -4,6 +4,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod cluster;
 mod critical;
 mod flow;
 mod pipeline;

@@ -47,6 +47,8 @@ pub enum Command {
         /// Wait for another run holding the results folder instead of failing.
         #[arg(long)]
         wait: bool,
+        #[command(flatten)]
+        cluster: crate::cluster::ClusterArgs,
     },
     /// Run one stage, selected by its key (or a unique prefix), from cached inputs.
     RunStage {
@@ -117,8 +119,10 @@ pub fn run(cmd: Command) -> Result<()> {
             force,
             jobs,
             wait,
+            cluster,
         } => {
             let (ws, plan) = load(&files)?;
+            let (executor, jobs) = cluster.executor(&files.pipeline, &files.params, jobs)?;
             let opts = RunOptions {
                 only,
                 force,
@@ -128,6 +132,7 @@ pub fn run(cmd: Command) -> Result<()> {
                 progress: ProgressMode::Auto,
                 log_file: true,
                 command: command_line(),
+                executor,
             };
             let summary = orchestrator::run(&ws, &plan, &opts)?;
             if dry_run {

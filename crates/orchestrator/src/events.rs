@@ -71,6 +71,24 @@ pub enum What {
     },
     /// Started computing.
     Started,
+    /// Submitted to SLURM as a batch job (or, `attempt` 0 with `adopted`, a live job of an
+    /// earlier controller awaited instead of a new submission).
+    Submitted {
+        /// SLURM job id.
+        job: String,
+        /// The job's stdout and stderr.
+        log: String,
+        /// Cores asked for.
+        cpus: u32,
+        /// Memory asked for, MiB.
+        mem_mib: u64,
+        /// Time limit asked for, minutes.
+        time_min: u64,
+        /// 0 for the first submission, then 1, 2, ... for retries.
+        attempt: u32,
+        /// An earlier controller's job, awaited rather than submitted.
+        adopted: bool,
+    },
     /// Computed and published.
     Ran {
         /// Wall time, seconds.
@@ -84,6 +102,11 @@ pub enum What {
     Failed {
         /// The error chain.
         error: String,
+    },
+    /// Information about the run (the executor's set-up, for example).
+    Note {
+        /// The text.
+        text: String,
     },
     /// Not run because an upstream stage failed.
     Skipped {

@@ -14,6 +14,9 @@
 //! - The **runner** ([`run`]) runs stages in topological order, independent ones in parallel,
 //!   publishes atomically, keeps independent results when a stage fails, logs events
 //!   (`results/runs/*.jsonl`) and holds a lock on `results/` ([`lock`]).
+//! - **Executors**: stages run in this process ([`Executor::Local`]) or as SLURM batch jobs
+//!   ([`slurm`]), the controller keeping the DAG and counting a stage done when its artefact is
+//!   published.
 //! - [`run_stage`], [`ops::status`], [`ops::gc`], [`ops::graph`] back the CLI commands.
 
 pub mod config;
@@ -26,6 +29,7 @@ pub mod plan;
 pub mod progress;
 pub mod runner;
 pub mod schema;
+pub mod slurm;
 pub mod util;
 pub mod workspace;
 
@@ -37,7 +41,8 @@ pub use kind::{
 pub use plan::{Plan, PlannedStage};
 pub use progress::ProgressMode;
 pub use runner::{
-    Action, Decision, RunOptions, RunSummary, decide, restore_side_outputs, run, run_stage,
+    Action, Decision, Executor, RunOptions, RunSummary, decide, restore_side_outputs, run,
+    run_stage,
 };
 pub use schema::{ParamIssue, ParamSpec, ParamType};
 pub use workspace::{EntryState, Index, Reason, Workspace};

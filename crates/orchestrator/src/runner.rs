@@ -36,6 +36,18 @@ pub struct RunOptions {
     pub log_file: bool,
     /// The command line, recorded in the lock file.
     pub command: String,
+    /// Where stages run.
+    pub executor: Executor,
+}
+
+/// Where the stages of a run are computed.
+#[derive(Clone, Debug, Default)]
+pub enum Executor {
+    /// In this process, `jobs` at a time.
+    #[default]
+    Local,
+    /// As SLURM batch jobs, `jobs` at a time ([`crate::slurm`]).
+    Slurm(crate::slurm::SlurmOptions),
 }
 
 impl Default for RunOptions {
@@ -49,6 +61,7 @@ impl Default for RunOptions {
             progress: ProgressMode::Auto,
             log_file: true,
             command: "saddleflow run".into(),
+            executor: Executor::Local,
         }
     }
 }
@@ -171,15 +184,10 @@ fn planned_event(d: &Decision) -> What {
 pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let selected = plan.select(&opts.only)?;
     let jobs = opts.jobs.max(1);
-    let _lock = if opts.dry_run {
-        None
+    let _locks = if opts.dry_run {
+        Vec::new()
     } else {
-        Some(acquire(
-            &ws.lock_path(),
-            LockMode::Exclusive,
-            opts.wait,
-            &opts.command,
-        )?)
+        take_run_locks(ws, opts)?
     };
     if !opts.dry_run {
         let all_side: Vec<String> = selected
@@ -291,8 +299,18 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
     let (tx, rx) = mpsc::channel::<(usize, Result<Executed>)>();
     let started = Instant::now();
     let mut last_index_save = Instant::now();
+    let cluster = match &opts.executor {
+        Executor::Local => None,
+        Executor::Slurm(o) => {
+            let keys = to_run.iter().map(|d| d.key.clone()).collect();
+            Some(crate::slurm::Controller::start(
+                ws, o, &keys, &log, &progress,
+            )?)
+        }
+    };
+    let slurm = cluster.as_ref().map(|c| c.slurm.as_ref());
 
-    std::thread::scope(|scope| -> Result<()> {
+    let result = std::thread::scope(|scope| -> Result<()> {
         let mut running = 0usize;
         loop {
             while running < jobs {
@@ -302,8 +320,12 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
                 let sink = progress.started(&s.name, &s.kind, s.cost);
                 let tx = tx.clone();
                 let ws = ws.clone();
+                let log = &log;
                 scope.spawn(move || {
-                    let r = execute(&ws, plan, s, Some(sink), jobs == 1);
+                    let r = match slurm {
+                        None => execute(&ws, plan, s, Some(sink), jobs == 1),
+                        Some(c) => crate::slurm::execute_stage(c, &ws, s, log),
+                    };
                     let _ = tx.send((i, r));
                 });
                 running += 1;
@@ -398,7 +420,11 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
             }
         }
         Ok(())
-    })?;
+    });
+    if let Some(c) = cluster {
+        c.stop();
+    }
+    result?;
     drop(tx);
     progress.finish();
     if index_dirty {
@@ -520,11 +546,34 @@ pub fn run_stage(
     Ok(summary)
 }
 
+/// The locks of a run: `results/.lock` exclusive for the local executor; for SLURM, shared (the
+/// jobs' `run-stage` processes take it shared too) plus `results/.controller.lock` exclusive, so
+/// that one controller at a time runs on a results folder.
+fn take_run_locks(ws: &Workspace, opts: &RunOptions) -> Result<Vec<crate::lock::ResultsLock>> {
+    Ok(match opts.executor {
+        Executor::Local => vec![acquire(
+            &ws.lock_path(),
+            LockMode::Exclusive,
+            opts.wait,
+            &opts.command,
+        )?],
+        Executor::Slurm(_) => vec![
+            acquire(
+                &ws.results().join(".controller.lock"),
+                LockMode::Exclusive,
+                opts.wait,
+                &opts.command,
+            )?,
+            acquire(&ws.lock_path(), LockMode::Shared, opts.wait, &opts.command)?,
+        ],
+    })
+}
+
 /// What [`execute`] returns.
 pub(crate) struct Executed {
-    wall_s: f64,
-    warnings: Vec<String>,
-    bytes: u64,
+    pub(crate) wall_s: f64,
+    pub(crate) warnings: Vec<String>,
+    pub(crate) bytes: u64,
 }
 
 fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
