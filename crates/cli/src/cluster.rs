@@ -5,7 +5,8 @@
 use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 use stages::orchestrator::Executor;
-use stages::orchestrator::slurm::SlurmOptions;
+use stages::orchestrator::slurm::{ResourceOverride, SlurmOptions};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Where stages run.
@@ -26,7 +27,8 @@ pub struct ClusterArgs {
     #[arg(long, value_enum)]
     executor: Option<ExecutorKind>,
     /// A profile file with an `[executor]` table (kind, jobs, partition, account, extra, retries,
-    /// poll_s, cpus, mem_mib, time_min), e.g. params/cluster/local.toml.
+    /// poll_s, cpus, mem_mib, time_min) and optional `[resources.STAGE_OR_KIND]` tables (cpus,
+    /// mem_mib, time_min), e.g. params/cluster/local.toml.
     #[arg(long, value_name = "FILE")]
     cluster_profile: Option<PathBuf>,
     /// SLURM partition.
@@ -67,14 +69,15 @@ struct ProfileExecutor {
 #[serde(deny_unknown_fields)]
 struct Profile {
     executor: ProfileExecutor,
+    /// `[resources.NAME]`: cores, memory, time of a stage (by name) or of every stage of a kind.
+    #[serde(default)]
+    resources: BTreeMap<String, ResourceOverride>,
 }
 
-fn read_profile(path: &Path) -> Result<ProfileExecutor> {
+fn read_profile(path: &Path) -> Result<Profile> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read the cluster profile `{}`", path.display()))?;
-    let p: Profile =
-        toml::from_str(&text).with_context(|| format!("cluster profile `{}`", path.display()))?;
-    Ok(p.executor)
+    toml::from_str(&text).with_context(|| format!("cluster profile `{}`", path.display()))
 }
 
 fn in_range<T: PartialOrd + std::fmt::Display>(
@@ -99,9 +102,12 @@ impl ClusterArgs {
         params: &Path,
         jobs: usize,
     ) -> Result<(Executor, usize)> {
-        let prof = match &self.cluster_profile {
-            Some(p) => read_profile(p)?,
-            None => ProfileExecutor::default(),
+        let (prof, overrides) = match &self.cluster_profile {
+            Some(p) => {
+                let p = read_profile(p)?;
+                (p.executor, p.resources)
+            }
+            None => (ProfileExecutor::default(), BTreeMap::new()),
         };
         let kind = self.executor.or(prof.kind).unwrap_or(ExecutorKind::Local);
         let jobs = if jobs == 1 {
@@ -163,6 +169,10 @@ impl ClusterArgs {
             60 * 24 * 30,
             " min",
         )?;
-        Ok((Executor::Slurm(o), in_range("jobs", jobs, 1, 10_000, "")?))
+        o.overrides = overrides;
+        Ok((
+            Executor::Slurm(Box::new(o)),
+            in_range("jobs", jobs, 1, 10_000, "")?,
+        ))
     }
 }

@@ -47,7 +47,7 @@ pub enum Executor {
     #[default]
     Local,
     /// As SLURM batch jobs, `jobs` at a time ([`crate::slurm`]).
-    Slurm(crate::slurm::SlurmOptions),
+    Slurm(Box<crate::slurm::SlurmOptions>),
 }
 
 impl Default for RunOptions {

@@ -23,7 +23,8 @@
 //! - **Resources**: cores from the options (default 1; the job's rayon pool is sized to it); memory
 //!   and time from the provenance of earlier artefacts of the same kind (and the same grid
 //!   exponent `n` when the stage has one): 1.5 × the largest peak memory + 256 MiB, 3 × the
-//!   longest wall time + 1 min; otherwise the stated defaults (2 GiB, 60 min).
+//!   longest wall time + 1 min; otherwise the stated defaults (2 GiB, 60 min). A profile's
+//!   `[resources.NAME]` (a stage or a kind) overrides any of the three.
 //! - **Interruption**: SIGINT or SIGTERM of the controller cancels the run's jobs (`scancel
 //!   --name`) and exits 130/143. A controller killed with SIGKILL cancels nothing: its jobs finish
 //!   and publish atomically; the next run adopts the live jobs whose comment names one of its
@@ -84,6 +85,21 @@ pub struct SlurmOptions {
     pub pipeline: PathBuf,
     /// Params file, absolute.
     pub params: PathBuf,
+    /// Resources set by hand for a stage (by name) or a kind; a stage's entry wins over its
+    /// kind's, and both over the estimate from earlier runs.
+    pub overrides: BTreeMap<String, ResourceOverride>,
+}
+
+/// Resources set by hand; what is left `None` keeps the estimate.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResourceOverride {
+    /// Cores.
+    pub cpus: Option<u32>,
+    /// Memory, MiB.
+    pub mem_mib: Option<u64>,
+    /// Time limit, minutes.
+    pub time_min: Option<u64>,
 }
 
 impl SlurmOptions {
@@ -103,6 +119,7 @@ impl SlurmOptions {
             program,
             pipeline,
             params,
+            overrides: BTreeMap::new(),
         }
     }
 }
@@ -438,12 +455,24 @@ impl Slurm {
         Ok(found)
     }
 
-    /// Resources for a stage: from earlier artefacts of its kind, else the defaults.
+    /// Resources for a stage: set by hand for the stage or its kind, else estimated from
+    /// earlier artefacts of its kind, else the defaults.
     pub fn resources(&self, ws: &Workspace, s: &PlannedStage) -> Resources {
         let mut r = self.opts.defaults;
         if let Some((peak_mib, wall_s)) = earlier_costs(ws, s) {
             r.mem_mib = ((peak_mib * 1.5) as u64 + 256).max(256);
             r.time_min = ((wall_s * 3.0 + 60.0) / 60.0).ceil().max(1.0) as u64;
+        }
+        for o in [
+            self.opts.overrides.get(&s.kind),
+            self.opts.overrides.get(&s.name),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            r.cpus = o.cpus.unwrap_or(r.cpus);
+            r.mem_mib = o.mem_mib.unwrap_or(r.mem_mib);
+            r.time_min = o.time_min.unwrap_or(r.time_min);
         }
         r
     }
@@ -455,12 +484,14 @@ impl Slurm {
         let mut interval = base;
         while !self.stop.load(Ordering::Relaxed) {
             self.sleep_unless_stopped(interval);
-            let names: Vec<String> = {
+            // a round judges only the jobs awaited when its query starts: one submitted while
+            // the query runs is absent from its answer without having ended
+            let (names, asked): (Vec<String>, BTreeSet<String>) = {
                 let b = self.board.lock().unwrap();
                 if b.awaited.is_empty() {
                     continue;
                 }
-                b.names.iter().cloned().collect()
+                (b.names.iter().cloned().collect(), b.awaited.clone())
             };
             let answer = self.sched.jobs_named(&names);
             let mut b = self.board.lock().unwrap();
@@ -470,7 +501,8 @@ impl Slurm {
                     let mut changed = false;
                     let listed: BTreeMap<&str, &JobState> =
                         jobs.iter().map(|j| (j.id.as_str(), j)).collect();
-                    for id in b.awaited.clone() {
+                    let judged: Vec<String> = asked.intersection(&b.awaited).cloned().collect();
+                    for id in judged {
                         let state = match listed.get(id.as_str()) {
                             Some(j) => j.state.clone(),
                             None => self

@@ -250,3 +250,46 @@ fn whole_runs_through_the_fake_agree_with_local_runs() {
     let s = p.run(&registry(&add), &common::quiet());
     assert!(s.cached.contains(&"a".to_string()), "{:?}", s.cached);
 }
+
+#[test]
+fn resources_set_by_hand_win_stage_over_kind_over_estimate() {
+    use orchestrator::slurm::ResourceOverride;
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let plan = p.plan(&registry(&add));
+    let mut o = options(0);
+    o.overrides.insert(
+        "add".into(),
+        ResourceOverride {
+            cpus: Some(4),
+            mem_mib: Some(1000),
+            time_min: None,
+        },
+    );
+    o.overrides.insert(
+        "b".into(),
+        ResourceOverride {
+            mem_mib: Some(5000),
+            ..Default::default()
+        },
+    );
+    let fake = Arc::new(Fake::new(&p, &add, vec![]));
+    let slurm = Slurm::new(fake, o, &p.ws(), "test").unwrap();
+    let r = |name: &str| slurm.resources(&p.ws(), plan.stage(name).unwrap());
+    assert_eq!(
+        r("a"),
+        Resources {
+            cpus: 4,
+            mem_mib: 1000,
+            time_min: 3
+        }
+    );
+    assert_eq!(
+        r("b"),
+        Resources {
+            cpus: 4,
+            mem_mib: 5000,
+            time_min: 3
+        }
+    );
+}
