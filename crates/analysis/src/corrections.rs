@@ -2,7 +2,9 @@
 //! error bar that includes the choice of fit range and fit form.
 //!
 //! # Input and units
-//! A ladder of [`ScalingPoint`]s `(l, y, σ_y)` on one side of L_c (see [`crate::running`]). Only
+//! A ladder of [`ScalingPoint`]s `(l, y, σ_y)` on one side of L_c (see [`crate::running`]),
+//! grid-converged: rungs beyond a flagged running exponent must be left out first
+//! ([`crate::grid_converged_rungs`]); the fits here know nothing about resolution. Only
 //! |l| enters the fits. With every σ_y > 0 the fits are weighted (log space: σ_ln y = σ_y/y) and
 //! the errors are the covariance's, scaled up by sqrt(χ²/dof) when the misfit exceeds the σ
 //! (never down); with any σ_y = 0 the fits are unweighted and the errors scaled by the reduced χ²

@@ -21,7 +21,7 @@
 //! - Near-critical asymptotics: running (local) exponents with grid errors ([`running`]),
 //!   corrections-to-scaling fits and asymptotic estimates with range/form spreads
 //!   ([`corrections`]), verdicts against conjectured values and error propagation through the
-//!   identity β = 3ζ + υ − χ ([`verdict`]).
+//!   identity β = 3ζ + υ − χ ([`mod@verdict`]).
 
 pub mod collapse;
 pub mod corrections;
@@ -59,7 +59,7 @@ pub use models::{
 };
 pub use nonlinear::{NonlinearOptions, ParamSpec, nonlinear_fit};
 pub use running::{
-    DEFAULT_GRID_BOUND, RunningExponent, RunningSlope, ScalingPoint, SlopeFlag, local_slopes,
-    running_exponents,
+    DEFAULT_GRID_BOUND, RunningExponent, RunningSlope, ScalingPoint, SlopeFlag,
+    grid_converged_rungs, local_slopes, running_exponents,
 };
 pub use verdict::{Estimate, Verdict, beta_identity, linear_combination, verdict};

@@ -216,6 +216,23 @@ pub fn running_exponents(
         .collect())
 }
 
+/// The rungs of `fine` that an asymptotic fit may use: from the largest |l| inward, up to the
+/// first pair that [`running_exponents`] flags (its nearer rung and everything beyond it left
+/// out), sorted by descending |l|. Stopping at the first flag rather than skipping flagged pairs
+/// is deliberate: grid errors grow towards L_c, and a rung after a flagged pair is suspect even
+/// if its own pair passes. Errors as [`running_exponents`].
+pub fn grid_converged_rungs(
+    fine: &[ScalingPoint],
+    coarse: Option<&[ScalingPoint]>,
+    bound: f64,
+) -> Result<Vec<ScalingPoint>> {
+    let pairs = running_exponents(fine, coarse, bound)?;
+    let keep = 1 + pairs.iter().take_while(|p| p.flag.is_none()).count();
+    let mut v = sorted_ladder(fine)?;
+    v.truncate(keep);
+    Ok(v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -317,6 +334,18 @@ mod tests {
         let r = running_exponents(&fine, Some(&fine[..3]), DEFAULT_GRID_BOUND).unwrap();
         assert_eq!(r[2].flag, Some(SlopeFlag::NoCoarse));
         assert!(r[2].grid_error.is_nan() && r[0].grid_error == 0.0 && r[0].flag.is_none());
+        // the usable rungs stop before the first flagged pair: here the third (l = −2e-3 → −1e-3)
+        let keep = grid_converged_rungs(&fine, Some(&coarse), DEFAULT_GRID_BOUND).unwrap();
+        assert_eq!(
+            keep.iter().map(|p| p.l).collect::<Vec<_>>(),
+            vec![-1e-2, -5e-3, -2e-3]
+        );
+        assert_eq!(
+            grid_converged_rungs(&fine, None, DEFAULT_GRID_BOUND)
+                .unwrap()
+                .len(),
+            1
+        );
     }
 
     #[test]

@@ -107,12 +107,16 @@ pub fn verdict(
             measured.value, measured.error
         )
     } else {
+        // two decimals of the confidence, until they would round to 100 %
+        let confidence = if p_value >= 5e-5 {
+            format!("{:.2} %", 100.0 * (1.0 - p_value))
+        } else {
+            "> 99.99 %".to_string()
+        };
         format!(
-            "inconsistent with {label} at {:.2} % confidence: {:.4} ± {:.4} is {sigmas:.1}σ away \
-             (threshold {threshold}σ)",
-            100.0 * (1.0 - p_value),
-            measured.value,
-            measured.error
+            "inconsistent with {label} at {confidence} confidence (two-sided p = {p_value:.1e}): \
+             {:.4} ± {:.4} is {sigmas:.1}σ away (threshold {threshold}σ)",
+            measured.value, measured.error
         )
     };
     Ok(Verdict {
@@ -146,13 +150,16 @@ mod tests {
         // 5σ: 1 − 5.733e-7
         assert!((v.p_value - 5.733e-7).abs() < 1e-9, "{}", v.p_value);
         assert!(
-            v.text.contains("inconsistent with 6/5 at 100.00 %"),
+            v.text
+                .contains("inconsistent with 6/5 at > 99.99 % confidence (two-sided p = 5.7e-7)"),
             "{}",
             v.text
         );
         let v = verdict(Estimate::new(0.45, 0.01), 0.48, "9/20", 2.0).unwrap();
         assert!(
-            v.text.contains("at 99.73 %") && v.text.contains("3.0σ"),
+            v.text
+                .contains("at 99.73 % confidence (two-sided p = 2.7e-3)")
+                && v.text.contains("3.0σ"),
             "{}",
             v.text
         );
