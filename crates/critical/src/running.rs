@@ -24,10 +24,17 @@
 //! grid did not measure, keeps its value but carries a flag ([`analysis::SlopeFlag`]): it is
 //! never to be used silently. `resolution` is the finest grid spacing in λ (the smaller of the
 //! two spacings of the window). Formulas: [`analysis::running`].
+//!
+//! # Asymptotic estimate ([`asymptotic`])
+//! The finest grid's rungs up to the first flagged pair, fitted with corrections to scaling
+//! ([`analysis::corrections`]).
 
 use crate::ladder::Rung;
 use crate::scaling::{EdgeOptions, blocked_half_length, open_half_width};
-use analysis::{ScalingPoint, SlopeFlag, running_exponents};
+use analysis::{
+    AsymptoticError, AsymptoticEstimate, AsymptoticOptions, ScalingPoint, SlopeFlag,
+    asymptotic_estimate, grid_converged_rungs, running_exponents,
+};
 use surface::Lattice;
 
 /// The near-critical exponents (PHYSICS.md: g = |l|^ζ g±(x/|l|^χ, y/|l|^υ), R ∝ |l|^−β).
@@ -194,6 +201,20 @@ impl RunningRecord {
     ];
 }
 
+/// The finest and the next finest of several grids' measurements (any order).
+fn finest_two(levels: &[Resolution]) -> analysis::Result<(&Resolution, Option<&Resolution>)> {
+    let mut order: Vec<&Resolution> = levels.iter().collect();
+    order.sort_by(|a, b| a.spacing.total_cmp(&b.spacing));
+    match order.first() {
+        Some(f) => Ok((f, order.get(1).copied())),
+        None => Err(analysis::FitError::TooFewPoints {
+            what: "running exponents (grids)",
+            got: 0,
+            needed: 1,
+        }),
+    }
+}
+
 /// The running exponents of one model and exponent from its measurements on several grids
 /// (any order): values from the finest spacing, grid errors against the next finest, flagged
 /// above `bound` (module docs). One grid only: every pair is flagged (grid error unknown).
@@ -204,30 +225,38 @@ pub fn running_records(
     levels: &[Resolution],
     bound: f64,
 ) -> analysis::Result<Vec<RunningRecord>> {
-    let mut order: Vec<&Resolution> = levels.iter().collect();
-    order.sort_by(|a, b| a.spacing.total_cmp(&b.spacing));
-    let Some(fine) = order.first() else {
-        return Err(analysis::FitError::TooFewPoints {
-            what: "running records (grids)",
-            got: 0,
-            needed: 1,
-        });
-    };
-    let coarse = order.get(1).map(|c| c.points.as_slice());
-    Ok(running_exponents(&fine.points, coarse, bound)?
-        .into_iter()
-        .map(|r| RunningRecord {
-            model,
-            exponent,
-            l_hi: r.slope.l_hi,
-            l_lo: r.slope.l_lo,
-            value: r.slope.value,
-            grid_error: r.grid_error,
-            fit_error: r.slope.fit_error,
-            resolution: fine.spacing,
-            flag: r.flag,
-        })
-        .collect())
+    let (fine, coarse) = finest_two(levels)?;
+    Ok(
+        running_exponents(&fine.points, coarse.map(|c| c.points.as_slice()), bound)?
+            .into_iter()
+            .map(|r| RunningRecord {
+                model,
+                exponent,
+                l_hi: r.slope.l_hi,
+                l_lo: r.slope.l_lo,
+                value: r.slope.value,
+                grid_error: r.grid_error,
+                fit_error: r.slope.fit_error,
+                resolution: fine.spacing,
+                flag: r.flag,
+            })
+            .collect(),
+    )
+}
+
+/// The asymptotic exponent (l → 0, corrections to scaling; [`analysis::asymptotic_estimate`])
+/// from the finest grid's rungs that are grid-converged against the next finest
+/// ([`analysis::grid_converged_rungs`]: up to the first running exponent whose grid error
+/// exceeds `bound`). Errors: no grid, invalid measurements, or no fit window that constrains the
+/// exponent (the error lists every fit tried and why it was rejected).
+pub fn asymptotic(
+    levels: &[Resolution],
+    bound: f64,
+    opts: &AsymptoticOptions,
+) -> Result<AsymptoticEstimate, AsymptoticError> {
+    let (fine, coarse) = finest_two(levels)?;
+    let rungs = grid_converged_rungs(&fine.points, coarse.map(|c| c.points.as_slice()), bound)?;
+    asymptotic_estimate(&rungs, opts)
 }
 
 #[cfg(test)]
@@ -316,6 +345,44 @@ mod tests {
                 assert!(r.fit_error.is_finite() && r.fit_error >= 0.0);
             }
         }
+    }
+
+    #[test]
+    fn asymptotic_estimate_stops_at_the_first_flagged_pair() {
+        // saddle gaps 0.3|l|^1.2 (1 + 0.8|l|^0.5) on the 12-rung ladder; the coarse grid
+        // agrees down to |l| = 1e-3 and then drifts by +2 % per rung (a discretisation error
+        // growing towards L_c): the slopes' grid errors there are ln(1.02)/ln(2…2.5) ≥ 0.02, so
+        // the fit uses the 6 rungs 5e-2 … 1e-3 (1.7 decades), and on those exact data the direct
+        // fit returns ζ = 1.2 to its tolerance (1e-8; analysis::corrections tests)
+        let ls = [
+            5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
+        ];
+        let g = |a: f64| 0.3 * a.powf(1.2) * (1.0 + 0.8 * a.sqrt());
+        let pts = |drift: f64| -> Vec<ScalingPoint> {
+            ls.iter()
+                .enumerate()
+                .map(|(k, &a)| {
+                    let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
+                    ScalingPoint::new(-a, g(a) * d, 0.0)
+                })
+                .collect()
+        };
+        let levels = [
+            Resolution {
+                spacing: 1.0 / 2048.0,
+                points: pts(0.0),
+            },
+            Resolution {
+                spacing: 1.0 / 1024.0,
+                points: pts(0.02),
+            },
+        ];
+        let e = asymptotic(&levels, 0.005, &AsymptoticOptions::default()).unwrap();
+        assert_eq!(e.variants[e.reference].outcome.as_ref().unwrap().points, 6);
+        assert!((e.value - 1.2).abs() < 1e-8, "{e:?}");
+        let recs = running_records(Lattice::Square, Exponent::Zeta, &levels, 0.005).unwrap();
+        assert_eq!(recs.iter().filter(|r| r.flag.is_some()).count(), 6);
+        assert!(recs[5].flag.is_some() && recs[4].flag.is_none());
     }
 
     #[test]
