@@ -18,8 +18,13 @@
 //! - Jump detection on quasi-static paths: [`detect_jumps`].
 //! - Scaling collapse: [`rescale_curve`], [`rescale_gap_samples`], [`collapse_quality`],
 //!   [`optimise_collapse`].
+//! - Near-critical asymptotics: running (local) exponents with grid errors ([`running`]),
+//!   corrections-to-scaling fits and asymptotic estimates with range/form spreads
+//!   ([`corrections`]), verdicts against conjectured values and error propagation through the
+//!   identity β = 3ζ + υ − χ ([`mod@verdict`]).
 
 pub mod collapse;
+pub mod corrections;
 mod error;
 pub mod extrapolate;
 mod fit;
@@ -27,10 +32,16 @@ pub mod jumps;
 mod linear;
 pub mod models;
 mod nonlinear;
+pub mod running;
+pub mod verdict;
 
 pub use collapse::{
     CollapseFit, CollapseOptions, CollapseQuality, Curve, collapse_quality, optimise_collapse,
     rescale_curve, rescale_gap_samples,
+};
+pub use corrections::{
+    AsymptoticError, AsymptoticEstimate, AsymptoticOptions, CorrectedFit, Form, Omega, Variant,
+    WindowIssue, asymptotic_estimate, fit_corrected_power_law, fit_running_exponent,
 };
 pub use error::{FitError, Result};
 pub use extrapolate::{
@@ -47,3 +58,8 @@ pub use models::{
     sqrt_onset,
 };
 pub use nonlinear::{NonlinearOptions, ParamSpec, nonlinear_fit};
+pub use running::{
+    DEFAULT_GRID_BOUND, RunningExponent, RunningSlope, ScalingPoint, SlopeFlag,
+    grid_converged_rungs, local_slopes, running_exponents,
+};
+pub use verdict::{Estimate, Verdict, beta_identity, linear_combination, verdict};

@@ -39,7 +39,8 @@
 //!
 //! # Near-critical scaling
 //! [`ladder`] solves at reduced loads around L_c and keeps a window around one saddle;
-//! [`scaling`] measures the channel's width and length there and fits the exponents.
+//! [`scaling`] measures the channel's width and length there and fits the exponents;
+//! [`running`] turns the rungs into running exponents with grid errors.
 //!
 //! # Beyond one grid
 //! [`shifts`] averages over sub-grid shifts of the surface relative to the grid; [`study`] runs
@@ -47,6 +48,7 @@
 
 pub mod bracket;
 pub mod ladder;
+pub mod running;
 pub mod saddle;
 pub mod scaling;
 pub mod shifts;
