@@ -36,6 +36,30 @@
 //! Every parameter is then validated by the stage's kind (type, range, allowed values) and its
 //! defaults are filled in, so that the key of a stage sees all of them.
 //!
+//! # Named values, templates, `extends`
+//!
+//! ```toml
+//! extends = "base.toml"          # this file's tables deep-merged onto base.toml's
+//!
+//! [values]                       # written once, used by name
+//! lattices = ["square", "hexagonal"]
+//! common = { tol = "$tol" }
+//!
+//! [stages.surface]               # a template: one stage per combination of the matrix
+//! matrix = { lattice = "{lattices}", n = [5, 6] }
+//! name = "surface_{lattice}_{n}" # surface_square_5, surface_square_6, surface_hexagonal_5, ...
+//! kind = "surface"
+//! params = { "<<" = "{common}", lattice = "{lattice}", n = "{n}" }
+//! ```
+//!
+//! `"{name}"` is replaced by a named value or matrix variable (any type), `"{name.field}"` by a
+//! field of it (`"{rows.0}"`: an element), and `"x_{name}"` splices a string or integer into a
+//! longer string (`{{`, `}}`: literal braces); `"<<"` merges a table into the one it is written
+//! in. Params files may use `extends` too. The expansion (`config/expand.rs`) and the merge
+//! (`config/tree.rs`) happen before anything else sees the file: a plan, its keys, dry-run reasons and errors are
+//! per concrete stage, and an error in a template instance names the template and the instance
+//! after its `file:line:col`. `docs/pipeline.md` has the full description.
+//!
 //! # Params files
 //!
 //! A flat table of settings declared by the pipeline file:
@@ -73,6 +97,16 @@ pub struct Origin {
     /// For a value of an expanded template: "template `T`, instance `I`" (printed after the
     /// message of an error at this place).
     pub context: Option<Arc<str>>,
+}
+
+impl Origin {
+    /// `file:line:col`, followed by the template instance it belongs to, if any.
+    pub fn with_context(&self) -> String {
+        match &self.context {
+            Some(c) => format!("{self} (in {c})"),
+            None => self.to_string(),
+        }
+    }
 }
 
 impl fmt::Display for Origin {
@@ -331,6 +365,10 @@ impl PipelineFile {
         }
         let mut values = expand::Values::new(section("values"));
         values.resolve_all(&mut errs);
+        if !errs.is_empty() {
+            // stages would repeat the errors of the values they use
+            return Err(ConfigErrors(errs));
+        }
         for (name, decl) in section("scenes") {
             let decl = expand::subst_values(decl, &mut values, &mut errs);
             if let Some(d) = parse_scene(name, &decl, &mut errs) {
@@ -341,10 +379,12 @@ impl PipelineFile {
         for (template, decl) in section("stages") {
             for (name, decl) in expand::expand_stage(template, decl, &mut values, &mut errs) {
                 if let Some(first) = defined.insert(name.name.clone(), name.origin.clone()) {
-                    errs.push(ConfigError::at(
-                        &name.origin,
-                        format!("stage `{}` is defined twice (first at {first})", name.name),
-                    ));
+                    errs.push(ConfigError::plain(format!(
+                        "stage `{}` is defined twice: at {} and at {}",
+                        name.name,
+                        first.with_context(),
+                        name.origin.with_context()
+                    )));
                     continue;
                 }
                 if let Some(d) = parse_stage(&name, &decl, &mut errs) {

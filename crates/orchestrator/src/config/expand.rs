@@ -7,7 +7,7 @@
 //!   reference inside a longer string (`"surface_{lattice}"`) splices in a string or integer.
 //!   `{{` and `}}` write literal braces. Values may refer to other values (a cycle is an error).
 //! - A stage with `matrix = { a = [...], b = [...] }` is a template: one concrete stage per
-//!   combination (the Cartesian product, in the order written), named by its `name` pattern,
+//!   combination (the Cartesian product), named by its `name` pattern,
 //!   with the matrix variables in scope like named values (they shadow them). A matrix with one
 //!   variable is a foreach.
 //! - In a table, the key `"<<"` merges in a table (or a list of tables, later ones winning):
@@ -45,8 +45,8 @@ impl<'a> Values<'a> {
 
     /// Resolves every value (reporting errors even in values no stage uses).
     pub fn resolve_all(&mut self, errs: &mut Vec<ConfigError>) {
-        for (k, _) in self.raw {
-            if let Err(e) = self.get(&k.name) {
+        for (k, v) in self.raw {
+            if let Err(e) = self.get(&k.name, v) {
                 errs.push(e);
             }
         }
@@ -56,17 +56,22 @@ impl<'a> Values<'a> {
         self.raw.iter().map(|(k, _)| k.name.as_str())
     }
 
-    fn get(&mut self, name: &str) -> Result<Option<Node>, ConfigError> {
-        if let Some(v) = self.done.get(name) {
+    /// The value at `path` (`name` or `name.field.0`), its references resolved; `None` if no
+    /// value has the path's first name. Only the part the path names is resolved, so that a
+    /// field may refer to a sibling (`{fig6.hardwall}` inside `fig6.cases`).
+    fn get(&mut self, path: &str, at: &Node) -> Result<Option<Node>, ConfigError> {
+        if let Some(v) = self.done.get(path) {
             return Ok(Some(v.clone()));
         }
+        let mut parts = path.split('.');
+        let head = parts.next().unwrap_or("");
         let raw = self.raw;
-        let Some((key, node)) = raw.iter().find(|(k, _)| k.name == name) else {
+        let Some((key, node)) = raw.iter().find(|(k, _)| k.name == head) else {
             return Ok(None);
         };
-        if let Some(i) = self.stack.iter().position(|s| s == name) {
+        if let Some(i) = self.stack.iter().position(|s| s == path) {
             let mut cycle = self.stack[i..].to_vec();
-            cycle.push(name.to_string());
+            cycle.push(path.to_string());
             return Err(ConfigError::at(
                 &key.origin,
                 format!(
@@ -75,16 +80,70 @@ impl<'a> Values<'a> {
                 ),
             ));
         }
-        self.stack.push(name.to_string());
-        let mut errs = Vec::new();
-        let out = subst_with(node, &[], self, &mut errs);
+        self.stack.push(path.to_string());
+        let out = self.walk(node, head, parts, path, at);
         self.stack.pop();
-        if let Some(e) = errs.into_iter().next() {
-            return Err(e);
-        }
-        self.done.insert(name.to_string(), out.clone());
+        let out = out?;
+        self.done.insert(path.to_string(), out.clone());
         Ok(Some(out))
     }
+
+    fn walk<'p>(
+        &mut self,
+        node: &Node,
+        head: &str,
+        parts: impl Iterator<Item = &'p str>,
+        path: &str,
+        at: &Node,
+    ) -> Result<Node, ConfigError> {
+        let mut node = node.clone();
+        let mut walked = head.to_string();
+        for part in parts {
+            if let Val::Str(_) = node.v {
+                // a reference to another value: resolve it before stepping into it
+                node = self.resolve(&node)?;
+            }
+            node = step(&node, part, &walked, path, at)?;
+            walked = format!("{walked}.{part}");
+        }
+        self.resolve(&node)
+    }
+
+    fn resolve(&mut self, node: &Node) -> Result<Node, ConfigError> {
+        let mut errs = Vec::new();
+        let out = subst_with(node, &[], self, &mut errs);
+        match errs.into_iter().next() {
+            Some(e) => Err(e),
+            None => Ok(out),
+        }
+    }
+}
+
+/// The field (or array element) `part` of `node`, which the reference `path` reached as
+/// `walked`.
+fn step(node: &Node, part: &str, walked: &str, path: &str, at: &Node) -> Result<Node, ConfigError> {
+    let next = match &node.v {
+        Val::Table(t) => t.iter().find(|(k, _)| k.name == part).map(|(_, v)| v),
+        Val::Array(a) => part.parse::<usize>().ok().and_then(|i| a.get(i)),
+        _ => None,
+    };
+    next.cloned().ok_or_else(|| {
+        let has = match &node.v {
+            Val::Table(t) => format!(
+                "its fields: {}",
+                t.iter()
+                    .map(|(k, _)| k.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Val::Array(a) => format!("it is an array of {} elements (index from 0)", a.len()),
+            _ => format!("it is {}", node.type_name()),
+        };
+        ConfigError::at(
+            &at.origin,
+            format!("`{{{path}}}`: `{walked}` has no field `{part}`; {has}"),
+        )
+    })
 }
 
 /// One reference `{a.b.0}` looked up in `vars`, then `values`.
@@ -96,56 +155,34 @@ fn lookup(
 ) -> Result<Node, ConfigError> {
     let mut parts = path.split('.');
     let head = parts.next().unwrap_or("");
-    let found = match vars.iter().find(|(n, _)| n == head) {
-        Some((_, v)) => Some(v.clone()),
-        None => values.get(head)?,
-    };
-    let Some(mut node) = found else {
-        let mut names: Vec<&str> = vars.iter().map(|(n, _)| n.as_str()).collect();
-        names.extend(values.names());
-        let hint = did_you_mean(head, &names)
-            .map(|s| format!("did you mean `{{{s}}}`? "))
-            .unwrap_or_default();
-        return Err(ConfigError::at(
-            &at.origin,
-            format!(
-                "unknown name `{{{head}}}`; {hint}known: {} (matrix variables and [values]; write `{{{{` for a literal brace)",
-                if names.is_empty() {
-                    "none".into()
-                } else {
-                    names.join(", ")
-                }
-            ),
-        ));
-    };
-    let mut walked = head.to_string();
-    for part in parts {
-        let next = match &node.v {
-            Val::Table(t) => t.iter().find(|(k, _)| k.name == part).map(|(_, v)| v),
-            Val::Array(a) => part.parse::<usize>().ok().and_then(|i| a.get(i)),
-            _ => None,
-        };
-        let Some(next) = next.cloned() else {
-            let has = match &node.v {
-                Val::Table(t) => format!(
-                    "its fields: {}",
-                    t.iter()
-                        .map(|(k, _)| k.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-                Val::Array(a) => format!("an array of {} elements (index from 0)", a.len()),
-                _ => format!("it is {}", node.type_name()),
-            };
-            return Err(ConfigError::at(
-                &at.origin,
-                format!("`{{{path}}}`: `{walked}` has no field `{part}`; {has}"),
-            ));
-        };
-        walked = format!("{walked}.{part}");
-        node = next;
+    if let Some((_, v)) = vars.iter().find(|(n, _)| n == head) {
+        let mut node = v.clone();
+        let mut walked = head.to_string();
+        for part in parts {
+            node = step(&node, part, &walked, path, at)?;
+            walked = format!("{walked}.{part}");
+        }
+        return Ok(node);
     }
-    Ok(node)
+    if let Some(v) = values.get(path, at)? {
+        return Ok(v);
+    }
+    let mut names: Vec<&str> = vars.iter().map(|(n, _)| n.as_str()).collect();
+    names.extend(values.names());
+    let hint = did_you_mean(head, &names)
+        .map(|s| format!("did you mean `{{{s}}}`? "))
+        .unwrap_or_default();
+    Err(ConfigError::at(
+        &at.origin,
+        format!(
+            "unknown name `{{{head}}}`; {hint}known: {} (matrix variables and [values]; write `{{{{` for a literal brace)",
+            if names.is_empty() {
+                "none".into()
+            } else {
+                names.join(", ")
+            }
+        ),
+    ))
 }
 
 /// The pieces of a string: literal text and `{reference}`s.
@@ -358,7 +395,14 @@ pub(crate) fn expand_stage(
     };
     let mut out: Vec<(Key, Node)> = Vec::new();
     for vars in product(&axes) {
-        let inst = match subst_with(pattern, &vars, values, errs).v {
+        let before = errs.len();
+        let inst = subst_with(pattern, &vars, values, errs);
+        if errs.len() > before {
+            // the same mistake in every instance: report it once, for the template
+            add_context(&mut errs[before..], &format!("template `{tname}`").into());
+            return Vec::new();
+        }
+        let inst = match inst.v {
             Val::Str(s) => s,
             _ => {
                 errs.push(ConfigError::at(
@@ -382,11 +426,7 @@ pub(crate) fn expand_stage(
         let context: Arc<str> = format!("template `{tname}`, instance `{inst}`").into();
         let before = errs.len();
         let mut node = subst_with(&body, &vars, values, errs);
-        for e in &mut errs[before..] {
-            if let Some(o) = e.origin.as_mut() {
-                o.context.get_or_insert_with(|| context.clone());
-            }
-        }
+        add_context(&mut errs[before..], &context);
         node.set_context(&context);
         let mut origin = key.origin.clone();
         origin.context = Some(context);
@@ -395,7 +435,14 @@ pub(crate) fn expand_stage(
     out
 }
 
-/// The matrix variables and their values, in the order written.
+/// Marks errors as found in a template (or one of its instances), unless they already say so.
+fn add_context(errs: &mut [ConfigError], context: &Arc<str>) {
+    for o in errs.iter_mut().filter_map(|e| e.origin.as_mut()) {
+        o.context.get_or_insert_with(|| context.clone());
+    }
+}
+
+/// The matrix variables and their values.
 fn matrix_axes(
     tname: &str,
     mkey: &Key,
@@ -448,7 +495,7 @@ fn matrix_axes(
     (errs.len() == before).then_some(axes)
 }
 
-/// Every combination of the axes' values, the first axis varying slowest.
+/// Every combination of the axes' values (the first axis varying slowest).
 fn product(axes: &[(String, Vec<Node>)]) -> Vec<Vec<(String, Node)>> {
     let mut out: Vec<Vec<(String, Node)>> = vec![Vec::new()];
     for (name, vals) in axes {
