@@ -539,16 +539,17 @@ fn parse_setting(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option
             _ => errs.push(unknown_key(k, &format!("setting `{n}`"), SETTING_KEYS)),
         }
     }
-    let ty = setting_type(
-        n,
-        ty_name.as_ref(),
-        default.as_ref(),
-        min,
-        max,
-        allowed,
-        decl,
-        errs,
-    )?;
+    let Some(ty_name) = ty_name
+        .map(|t| t.value)
+        .or_else(|| default.as_ref().map(|(v, _)| inferred_type(v).to_string()))
+    else {
+        errs.push(ConfigError::at(
+            &decl.origin,
+            format!("setting `{n}` needs a `type` or a `default`"),
+        ));
+        return None;
+    };
+    let ty = setting_type(&ty_name, min, max, allowed);
     let default = match default {
         Some((v, origin)) => match ty.check(&v) {
             Ok(v) => Some(v),
@@ -570,36 +571,27 @@ fn parse_setting(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option
     })
 }
 
-/// A setting's type: explicit, or inferred from its default.
-#[allow(clippy::too_many_arguments)]
+/// The type a setting declared only by its default has.
+fn inferred_type(default: &Value) -> &'static str {
+    match default {
+        Value::Number(x) if x.is_f64() => "float",
+        Value::Number(_) => "int",
+        Value::String(_) => "string",
+        Value::Bool(_) => "bool",
+        Value::Array(_) => "array",
+        _ => "any",
+    }
+}
+
+/// A setting's type from its name in `SETTING_TYPES` and its range or allowed values.
 fn setting_type(
-    n: &str,
-    ty_name: Option<&Located<String>>,
-    default: Option<&(Value, Origin)>,
+    name: &str,
     min: Option<Value>,
     max: Option<Value>,
     allowed: Option<Vec<String>>,
-    decl: &Node,
-    errs: &mut Vec<ConfigError>,
-) -> Option<ParamType> {
-    let inferred = match (ty_name, default) {
-        (Some(t), _) => t.value.clone(),
-        (None, Some((Value::Number(x), _))) if x.is_f64() => "float".into(),
-        (None, Some((Value::Number(_), _))) => "int".into(),
-        (None, Some((Value::String(_), _))) => "string".into(),
-        (None, Some((Value::Bool(_), _))) => "bool".into(),
-        (None, Some((Value::Array(_), _))) => "array".into(),
-        (None, Some(_)) => "any".into(),
-        (None, None) => {
-            errs.push(ConfigError::at(
-                &decl.origin,
-                format!("setting `{n}` needs a `type` or a `default`"),
-            ));
-            return None;
-        }
-    };
+) -> ParamType {
     let num = |v: &Option<Value>| v.as_ref().and_then(Value::as_f64);
-    Some(match inferred.as_str() {
+    match name {
         "int" => ParamType::Int {
             min: num(&min).map(|x| x.ceil() as i64),
             max: num(&max).map(|x| x.floor() as i64),
@@ -618,7 +610,7 @@ fn setting_type(
             max_len: None,
         },
         _ => ParamType::Any,
-    })
+    }
 }
 
 fn parse_scene(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option<SceneDecl> {
