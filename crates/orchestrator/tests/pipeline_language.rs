@@ -7,12 +7,6 @@ mod common;
 use common::*;
 use orchestrator::{ParamsFile, PipelineFile};
 
-fn assert_has(msg: &str, parts: &[&str]) {
-    for part in parts {
-        assert!(msg.contains(part), "missing `{part}` in:\n{msg}");
-    }
-}
-
 /// The same three stages, once by hand and once as a template over a named value.
 #[test]
 fn a_template_gives_the_stages_written_by_hand() {
@@ -265,13 +259,16 @@ fn presets_extend_each_other_deep_merged() {
 
 #[test]
 fn an_extends_cycle_or_a_missing_base_is_an_error() {
-    let p = Project::new("[stages.a]\nkind = \"add\"\n", "extends = \"y.toml\"\n");
+    let p = Project::new("[stages.a]\nkind = \"add\"\n", "");
+    let err = |text: &str| {
+        p.write("params/x.toml", text);
+        ParamsFile::load(&p.path("params/x.toml"))
+            .unwrap_err()
+            .to_string()
+    };
     p.write("params/y.toml", "extends = \"x.toml\"\n");
-    let e = ParamsFile::load(&p.path("params/x.toml"))
-        .unwrap_err()
-        .to_string();
     assert_has(
-        &e,
+        &err("extends = \"y.toml\"\n"),
         &[
             "y.toml:1:11",
             "`extends` forms a cycle:",
@@ -279,12 +276,8 @@ fn an_extends_cycle_or_a_missing_base_is_an_error() {
             "y.toml → ",
         ],
     );
-    p.write("params/x.toml", "extends = \"nope.toml\"\n");
-    let e = ParamsFile::load(&p.path("params/x.toml"))
-        .unwrap_err()
-        .to_string();
     assert_has(
-        &e,
+        &err("extends = \"nope.toml\"\n"),
         &[
             "x.toml:1:11",
             "no file",
@@ -292,9 +285,8 @@ fn an_extends_cycle_or_a_missing_base_is_an_error() {
             "relative to this file's folder",
         ],
     );
-    p.write("params/x.toml", "extends = 3\n");
-    let e = ParamsFile::load(&p.path("params/x.toml"))
-        .unwrap_err()
-        .to_string();
-    assert_has(&e, &["x.toml:1:11", "`extends` must be a file name"]);
+    assert_has(
+        &err("extends = 3\n"),
+        &["x.toml:1:11", "`extends` must be a file name"],
+    );
 }

@@ -249,21 +249,23 @@ fn subst_str(
     for p in pieces {
         match p {
             Piece::Text(t) => out.push_str(&t),
-            Piece::Ref(path) => match lookup(&path, at, vars, values)?.v {
-                Val::Str(x) => out.push_str(&x),
-                Val::Int(i) => out.push_str(&i.to_string()),
-                _ => {
-                    let v = lookup(&path, at, vars, values)?;
-                    return Err(ConfigError::at(
-                        &at.origin,
-                        format!(
-                            "`{{{path}}}` is {} (written at {}): only a string or an integer can be part of a longer string",
-                            v.type_name(),
-                            v.origin
-                        ),
-                    ));
+            Piece::Ref(path) => {
+                let v = lookup(&path, at, vars, values)?;
+                match &v.v {
+                    Val::Str(x) => out.push_str(x),
+                    Val::Int(i) => out.push_str(&i.to_string()),
+                    _ => {
+                        return Err(ConfigError::at(
+                            &at.origin,
+                            format!(
+                                "`{{{path}}}` is {} (written at {}): only a string or an integer can be part of a longer string",
+                                v.type_name(),
+                                v.origin
+                            ),
+                        ));
+                    }
                 }
-            },
+            }
         }
     }
     Ok(Node {

@@ -370,3 +370,10 @@ pub fn concrete_stages(plan: &Plan) -> ConcreteStages {
         })
         .collect()
 }
+
+/// Panics unless `msg` contains every one of `parts`.
+pub fn assert_has(msg: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(msg.contains(part), "missing `{part}` in:\n{msg}");
+    }
+}
