@@ -36,6 +36,30 @@
 //! Every parameter is then validated by the stage's kind (type, range, allowed values) and its
 //! defaults are filled in, so that the key of a stage sees all of them.
 //!
+//! # Named values, templates, `extends`
+//!
+//! ```toml
+//! extends = "base.toml"          # this file's tables deep-merged onto base.toml's
+//!
+//! [values]                       # written once, used by name
+//! lattices = ["square", "hexagonal"]
+//! common = { tol = "$tol" }
+//!
+//! [stages.surface]               # a template: one stage per combination of the matrix
+//! matrix = { lattice = "{lattices}", n = [5, 6] }
+//! name = "surface_{lattice}_{n}" # surface_square_5, surface_square_6, surface_hexagonal_5, ...
+//! kind = "surface"
+//! params = { "<<" = "{common}", lattice = "{lattice}", n = "{n}" }
+//! ```
+//!
+//! `"{name}"` is replaced by a named value or matrix variable (any type), `"{name.field}"` by a
+//! field of it (`"{rows.0}"`: an element), and `"x_{name}"` splices a string or integer into a
+//! longer string (`{{`, `}}`: literal braces); `"<<"` merges a table into the one it is written
+//! in. Params files may use `extends` too. The expansion (`config/expand.rs`) and the merge
+//! (`config/tree.rs`) happen before anything else sees the file: a plan, its keys, dry-run reasons and errors are
+//! per concrete stage, and an error in a template instance names the template and the instance
+//! after its `file:line:col`. `docs/pipeline.md` has the full description.
+//!
 //! # Params files
 //!
 //! A flat table of settings declared by the pipeline file:
@@ -50,13 +74,16 @@
 
 use crate::schema::{ParamType, describe};
 use crate::util::did_you_mean;
-use serde_json::{Map, Number, Value};
+use serde_json::Value;
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
-use toml::de::{DeTable, DeValue};
+use tree::{Key, Node, Val};
+
+mod expand;
+mod tree;
 
 /// A place in a file: `file:line:col` (1-based).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -67,6 +94,19 @@ pub struct Origin {
     pub line: usize,
     /// Column (characters), 1-based.
     pub col: usize,
+    /// For a value of an expanded template: "template `T`, instance `I`" (printed after the
+    /// message of an error at this place).
+    pub context: Option<Arc<str>>,
+}
+
+impl Origin {
+    /// `file:line:col`, followed by the template instance it belongs to, if any.
+    pub fn with_context(&self) -> String {
+        match &self.context {
+            Some(c) => format!("{self} (in {c})"),
+            None => self.to_string(),
+        }
+    }
 }
 
 impl fmt::Display for Origin {
@@ -104,8 +144,12 @@ impl ConfigError {
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match &self.origin {
-            Some(o) => write!(f, "{o}: {}", self.message),
-            None => write!(f, "{}", self.message),
+            Some(o) => write!(f, "{o}: {}", self.message)?,
+            None => write!(f, "{}", self.message)?,
+        }
+        match self.origin.as_ref().and_then(|o| o.context.as_ref()) {
+            Some(c) => write!(f, " (in {c})"),
+            None => Ok(()),
         }
     }
 }
@@ -170,110 +214,12 @@ impl Source {
             file: self.name.clone(),
             line,
             col,
+            context: None,
         }
     }
     fn at<T>(&self, s: &Spanned<T>) -> Origin {
         self.origin(s.span().start)
     }
-}
-
-fn display_name(path: &Path) -> String {
-    path.to_string_lossy().into_owned()
-}
-
-fn read_source(path: &Path) -> Result<Source, ConfigErrors> {
-    let name = display_name(path);
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        ConfigErrors(vec![ConfigError::plain(format!(
-            "cannot read `{name}`: {e}"
-        ))])
-    })?;
-    Ok(Source::new(&name, text))
-}
-
-fn parse_table<'a>(src: &'a Source) -> Result<Spanned<DeTable<'a>>, ConfigErrors> {
-    DeTable::parse(&src.text).map_err(|e| {
-        let origin = e.span().map(|s| src.origin(s.start));
-        ConfigErrors(vec![ConfigError {
-            origin,
-            message: format!("invalid TOML: {}", e.message()),
-        }])
-    })
-}
-
-/// Converts a TOML value to JSON. Dates are not supported (no stage needs them).
-fn to_json(src: &Source, v: &Spanned<DeValue<'_>>, errs: &mut Vec<ConfigError>) -> Value {
-    match v.get_ref() {
-        DeValue::String(s) => Value::String(s.to_string()),
-        DeValue::Integer(i) => match i64::from_str_radix(i.as_str(), i.radix()) {
-            Ok(x) => Value::from(x),
-            Err(_) => {
-                errs.push(ConfigError::at(
-                    &src.at(v),
-                    format!("integer {i} does not fit 64 bits"),
-                ));
-                Value::Null
-            }
-        },
-        DeValue::Float(f) => {
-            let x: f64 = f.as_str().parse().unwrap_or(f64::NAN);
-            match Number::from_f64(x) {
-                Some(n) => Value::Number(n),
-                None => {
-                    errs.push(ConfigError::at(
-                        &src.at(v),
-                        format!("`{f}`: only finite numbers are allowed (no nan or inf)"),
-                    ));
-                    Value::Null
-                }
-            }
-        }
-        DeValue::Boolean(b) => Value::Bool(*b),
-        DeValue::Datetime(d) => {
-            errs.push(ConfigError::at(
-                &src.at(v),
-                format!("dates are not supported (found {d}); write a string"),
-            ));
-            Value::Null
-        }
-        DeValue::Array(a) => Value::Array(a.iter().map(|x| to_json(src, x, errs)).collect()),
-        DeValue::Table(t) => Value::Object(
-            t.iter()
-                .map(|(k, x)| (k.get_ref().to_string(), to_json(src, x, errs)))
-                .collect::<Map<String, Value>>(),
-        ),
-    }
-}
-
-fn type_name(v: &DeValue<'_>) -> &'static str {
-    match v {
-        DeValue::String(_) => "a string",
-        DeValue::Integer(_) => "an integer",
-        DeValue::Float(_) => "a float",
-        DeValue::Boolean(_) => "a boolean",
-        DeValue::Datetime(_) => "a date",
-        DeValue::Array(_) => "an array",
-        DeValue::Table(_) => "a table",
-    }
-}
-
-fn unknown_key(
-    src: &Source,
-    key: &Spanned<std::borrow::Cow<'_, str>>,
-    what: &str,
-    allowed: &[&str],
-) -> ConfigError {
-    let hint = did_you_mean(key.get_ref(), allowed)
-        .map(|s| format!("did you mean `{s}`? "))
-        .unwrap_or_default();
-    ConfigError::at(
-        &src.at(key),
-        format!(
-            "unknown key `{}` in {what}; {hint}allowed: {}",
-            key.get_ref(),
-            allowed.join(", ")
-        ),
-    )
 }
 
 /// Whether `name` is a valid stage, scene or setting name: ASCII letters, digits, `_`, `-`,
@@ -364,28 +310,29 @@ pub struct ParamsFile {
     pub origin: Origin,
 }
 
-const PIPELINE_KEYS: &[&str] = &["settings", "scenes", "stages"];
+const PIPELINE_KEYS: &[&str] = &["settings", "scenes", "stages", "values", "extends"];
 const SETTING_KEYS: &[&str] = &["type", "default", "min", "max", "allowed", "doc"];
 const SETTING_TYPES: &[&str] = &["int", "float", "string", "bool", "array", "any"];
 const SCENE_KEYS: &[&str] = &["stages", "doc"];
-const STAGE_KEYS: &[&str] = &["kind", "inputs", "params", "doc"];
+const STAGE_KEYS: &[&str] = &["kind", "inputs", "params", "doc", "matrix", "name"];
 
 impl PipelineFile {
-    /// Reads and checks the structure of a pipeline file (kinds and references are checked
-    /// when a plan is built).
+    /// Reads and checks the structure of a pipeline file, following `extends` and expanding
+    /// named values and templates (kinds and references are checked when a plan is built).
     pub fn load(path: &Path) -> Result<Self, ConfigErrors> {
-        let src = read_source(path)?;
-        Self::parse_source(path, &src)
+        Self::from_tree(path, tree::load_tree(path, None)?)
     }
 
-    /// Parses pipeline text (for tests); `name` is used in error messages.
+    /// Parses pipeline text (for tests); `name` is used in error messages (and an `extends`
+    /// is read relative to its folder).
     pub fn parse_str(name: &str, text: &str) -> Result<Self, ConfigErrors> {
-        let src = Source::new(name, text.to_string());
-        Self::parse_source(Path::new(name), &src)
+        Self::from_tree(
+            Path::new(name),
+            tree::load_tree(Path::new(name), Some(text.into()))?,
+        )
     }
 
-    fn parse_source(path: &Path, src: &Source) -> Result<Self, ConfigErrors> {
-        let root = parse_table(src)?;
+    fn from_tree(path: &Path, root: Node) -> Result<Self, ConfigErrors> {
         let mut errs = Vec::new();
         let mut out = PipelineFile {
             path: path.to_path_buf(),
@@ -393,55 +340,61 @@ impl PipelineFile {
             scenes: BTreeMap::new(),
             stages: BTreeMap::new(),
         };
-        for (k, v) in root.get_ref().iter() {
-            let table = |errs: &mut Vec<ConfigError>| match v.get_ref() {
-                DeValue::Table(t) => Some(t),
-                other => {
-                    errs.push(ConfigError::at(
-                        &src.at(v),
-                        format!(
-                            "`{}` must be a table, found {}",
-                            k.get_ref(),
-                            type_name(other)
-                        ),
-                    ));
-                    None
+        let entries = root.table().unwrap_or_default();
+        let mut sections: BTreeMap<&str, &[(Key, Node)]> = BTreeMap::new();
+        for (k, v) in entries {
+            if !PIPELINE_KEYS.contains(&k.name.as_str()) {
+                errs.push(unknown_key(k, "a pipeline file", PIPELINE_KEYS));
+            } else if let Some(t) = v.table() {
+                sections.insert(&k.name, t);
+            } else {
+                errs.push(ConfigError::at(
+                    &v.origin,
+                    format!("`{}` must be a table, found {}", k.name, v.type_name()),
+                ));
+            }
+        }
+        let section = |name: &str| sections.get(name).copied().unwrap_or_default();
+        for (name, decl) in section("settings") {
+            if let Some(d) = parse_setting(name, decl, &mut errs) {
+                out.settings.insert(name.name.clone(), d);
+            }
+        }
+        for (name, _) in section("values") {
+            check_name(name, "named value", &mut errs);
+        }
+        let mut values = expand::Values::new(section("values"));
+        values.resolve_all(&mut errs);
+        if !errs.is_empty() {
+            // stages would repeat the errors of the values they use
+            return Err(ConfigErrors(errs));
+        }
+        for (name, decl) in section("scenes") {
+            let decl = expand::subst_values(decl, &mut values, &mut errs);
+            if let Some(d) = parse_scene(name, &decl, &mut errs) {
+                out.scenes.insert(name.name.clone(), d);
+            }
+        }
+        let mut defined: BTreeMap<String, Origin> = BTreeMap::new();
+        for (template, decl) in section("stages") {
+            for (name, decl) in expand::expand_stage(template, decl, &mut values, &mut errs) {
+                if let Some(first) = defined.insert(name.name.clone(), name.origin.clone()) {
+                    errs.push(ConfigError::plain(format!(
+                        "stage `{}` is defined twice: at {} and at {}",
+                        name.name,
+                        first.with_context(),
+                        name.origin.with_context()
+                    )));
+                    continue;
                 }
-            };
-            match k.get_ref().as_ref() {
-                "settings" => {
-                    if let Some(t) = table(&mut errs) {
-                        for (name, decl) in t.iter() {
-                            if let Some(d) = parse_setting(src, name, decl, &mut errs) {
-                                out.settings.insert(name.get_ref().to_string(), d);
-                            }
-                        }
-                    }
+                if let Some(d) = parse_stage(&name, &decl, &mut errs) {
+                    out.stages.insert(name.name.clone(), d);
                 }
-                "scenes" => {
-                    if let Some(t) = table(&mut errs) {
-                        for (name, decl) in t.iter() {
-                            if let Some(d) = parse_scene(src, name, decl, &mut errs) {
-                                out.scenes.insert(name.get_ref().to_string(), d);
-                            }
-                        }
-                    }
-                }
-                "stages" => {
-                    if let Some(t) = table(&mut errs) {
-                        for (name, decl) in t.iter() {
-                            if let Some(d) = parse_stage(src, name, decl, &mut errs) {
-                                out.stages.insert(name.get_ref().to_string(), d);
-                            }
-                        }
-                    }
-                }
-                _ => errs.push(unknown_key(src, k, "a pipeline file", PIPELINE_KEYS)),
             }
         }
         if out.stages.is_empty() && errs.is_empty() {
             errs.push(ConfigError::at(
-                &src.origin(0),
+                &root.origin,
                 "the pipeline declares no stages (add `[stages.NAME]` tables)",
             ));
         }
@@ -453,86 +406,83 @@ impl PipelineFile {
     }
 }
 
-fn check_name(
-    src: &Source,
-    name: &Spanned<std::borrow::Cow<'_, str>>,
-    what: &str,
-    errs: &mut Vec<ConfigError>,
-) -> bool {
-    if valid_name(name.get_ref()) {
+fn unknown_key(key: &Key, what: &str, allowed: &[&str]) -> ConfigError {
+    let hint = did_you_mean(&key.name, allowed)
+        .map(|s| format!("did you mean `{s}`? "))
+        .unwrap_or_default();
+    ConfigError::at(
+        &key.origin,
+        format!(
+            "unknown key `{}` in {what}; {hint}allowed: {}",
+            key.name,
+            allowed.join(", ")
+        ),
+    )
+}
+
+fn check_name(name: &Key, what: &str, errs: &mut Vec<ConfigError>) -> bool {
+    if valid_name(&name.name) {
         true
     } else {
         errs.push(ConfigError::at(
-            &src.at(name),
+            &name.origin,
             format!(
                 "invalid {what} name `{}`: use ASCII letters, digits, `_` and `-`, starting with a letter or `_`",
-                name.get_ref()
+                name.name
             ),
         ));
         false
     }
 }
 
-fn as_table<'a, 'i>(
-    src: &Source,
-    what: &str,
-    v: &'a Spanned<DeValue<'i>>,
-    errs: &mut Vec<ConfigError>,
-) -> Option<&'a DeTable<'i>> {
-    match v.get_ref() {
-        DeValue::Table(t) => Some(t),
-        other => {
-            errs.push(ConfigError::at(
-                &src.at(v),
-                format!("{what} must be a table, found {}", type_name(other)),
-            ));
-            None
-        }
+fn as_table<'a>(what: &str, v: &'a Node, errs: &mut Vec<ConfigError>) -> Option<&'a [(Key, Node)]> {
+    let t = v.table();
+    if t.is_none() {
+        errs.push(ConfigError::at(
+            &v.origin,
+            format!("{what} must be a table, found {}", v.type_name()),
+        ));
     }
+    t
 }
 
-fn as_string(
-    src: &Source,
-    what: &str,
-    v: &Spanned<DeValue<'_>>,
-    errs: &mut Vec<ConfigError>,
-) -> Option<Located<String>> {
-    match v.get_ref() {
-        DeValue::String(s) => Some(Located {
-            value: s.to_string(),
-            origin: src.at(v),
+fn as_string(what: &str, v: &Node, errs: &mut Vec<ConfigError>) -> Option<Located<String>> {
+    match &v.v {
+        Val::Str(s) => Some(Located {
+            value: s.clone(),
+            origin: v.origin.clone(),
         }),
-        other => {
+        _ => {
             errs.push(ConfigError::at(
-                &src.at(v),
-                format!("{what} must be a string, found {}", type_name(other)),
+                &v.origin,
+                format!("{what} must be a string, found {}", v.type_name()),
             ));
             None
         }
     }
 }
 
-fn parse_setting(
-    src: &Source,
-    name: &Spanned<std::borrow::Cow<'_, str>>,
-    decl: &Spanned<DeValue<'_>>,
-    errs: &mut Vec<ConfigError>,
-) -> Option<SettingDecl> {
-    let n = name.get_ref();
-    if !check_name(src, name, "setting", errs) {
+/// A list of names (stages of a scene or an input); `what` names one element.
+fn as_names(what: &str, a: &[Node], errs: &mut Vec<ConfigError>) -> Vec<Located<String>> {
+    a.iter().filter_map(|x| as_string(what, x, errs)).collect()
+}
+
+fn parse_setting(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option<SettingDecl> {
+    let n = &name.name;
+    if !check_name(name, "setting", errs) {
         return None;
     }
     let what =
         format!("setting `{n}` (write `{n} = {{ type = \"int\", default = 3 }}` or similar)");
-    let t = as_table(src, &what, decl, errs)?;
+    let t = as_table(&what, decl, errs)?;
     let before = errs.len();
     let mut ty_name: Option<Located<String>> = None;
     let (mut default, mut min, mut max, mut allowed, mut doc) =
         (None, None, None, None, String::new());
-    for (k, v) in t.iter() {
-        match k.get_ref().as_ref() {
+    for (k, v) in t {
+        match k.name.as_str() {
             "type" => {
-                if let Some(s) = as_string(src, "`type`", v, errs) {
+                if let Some(s) = as_string("`type`", v, errs) {
                     if SETTING_TYPES.contains(&s.value.as_str()) {
                         ty_name = Some(s);
                     } else {
@@ -547,26 +497,26 @@ fn parse_setting(
                     }
                 }
             }
-            "default" => default = Some((to_json(src, v, errs), src.at(v))),
+            "default" => default = Some((v.to_json(), v.origin.clone())),
             "min" | "max" => {
-                let j = to_json(src, v, errs);
+                let j = v.to_json();
                 if !j.is_number() {
                     errs.push(ConfigError::at(
-                        &src.at(v),
+                        &v.origin,
                         format!(
                             "setting `{n}`: `{}` must be a number, found {}",
-                            k.get_ref(),
+                            k.name,
                             describe(&j)
                         ),
                     ));
-                } else if k.get_ref() == "min" {
+                } else if k.name == "min" {
                     min = Some(j);
                 } else {
                     max = Some(j);
                 }
             }
             "allowed" => {
-                let j = to_json(src, v, errs);
+                let j = v.to_json();
                 match j.as_array().filter(|a| a.iter().all(Value::is_string)) {
                     Some(a) => {
                         allowed = Some(
@@ -576,38 +526,72 @@ fn parse_setting(
                         )
                     }
                     None => errs.push(ConfigError::at(
-                        &src.at(v),
+                        &v.origin,
                         format!("setting `{n}`: `allowed` must be an array of strings"),
                     )),
                 }
             }
             "doc" => {
-                doc = as_string(src, "`doc`", v, errs)
+                doc = as_string("`doc`", v, errs)
                     .map(|s| s.value)
                     .unwrap_or_default()
             }
-            _ => errs.push(unknown_key(src, k, &format!("setting `{n}`"), SETTING_KEYS)),
+            _ => errs.push(unknown_key(k, &format!("setting `{n}`"), SETTING_KEYS)),
         }
     }
-    // the type: explicit, or inferred from the default
-    let inferred = match (&ty_name, &default) {
-        (Some(t), _) => t.value.clone(),
-        (None, Some((Value::Number(x), _))) if x.is_f64() => "float".into(),
-        (None, Some((Value::Number(_), _))) => "int".into(),
-        (None, Some((Value::String(_), _))) => "string".into(),
-        (None, Some((Value::Bool(_), _))) => "bool".into(),
-        (None, Some((Value::Array(_), _))) => "array".into(),
-        (None, Some(_)) => "any".into(),
-        (None, None) => {
-            errs.push(ConfigError::at(
-                &src.at(decl),
-                format!("setting `{n}` needs a `type` or a `default`"),
-            ));
-            return None;
-        }
+    let Some(ty_name) = ty_name
+        .map(|t| t.value)
+        .or_else(|| default.as_ref().map(|(v, _)| inferred_type(v).to_string()))
+    else {
+        errs.push(ConfigError::at(
+            &decl.origin,
+            format!("setting `{n}` needs a `type` or a `default`"),
+        ));
+        return None;
     };
+    let ty = setting_type(&ty_name, min, max, allowed);
+    let default = match default {
+        Some((v, origin)) => match ty.check(&v) {
+            Ok(v) => Some(v),
+            Err(e) => {
+                errs.push(ConfigError::at(
+                    &origin,
+                    format!("setting `{n}`: default: {e}"),
+                ));
+                None
+            }
+        },
+        None => None,
+    };
+    (errs.len() == before).then(|| SettingDecl {
+        ty,
+        default,
+        doc,
+        origin: name.origin.clone(),
+    })
+}
+
+/// The type a setting declared only by its default has.
+fn inferred_type(default: &Value) -> &'static str {
+    match default {
+        Value::Number(x) if x.is_f64() => "float",
+        Value::Number(_) => "int",
+        Value::String(_) => "string",
+        Value::Bool(_) => "bool",
+        Value::Array(_) => "array",
+        _ => "any",
+    }
+}
+
+/// A setting's type from its name in `SETTING_TYPES` and its range or allowed values.
+fn setting_type(
+    name: &str,
+    min: Option<Value>,
+    max: Option<Value>,
+    allowed: Option<Vec<String>>,
+) -> ParamType {
     let num = |v: &Option<Value>| v.as_ref().and_then(Value::as_f64);
-    let ty = match inferred.as_str() {
+    match name {
         "int" => ParamType::Int {
             min: num(&min).map(|x| x.ceil() as i64),
             max: num(&max).map(|x| x.floor() as i64),
@@ -626,80 +610,50 @@ fn parse_setting(
             max_len: None,
         },
         _ => ParamType::Any,
-    };
-    let default = match default {
-        Some((v, origin)) => match ty.check(&v) {
-            Ok(v) => Some(v),
-            Err(e) => {
-                errs.push(ConfigError::at(
-                    &origin,
-                    format!("setting `{n}`: default: {e}"),
-                ));
-                None
-            }
-        },
-        None => None,
-    };
-    (errs.len() == before).then(|| SettingDecl {
-        ty,
-        default,
-        doc,
-        origin: src.at(name),
-    })
+    }
 }
 
-fn parse_scene(
-    src: &Source,
-    name: &Spanned<std::borrow::Cow<'_, str>>,
-    decl: &Spanned<DeValue<'_>>,
-    errs: &mut Vec<ConfigError>,
-) -> Option<SceneDecl> {
-    let n = name.get_ref();
-    if !check_name(src, name, "scene", errs) {
+fn parse_scene(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option<SceneDecl> {
+    let n = &name.name;
+    if !check_name(name, "scene", errs) {
         return None;
     }
-    let t = as_table(src, &format!("scene `{n}`"), decl, errs)?;
+    let t = as_table(&format!("scene `{n}`"), decl, errs)?;
     let before = errs.len();
     let mut stages = None;
     let mut doc = String::new();
-    for (k, v) in t.iter() {
-        match k.get_ref().as_ref() {
-            "stages" => match v.get_ref() {
-                DeValue::Array(a) => {
-                    stages = Some(
-                        a.iter()
-                            .filter_map(|x| as_string(src, "a scene's stage", x, errs))
-                            .collect::<Vec<_>>(),
-                    )
-                }
-                other => errs.push(ConfigError::at(
-                    &src.at(v),
+    for (k, v) in t {
+        match k.name.as_str() {
+            "stages" => match &v.v {
+                Val::Array(a) => stages = Some(as_names("a scene's stage", a, errs)),
+                _ => errs.push(ConfigError::at(
+                    &v.origin,
                     format!(
                         "scene `{n}`: `stages` must be an array of stage names, found {}",
-                        type_name(other)
+                        v.type_name()
                     ),
                 )),
             },
             "doc" => {
-                doc = as_string(src, "`doc`", v, errs)
+                doc = as_string("`doc`", v, errs)
                     .map(|s| s.value)
                     .unwrap_or_default()
             }
-            _ => errs.push(unknown_key(src, k, &format!("scene `{n}`"), SCENE_KEYS)),
+            _ => errs.push(unknown_key(k, &format!("scene `{n}`"), SCENE_KEYS)),
         }
     }
     let stages = match stages {
         Some(s) if !s.is_empty() => s,
         Some(_) => {
             errs.push(ConfigError::at(
-                &src.at(name),
+                &name.origin,
                 format!("scene `{n}`: `stages` is empty"),
             ));
             return None;
         }
         None => {
             errs.push(ConfigError::at(
-                &src.at(name),
+                &name.origin,
                 format!("scene `{n}` needs `stages = [\"...\"]`, the stages it shows"),
             ));
             return None;
@@ -708,95 +662,90 @@ fn parse_scene(
     (errs.len() == before).then(|| SceneDecl {
         stages,
         doc,
-        origin: src.at(name),
+        origin: name.origin.clone(),
     })
 }
 
-fn parse_stage(
-    src: &Source,
-    name: &Spanned<std::borrow::Cow<'_, str>>,
-    decl: &Spanned<DeValue<'_>>,
-    errs: &mut Vec<ConfigError>,
-) -> Option<StageDecl> {
-    let n = name.get_ref();
-    if !check_name(src, name, "stage", errs) {
+fn parse_inputs(n: &str, v: &Node, errs: &mut Vec<ConfigError>) -> BTreeMap<String, InputDecl> {
+    let mut inputs = BTreeMap::new();
+    let Some(it) = as_table(&format!("stage `{n}`: `inputs`"), v, errs) else {
+        return inputs;
+    };
+    for (ik, iv) in it {
+        let (stages, list) = match &iv.v {
+            Val::Str(s) => (
+                vec![Located {
+                    value: s.clone(),
+                    origin: iv.origin.clone(),
+                }],
+                false,
+            ),
+            Val::Array(a) => (as_names("an input stage", a, errs), true),
+            _ => {
+                errs.push(ConfigError::at(
+                    &iv.origin,
+                    format!(
+                        "stage `{n}`: input `{}` must be a stage name or a list of stage names, found {}",
+                        ik.name,
+                        iv.type_name()
+                    ),
+                ));
+                continue;
+            }
+        };
+        inputs.insert(
+            ik.name.clone(),
+            InputDecl {
+                stages,
+                list,
+                origin: ik.origin.clone(),
+            },
+        );
+    }
+    inputs
+}
+
+fn parse_stage(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option<StageDecl> {
+    let n = &name.name;
+    if !check_name(name, "stage", errs) {
         return None;
     }
-    let t = as_table(src, &format!("stage `{n}`"), decl, errs)?;
+    let t = as_table(&format!("stage `{n}`"), decl, errs)?;
     let before = errs.len();
     let mut kind = None;
     let mut inputs = BTreeMap::new();
     let mut params = BTreeMap::new();
     let mut param_keys = BTreeMap::new();
     let mut doc = String::new();
-    for (k, v) in t.iter() {
-        match k.get_ref().as_ref() {
-            "kind" => kind = as_string(src, "`kind`", v, errs),
+    for (k, v) in t {
+        match k.name.as_str() {
+            "kind" => kind = as_string("`kind`", v, errs),
             "doc" => {
-                doc = as_string(src, "`doc`", v, errs)
+                doc = as_string("`doc`", v, errs)
                     .map(|s| s.value)
                     .unwrap_or_default()
             }
             "params" => {
-                if let Some(pt) = as_table(src, &format!("stage `{n}`: `params`"), v, errs) {
-                    for (pk, pv) in pt.iter() {
-                        param_keys.insert(pk.get_ref().to_string(), src.at(pk));
-                        params.insert(
-                            pk.get_ref().to_string(),
-                            Located {
-                                value: to_json(src, pv, errs),
-                                origin: src.at(pv),
-                            },
-                        );
-                    }
+                for (pk, pv) in
+                    as_table(&format!("stage `{n}`: `params`"), v, errs).unwrap_or_default()
+                {
+                    param_keys.insert(pk.name.clone(), pk.origin.clone());
+                    params.insert(
+                        pk.name.clone(),
+                        Located {
+                            value: pv.to_json(),
+                            origin: pv.origin.clone(),
+                        },
+                    );
                 }
             }
-            "inputs" => {
-                if let Some(it) = as_table(src, &format!("stage `{n}`: `inputs`"), v, errs) {
-                    for (ik, iv) in it.iter() {
-                        let (stages, list) = match iv.get_ref() {
-                            DeValue::String(s) => (
-                                vec![Located {
-                                    value: s.to_string(),
-                                    origin: src.at(iv),
-                                }],
-                                false,
-                            ),
-                            DeValue::Array(a) => (
-                                a.iter()
-                                    .filter_map(|x| as_string(src, "an input stage", x, errs))
-                                    .collect(),
-                                true,
-                            ),
-                            other => {
-                                errs.push(ConfigError::at(
-                                    &src.at(iv),
-                                    format!(
-                                        "stage `{n}`: input `{}` must be a stage name or a list of stage names, found {}",
-                                        ik.get_ref(),
-                                        type_name(other)
-                                    ),
-                                ));
-                                continue;
-                            }
-                        };
-                        inputs.insert(
-                            ik.get_ref().to_string(),
-                            InputDecl {
-                                stages,
-                                list,
-                                origin: src.at(ik),
-                            },
-                        );
-                    }
-                }
-            }
-            _ => errs.push(unknown_key(src, k, &format!("stage `{n}`"), STAGE_KEYS)),
+            "inputs" => inputs = parse_inputs(n, v, errs),
+            _ => errs.push(unknown_key(k, &format!("stage `{n}`"), STAGE_KEYS)),
         }
     }
     let Some(kind) = kind else {
         errs.push(ConfigError::at(
-            &src.at(name),
+            &name.origin,
             format!("stage `{n}` needs `kind = \"...\"`"),
         ));
         return None;
@@ -807,22 +756,23 @@ fn parse_stage(
         params,
         param_keys,
         doc,
-        origin: src.at(name),
+        origin: name.origin.clone(),
     })
 }
 
 impl ParamsFile {
-    /// Reads a params file (values are checked against a pipeline's settings by
-    /// [`ParamsFile::resolve`]).
+    /// Reads a params file, following `extends` (values are checked against a pipeline's
+    /// settings by [`ParamsFile::resolve`]).
     pub fn load(path: &Path) -> Result<Self, ConfigErrors> {
-        let src = read_source(path)?;
-        Self::parse_source(path, &src)
+        Self::from_tree(path, tree::load_tree(path, None)?)
     }
 
     /// Parses params text (for tests).
     pub fn parse_str(name: &str, text: &str) -> Result<Self, ConfigErrors> {
-        let src = Source::new(name, text.to_string());
-        Self::parse_source(Path::new(name), &src)
+        Self::from_tree(
+            Path::new(name),
+            tree::load_tree(Path::new(name), Some(text.into()))?,
+        )
     }
 
     /// An empty params file (every setting takes its default).
@@ -835,23 +785,23 @@ impl ParamsFile {
                 file: "<no params file>".into(),
                 line: 1,
                 col: 1,
+                context: None,
             },
         }
     }
 
-    fn parse_source(path: &Path, src: &Source) -> Result<Self, ConfigErrors> {
-        let root = parse_table(src)?;
+    fn from_tree(path: &Path, root: Node) -> Result<Self, ConfigErrors> {
         let mut errs = Vec::new();
         let mut values = BTreeMap::new();
         let mut keys = BTreeMap::new();
-        for (k, v) in root.get_ref().iter() {
-            if check_name(src, k, "setting", &mut errs) {
-                keys.insert(k.get_ref().to_string(), src.at(k));
+        for (k, v) in root.table().unwrap_or_default() {
+            if check_name(k, "setting", &mut errs) {
+                keys.insert(k.name.clone(), k.origin.clone());
                 values.insert(
-                    k.get_ref().to_string(),
+                    k.name.clone(),
                     Located {
-                        value: to_json(src, v, &mut errs),
-                        origin: src.at(v),
+                        value: v.to_json(),
+                        origin: v.origin.clone(),
                     },
                 );
             }
@@ -861,7 +811,7 @@ impl ParamsFile {
                 path: path.to_path_buf(),
                 values,
                 keys,
-                origin: src.origin(0),
+                origin: root.origin,
             })
         } else {
             Err(ConfigErrors(errs))

@@ -347,3 +347,33 @@ pub fn values(p: &Project, reg: &Registry) -> Vec<(String, String, f64)> {
         })
         .collect()
 }
+
+/// What a plan makes of each concrete stage: name → (kind, key, inputs).
+pub type ConcreteStages = std::collections::BTreeMap<
+    String,
+    (
+        String,
+        String,
+        std::collections::BTreeMap<String, Vec<String>>,
+    ),
+>;
+
+/// The concrete stages of a plan (to compare two spellings of one pipeline).
+pub fn concrete_stages(plan: &Plan) -> ConcreteStages {
+    plan.stages
+        .iter()
+        .map(|s| {
+            (
+                s.name.clone(),
+                (s.kind.clone(), s.key.clone(), s.inputs.clone()),
+            )
+        })
+        .collect()
+}
+
+/// Panics unless `msg` contains every one of `parts`.
+pub fn assert_has(msg: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(msg.contains(part), "missing `{part}` in:\n{msg}");
+    }
+}
