@@ -384,14 +384,25 @@ mod tests {
         let made = std::process::Command::new("mkfifo").arg(&fifo).status();
         let sub = d.join("sub");
         std::fs::create_dir(&sub).unwrap();
-        let mut cases = vec![
-            (link.clone(), "symbolic link"),
-            (sub.clone(), "directory"),
-            (PathBuf::from("/dev/null"), "device"),
-        ];
+        let mut cases = vec![(link.clone(), "symbolic link"), (sub.clone(), "directory")];
         if made.is_ok_and(|s| s.success()) {
             cases.push((fifo, "FIFO"));
         }
+        // a device node of our own (a copy of /dev/null, where mknod is allowed: as root), so
+        // that a regression replaces nothing outside the temporary folder
+        let dev = d.join("null");
+        let made = std::process::Command::new("mknod")
+            .arg(&dev)
+            .args(["c", "1", "3"])
+            .status();
+        if made.is_ok_and(|s| s.success()) {
+            cases.push((dev, "device"));
+        }
+        let e = format!(
+            "{:#}",
+            require_replaceable(Path::new("/dev/null")).unwrap_err()
+        );
+        assert!(e.contains("device"), "{e}");
         for (p, kind) in cases {
             let e = format!("{:#}", check_output_path("--out", &p, &[]).unwrap_err());
             assert!(e.contains("--out") && e.contains(kind), "{e}");
