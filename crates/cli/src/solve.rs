@@ -2,7 +2,7 @@
 
 use crate::guard::{self, Output};
 use anyhow::{Context, Result, bail};
-use contact::{Interaction, Lattice, Method, Model, SolverOptions, Surface};
+use contact::{ContactError, Interaction, Lattice, Method, Model, SolverOptions, Surface};
 use serde_json::json;
 use stages::io;
 use std::path::PathBuf;
@@ -108,6 +108,9 @@ pub fn run(a: Args) -> Result<()> {
         opts.tol_force = t;
         opts.validate().context("--tol")?;
     }
+    if a.max_iter == 0 {
+        bail!("--max-iter 0: allowed an integer ≥ 1");
+    }
     if !a.pressure.is_finite() {
         bail!("--pressure {:?}: allowed a finite number", a.pressure);
     }
@@ -117,20 +120,23 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         a.pressure
     };
-    let sol = pool.install(|| -> Result<_> {
-        let mut model = Model::new(&surface)?;
-        Ok(model.solve(interaction, pressure, &opts, None)?)
+    let sol = pool.install(|| {
+        Model::new(&surface).and_then(|mut m| m.solve(interaction, pressure, &opts, None))
     });
-    let sol = sol.with_context(|| {
-        if a.relative {
-            format!(
-                "--pressure {:?} --relative (p̄ = {pressure:?} E* h0/λ)",
-                a.pressure
-            )
-        } else {
-            format!("--pressure {:?}", a.pressure)
+    let sol = match sol {
+        // a load outside the representable range: name the option as given
+        Err(e @ ContactError::Pressure { .. }) => {
+            Err(anyhow::Error::new(e).context(if a.relative {
+                format!(
+                    "--pressure {:?} --relative (p̄ = {pressure:?} E* h0/λ)",
+                    a.pressure
+                )
+            } else {
+                format!("--pressure {:?}", a.pressure)
+            }))
         }
-    })?;
+        other => other.map_err(anyhow::Error::new),
+    }?;
     if !sol.stats.converged {
         eprintln!(
             "warning: not converged after {} iterations: {}",
