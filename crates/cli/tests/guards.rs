@@ -270,16 +270,18 @@ fn refuses_unrepresentable_pressure() {
     assert_eq!(j["contact_area"].as_f64(), Some(1.0));
 }
 
-/// Spawns the binary with a stdout pipe whose reading end is closed at once; returns its exit
-/// status and stderr.
+/// Runs the binary with a stdout pipe whose reading end is closed before it starts (so every
+/// write meets a closed pipe, whatever the timing); returns its exit status and stderr.
 fn with_closed_stdout(cmd: &mut Command) -> (std::process::ExitStatus, String) {
-    let mut child = cmd
-        .stdout(Stdio::piped())
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = cmd
+        .stdout(writer)
         .stderr(Stdio::piped())
         .spawn()
+        .unwrap()
+        .wait_with_output()
         .unwrap();
-    drop(child.stdout.take());
-    let out = child.wait_with_output().unwrap();
     (
         out.status,
         String::from_utf8_lossy(&out.stderr).into_owned(),
@@ -333,7 +335,7 @@ fn closed_stdout_ends_quietly() {
 #[test]
 fn interrupted_solve_says_interrupted() {
     use std::os::unix::process::ExitStatusExt;
-    // a search that runs for many seconds on this grid (killed after half a second)
+    // a search that runs for many seconds on this grid (interrupted at once)
     let child = bin()
         .args([
             "critical",
@@ -348,7 +350,20 @@ fn interrupted_solve_says_interrupted() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(500));
+    // the handler is installed before the watcher thread starts: wait for a second thread
+    // (Linux /proc; elsewhere half a second), so that the signal cannot beat the handler
+    let tasks = format!("/proc/{}/task", child.id());
+    let t0 = std::time::Instant::now();
+    while t0.elapsed().as_secs_f64() < 10.0 {
+        match std::fs::read_dir(&tasks).map(|rd| rd.count()) {
+            Ok(n) if n >= 2 => break,
+            Ok(_) => std::thread::sleep(std::time::Duration::from_millis(10)),
+            Err(_) => {
+                std::thread::sleep(std::time::Duration::from_millis(500));
+                break;
+            }
+        }
+    }
     let killed = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
