@@ -52,7 +52,7 @@ fn parse_loads(s: &str) -> Result<Vec<f64>> {
                 .parse()
                 .with_context(|| format!("--saddle-loads: {v:?} is not a number"))?;
             if !(x.is_finite() && x < 0.0 && x > -1.0) {
-                bail!("--saddle-loads: {x} is out of range: reduced loads must be in (−1, 0)");
+                bail!("--saddle-loads: {x:?} is out of range: reduced loads must be in (−1, 0)");
             }
             Ok(x)
         })

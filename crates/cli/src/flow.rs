@@ -53,7 +53,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let axis = gapfile::parse_axis(&a.axis).context("--axis")?;
     if !(a.tol.is_finite() && a.tol > 0.0 && a.tol < 1.0) {
-        bail!("--tol {}: allowed a number in (0, 1)", a.tol);
+        bail!("--tol {:?}: allowed a number in (0, 1)", a.tol);
     }
     if a.max_iter == 0 {
         bail!("--max-iter 0: allowed an integer ≥ 1");

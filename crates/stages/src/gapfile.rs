@@ -80,7 +80,7 @@ fn cell_attr(r: &ArtefactReader, name: &str) -> Result<f64> {
         );
     };
     if !(x.is_finite() && x > 0.0) {
-        bail!("`{file}`: root attribute `{name}` = {x}; allowed: a finite number > 0");
+        bail!("`{file}`: root attribute `{name}` = {x:?}; allowed: a finite number > 0");
     }
     Ok(x)
 }
@@ -162,7 +162,7 @@ pub fn check_gap_values(gap: &Array2<f64>) -> std::result::Result<(), String> {
                     if v > -1e-3 {
                         format!("{v:e}")
                     } else {
-                        format!("{v}")
+                        format!("{v:?}")
                     }
                 )
             },
