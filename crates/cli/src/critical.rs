@@ -6,6 +6,8 @@ use critical::{CriticalOptions, CriticalResult, Transition, find_critical_shifte
 use serde_json::{Value, json};
 use surface::Lattice;
 
+use crate::guard;
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Surface model: square, triangular or hexagonal.
@@ -34,7 +36,7 @@ pub struct Args {
     /// Sample the saddle gaps on every shift (default: the first shift only).
     #[arg(long)]
     saddle_every_shift: bool,
-    /// Threads (default: all cores).
+    /// Threads (default: one per core; at most 4 × the cores).
     #[arg(long)]
     threads: Option<usize>,
 }
@@ -50,7 +52,7 @@ fn parse_loads(s: &str) -> Result<Vec<f64>> {
                 .parse()
                 .with_context(|| format!("--saddle-loads: {v:?} is not a number"))?;
             if !(x.is_finite() && x < 0.0 && x > -1.0) {
-                bail!("--saddle-loads: {x} is out of range: reduced loads must be in (−1, 0)");
+                bail!("--saddle-loads: {x:?} is out of range: reduced loads must be in (−1, 0)");
             }
             Ok(x)
         })
@@ -67,11 +69,15 @@ pub fn run(a: Args) -> Result<()> {
             surface::N_MAX
         );
     }
-    if !(a.tol.is_finite() && a.tol > 0.0) {
-        bail!("--tol {}: allowed a finite value > 0 (h0)", a.tol);
+    if !(a.tol > 0.0 && a.tol <= contact::TOL_GAP_MAX) {
+        bail!(
+            "--tol {:?}: allowed 0 < tol ≤ {:e} (h0, the constraint violation)",
+            a.tol,
+            contact::TOL_GAP_MAX
+        );
     }
     if !(a.rel_width.is_finite() && a.rel_width > 0.0 && a.rel_width < 1.0) {
-        bail!("--rel-width {}: allowed a value in (0, 1)", a.rel_width);
+        bail!("--rel-width {:?}: allowed a value in (0, 1)", a.rel_width);
     }
     if a.shifts > 16 {
         bail!(
@@ -91,9 +97,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     opts.validate()?;
     let shifts = shift_set(a.shifts);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0))
-        .build()?;
+    let pool = guard::thread_pool(a.threads)?;
     let t0 = std::time::Instant::now();
     let study = pool.install(|| {
         find_critical_shifted(
@@ -112,6 +116,25 @@ pub fn run(a: Args) -> Result<()> {
     obj.insert("n".into(), json!(a.n));
     obj.insert("tol_gap".into(), json!(a.tol));
     obj.insert("rel_width".into(), json!(a.rel_width));
+    // the widest bracket of any shift and transition: a bracket of doubles cannot shrink below
+    // about ε, so a request under that is echoed beside what was reached
+    let reached = study
+        .results
+        .iter()
+        .flat_map(|r| [&r.any, &r.x, &r.y])
+        .map(|t| t.bracket.rel_width())
+        .fold(0.0, f64::max);
+    if reached > a.rel_width {
+        eprintln!(
+            "warning: --rel-width {:?} was not reached: the widest bracket has relative width \
+             {reached:.3e} (bracket ends are doubles, whose relative spacing is {:.1e} to \
+             {:.1e})",
+            a.rel_width,
+            f64::EPSILON / 2.0,
+            f64::EPSILON
+        );
+    }
+    obj.insert("rel_width_reached".into(), json!(reached));
     obj.insert("p_fc_exact".into(), json!(lattice.exact().p_fc));
     obj.insert("wall_s".into(), json!(t0.elapsed().as_secs_f64()));
     println!("{}", serde_json::to_string(&out)?);

@@ -8,16 +8,19 @@
 //! Output: `conductivity` (a uniform gap g gives g³), `flux` (volume flux through the cell for a
 //! unit pressure drop), `percolating`, `converged`, `termination`, `iterations`, `residual`
 //! (true relative residual), `conservation_error`, `flux_error_estimate`, `wall_s`, `nx`, `ny`, `lx`, `ly`, and some
-//! more solver details. A solve that did not converge is still printed, with `converged: false`
+//! more solver details; `underflow_nodes` counts open nodes whose conductivity g³ underflows
+//! double precision (a field whose largest gap is outside [5.3e-52, 2.4e51] h0 is refused: see
+//! `stages::gapfile::max_gap_range`). A solve that did not converge is still printed, with `converged: false`
 //! and a warning on stderr. With `--fields OUT.h5` the gap, pressure and current density
 //! (`current_x`, `current_y`) are written with the summary and provenance.
 
+use crate::guard::{self, Output};
 use anyhow::{Context, Result, bail};
 use reynolds::{FlowOptions, solve};
 use serde_json::{Value, json};
 use stages::gapfile;
 use std::path::PathBuf;
-use store::{ArtefactReader, ArtefactWriter, Provenance, fields};
+use store::{ArtefactReader, Provenance, fields};
 
 /// Version of what `flow --fields` writes; bump when its results change.
 const CODE_VERSION: u64 = 1;
@@ -39,7 +42,7 @@ pub struct Args {
     /// Cap on preconditioned CG iterations.
     #[arg(long, default_value_t = 200)]
     max_iter: usize,
-    /// Threads (default: all cores).
+    /// Threads (default: one per core; at most 4 × the cores).
     #[arg(long)]
     threads: Option<usize>,
     /// Write gap, pressure, current_x, current_y and the summary to this HDF5 file.
@@ -50,14 +53,31 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let axis = gapfile::parse_axis(&a.axis).context("--axis")?;
     if !(a.tol.is_finite() && a.tol > 0.0 && a.tol < 1.0) {
-        bail!("--tol {}: allowed a number in (0, 1)", a.tol);
+        bail!("--tol {:?}: allowed a number in (0, 1)", a.tol);
     }
     if a.max_iter == 0 {
         bail!("--max-iter 0: allowed an integer ≥ 1");
     }
+    let fields_out = a
+        .fields
+        .as_deref()
+        .map(|p| Output::check("--fields", p, &[("--gap", &a.gap)]))
+        .transpose()?;
+    let pool = guard::thread_pool(a.threads)?;
     let reader = ArtefactReader::open(&a.gap).context("--gap")?;
     let input = gapfile::read_gap(&reader, &a.dataset)?;
     drop(reader);
+    let range = gapfile::check_gap_range(&input.gap)
+        .with_context(|| format!("`{}`: dataset `{}`", a.gap.display(), a.dataset))?;
+    if range.underflow_nodes > 0 {
+        eprintln!(
+            "warning: {} of {} open nodes have gaps below {:.3e} h0 whose cubes (conductivities) \
+             underflow double precision: they count as closed or lose precision",
+            range.underflow_nodes,
+            range.open_nodes,
+            f64::MIN_POSITIVE.cbrt()
+        );
+    }
     let (nx, ny) = input.gap.dim();
     let opts = FlowOptions {
         tolerance: a.tol,
@@ -65,9 +85,6 @@ pub fn run(a: Args) -> Result<()> {
         return_fields: a.fields.is_some(),
         ..Default::default()
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0))
-        .build()?;
     let res = pool
         .install(|| solve(input.gap.view(), input.lx, input.ly, axis, &opts))
         .with_context(|| format!("`{}`", a.gap.display()))?;
@@ -94,10 +111,11 @@ pub fn run(a: Args) -> Result<()> {
         ("contact_fraction", json!(contact)),
         ("gap_file", json!(a.gap.display().to_string())),
         ("dataset", json!(a.dataset)),
+        ("underflow_nodes", json!(range.underflow_nodes)),
     ] {
         obj.insert(k.into(), v);
     }
-    if let Some(path) = &a.fields {
+    if let Some(out) = &fields_out {
         let f = res
             .fields
             .as_ref()
@@ -113,8 +131,7 @@ pub fn run(a: Args) -> Result<()> {
             prov.warnings
                 .push("flow solve did not converge: the flux is not trustworthy".into());
         }
-        let mut w =
-            ArtefactWriter::create(path).with_context(|| format!("creating {}", path.display()))?;
+        let mut w = out.create()?;
         w.set_cell(input.lx, input.ly)?;
         w.write_f64_2d(fields::GAP, input.gap.view())?;
         w.write_f64_2d(fields::PRESSURE, f.pressure.view())?;
@@ -132,7 +149,7 @@ pub fn run(a: Args) -> Result<()> {
             }
         }
         w.write_provenance(&prov)?;
-        let written = w.publish()?;
+        let written = out.publish(w)?;
         obj.insert("fields".into(), json!(written.display().to_string()));
     }
     println!("{}", serde_json::to_string(&summary)?);

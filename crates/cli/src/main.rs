@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 mod cluster;
 mod critical;
 mod flow;
+mod guard;
 mod pipeline;
 mod solve;
 mod tradeoff;
@@ -39,6 +40,7 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
+    guard::install_signal_handlers();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Solve(args) => solve::run(args),

@@ -1,11 +1,12 @@
 //! `saddleflow solve`: one contact problem at a fixed mean pressure; prints one JSON object.
 
+use crate::guard::{self, Output};
 use anyhow::{Context, Result, bail};
-use contact::{Interaction, Lattice, Method, Model, SolverOptions, Surface};
+use contact::{ContactError, Interaction, Lattice, Method, Model, SolverOptions, Surface};
 use serde_json::json;
 use stages::io;
 use std::path::PathBuf;
-use store::{ArtefactWriter, Provenance};
+use store::Provenance;
 
 /// Version of what `solve` writes; bump when its results change.
 const CODE_VERSION: u64 = 1;
@@ -27,12 +28,12 @@ pub struct Args {
     /// hardwall, adhesion or repulsion (the latter two on top of the hard wall).
     #[arg(long, default_value = "hardwall")]
     interaction: String,
-    /// Interaction strength γ0 (adhesion) or γr (repulsion), E* h0²/λ.
-    #[arg(long, default_value_t = 0.2, allow_hyphen_values = true)]
-    gamma0: f64,
-    /// Interaction range ρ, h0.
-    #[arg(long, default_value_t = 0.04, allow_hyphen_values = true)]
-    rho: f64,
+    /// Interaction strength γ0 (adhesion) or γr (repulsion), E* h0²/λ. Default 0.2.
+    #[arg(long, allow_hyphen_values = true)]
+    gamma0: Option<f64>,
+    /// Interaction range ρ, h0. Default 0.04.
+    #[arg(long, allow_hyphen_values = true)]
+    rho: Option<f64>,
     /// Tolerance: constraint violation bound (h0) for Polonsky–Keer, force residual bound
     /// (E* h0/λ) for FIRE. Defaults 1e-10 and 1e-8.
     #[arg(long)]
@@ -43,7 +44,7 @@ pub struct Args {
     /// Iteration cap.
     #[arg(long, default_value_t = 200_000)]
     max_iter: usize,
-    /// Threads (default: all cores).
+    /// Threads (default: one per core; at most 4 × the cores).
     #[arg(long)]
     threads: Option<usize>,
     /// Write the fields (height, displacement, gap, pressure) and the summary to this HDF5 file.
@@ -51,22 +52,51 @@ pub struct Args {
     out: Option<PathBuf>,
 }
 
-pub fn run(a: Args) -> Result<()> {
-    let lattice: Lattice = a.lattice.parse().context("--lattice")?;
-    let surface = Surface::new(lattice, a.n).context("--n")?;
+/// Default interaction strength γ0 or γr (E* h0²/λ) and range ρ (h0).
+const GAMMA0_DEFAULT: f64 = 0.2;
+const RHO_DEFAULT: f64 = 0.04;
+
+/// The interaction `--interaction` names, with `--gamma0` and `--rho` (defaults if absent); a
+/// warning if they were given to the hard wall, which has no parameter.
+fn interaction(a: &Args) -> Result<Interaction> {
+    let gamma = a.gamma0.unwrap_or(GAMMA0_DEFAULT);
+    let rho = a.rho.unwrap_or(RHO_DEFAULT);
     let interaction = match a.interaction.as_str() {
-        "hardwall" => Interaction::HardWall,
-        "adhesion" => Interaction::Adhesion {
-            gamma0: a.gamma0,
-            rho: a.rho,
-        },
+        "hardwall" => {
+            let given: Vec<&str> = [("--gamma0", a.gamma0), ("--rho", a.rho)]
+                .into_iter()
+                .filter_map(|(name, v)| v.map(|_| name))
+                .collect();
+            if !given.is_empty() {
+                eprintln!(
+                    "warning: {} ignored: the hard wall has no interaction parameters (use \
+                     --interaction adhesion or repulsion)",
+                    given.join(" and ")
+                );
+            }
+            Interaction::HardWall
+        }
+        "adhesion" => Interaction::Adhesion { gamma0: gamma, rho },
         "repulsion" => Interaction::Repulsion {
-            gamma_r: a.gamma0,
-            rho: a.rho,
+            gamma_r: gamma,
+            rho,
         },
         other => bail!("--interaction {other:?}: allowed values are hardwall, adhesion, repulsion"),
     };
     interaction.validate().context("--gamma0/--rho")?;
+    Ok(interaction)
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let lattice: Lattice = a.lattice.parse().context("--lattice")?;
+    let surface = Surface::new(lattice, a.n).context("--n")?;
+    let interaction = interaction(&a)?;
+    let out = a
+        .out
+        .as_deref()
+        .map(|p| Output::check("--out", p, &[]))
+        .transpose()?;
+    let pool = guard::thread_pool(a.threads)?;
     let method: Method = a.method.parse().context("--method")?;
     let mut opts = SolverOptions {
         method,
@@ -74,14 +104,15 @@ pub fn run(a: Args) -> Result<()> {
         ..Default::default()
     };
     if let Some(t) = a.tol {
-        if !(t.is_finite() && t > 0.0) {
-            bail!("--tol {t}: allowed a finite value > 0");
-        }
         opts.tol_gap = t;
         opts.tol_force = t;
+        opts.validate().context("--tol")?;
+    }
+    if a.max_iter == 0 {
+        bail!("--max-iter 0: allowed an integer ≥ 1");
     }
     if !a.pressure.is_finite() {
-        bail!("--pressure {}: allowed a finite number", a.pressure);
+        bail!("--pressure {:?}: allowed a finite number", a.pressure);
     }
     let p_fc = surface.p_fc_grid();
     let pressure = if a.relative {
@@ -89,13 +120,23 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         a.pressure
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0))
-        .build()?;
-    let sol = pool.install(|| -> Result<_> {
-        let mut model = Model::new(&surface)?;
-        Ok(model.solve(interaction, pressure, &opts, None)?)
-    })?;
+    let sol = pool.install(|| {
+        Model::new(&surface).and_then(|mut m| m.solve(interaction, pressure, &opts, None))
+    });
+    let sol = match sol {
+        // a load outside the representable range: name the option as given
+        Err(e @ ContactError::Pressure { .. }) => {
+            Err(anyhow::Error::new(e).context(if a.relative {
+                format!(
+                    "--pressure {:?} --relative (p̄ = {pressure:?} E* h0/λ)",
+                    a.pressure
+                )
+            } else {
+                format!("--pressure {:?}", a.pressure)
+            }))
+        }
+        other => other.map_err(anyhow::Error::new),
+    }?;
     if !sol.stats.converged {
         eprintln!(
             "warning: not converged after {} iterations: {}",
@@ -125,7 +166,7 @@ pub fn run(a: Args) -> Result<()> {
     obj.insert("n".into(), json!(a.n));
     obj.insert("p_fc".into(), json!(p_fc));
     obj.insert("pressure_over_p_fc".into(), json!(pressure / p_fc));
-    if let Some(path) = &a.out {
+    if let Some(out) = &out {
         let params = json!({
             "lattice": lattice.name(), "n": a.n, "pressure": pressure, "tol_gap": opts.tol_gap,
             "tol_force": opts.tol_force, "method": a.method, "interaction": io::interaction_json(&interaction),
@@ -133,13 +174,12 @@ pub fn run(a: Args) -> Result<()> {
         let mut prov = Provenance::for_command("solve", CODE_VERSION, params)?;
         prov.wall_s = sol.stats.wall_s;
         prov.stats = io::stats_json(&sol.stats);
-        let mut w =
-            ArtefactWriter::create(path).with_context(|| format!("creating {}", path.display()))?;
+        let mut w = out.create()?;
         io::write_solution(&mut w, surface.heights.view(), &sol)?;
         w.set_attr("lattice", lattice.name())?;
         w.set_attr("p_fc", p_fc)?;
         w.write_provenance(&prov)?;
-        let written = w.publish()?;
+        let written = out.publish(w)?;
         obj.insert("out".into(), json!(written.display().to_string()));
     }
     println!("{}", serde_json::to_string(&summary)?);

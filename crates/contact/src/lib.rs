@@ -75,6 +75,15 @@ pub enum ContactError {
         /// Flat node index.
         index: usize,
     },
+    /// A mean pressure outside the range a solve can represent (see [`PRESSURE_MIN`] and
+    /// [`pressure_max`]).
+    #[error("invalid pressure = {value:?} E* h0/λ: allowed {allowed}")]
+    Pressure {
+        /// Offending mean pressure.
+        value: f64,
+        /// Allowed range with its reason, in words.
+        allowed: String,
+    },
     /// The body lost all contact under a tensile or zero load: there is no equilibrium.
     #[error(
         "the surfaces separated at mean pressure {pressure} (no contact, minimum gap {min_gap} > 20ρ): \
@@ -92,10 +101,42 @@ impl ContactError {
     pub(crate) fn parameter(name: &'static str, value: f64, allowed: &'static str) -> Self {
         ContactError::Parameter {
             name,
-            value: format!("{value}"),
+            // Debug switches to exponent notation for tiny and huge values (1e-300, not 300
+            // digits)
+            value: format!("{value:?}"),
             allowed,
         }
     }
+}
+
+/// Largest accepted [`SolverOptions::tol_gap`] (h0). Heights span a few h0 and the gaps near
+/// percolation are far smaller: a violation of 1e-3 h0 is already a 0.1 % error in every gap of
+/// the surface, and a tolerance as large as the heights let Polonsky–Keer stop on its uniform
+/// start, reporting full contact after 0 iterations (issue 18).
+pub const TOL_GAP_MAX: f64 = 1e-3;
+
+/// Largest accepted [`SolverOptions::tol_force`] (E* h0/λ): 1e-3 of the pressure scale E* h0/λ,
+/// below 2e-4 of the full-contact pressures of the paper's models (2π for the square model) and
+/// of the adhesive stresses γ0/ρ of the paper's parameters.
+pub const TOL_FORCE_MAX: f64 = 1e-3;
+
+/// Smallest accepted positive mean pressure without adhesion (E* h0/λ). The minimisers form
+/// squares and products of pressures and displacements: at 1e-60 these stay above 1e-120 times
+/// the grid's factors, nearly 190 decades above the smallest normal double, while the square
+/// model broke down (NaN) at 6e-120 E* h0/λ. Nothing is lost: far above this bound the load
+/// already sits on the highest node alone (area 1/N), as it does for any smaller load.
+pub const PRESSURE_MIN: f64 = 1e-60;
+
+/// Largest accepted |mean pressure| (E* h0/λ) for a constraint tolerance `tol_gap` on a cell of
+/// longest side `l`. The pressure field p̄ + σ is stored to absolute precision ε p̄ (ε the machine
+/// epsilon); an error δp in the longest mode (wavenumber 2π/l) moves the surface by δp l/(π E*),
+/// so beyond π E* tol_gap/(ε l) rounding alone violates the constraints by more than the
+/// tolerance and no solve can be trusted (measured on the square model at n = 5: a violation
+/// floor of 0.16 ε p̄, within this bound's 0.32 ε p̄). Every load above the full-contact pressure
+/// (2π E* h0/λ for the square model, about 1e-5 of this bound at the default tolerance) gives
+/// full contact anyway.
+pub fn pressure_max(tol_gap: f64, l: f64) -> f64 {
+    std::f64::consts::PI * tol_gap / (f64::EPSILON * l)
 }
 
 /// Which minimiser to use.
@@ -162,18 +203,18 @@ impl Default for SolverOptions {
 impl SolverOptions {
     /// Checks the options.
     pub fn validate(&self) -> Result<(), ContactError> {
-        if !(self.tol_gap.is_finite() && self.tol_gap > 0.0) {
+        if !(self.tol_gap > 0.0 && self.tol_gap <= TOL_GAP_MAX) {
             return Err(ContactError::parameter(
                 "tol_gap",
                 self.tol_gap,
-                "finite and > 0 (h0)",
+                "0 < tol_gap ≤ 1e-3 (h0; TOL_GAP_MAX)",
             ));
         }
-        if !(self.tol_force.is_finite() && self.tol_force > 0.0) {
+        if !(self.tol_force > 0.0 && self.tol_force <= TOL_FORCE_MAX) {
             return Err(ContactError::parameter(
                 "tol_force",
                 self.tol_force,
-                "finite and > 0 (E* h0/λ)",
+                "0 < tol_force ≤ 1e-3 (E* h0/λ; TOL_FORCE_MAX)",
             ));
         }
         if self.max_iter == 0 {
@@ -202,6 +243,16 @@ pub enum StopReason {
         /// Largest displacement difference between inverted nodes (h0).
         defect: f64,
     },
+    /// The minimiser reported convergence but the independent evaluation of its state
+    /// ([`residuals`]) exceeds the tolerance it stops on.
+    Unverified {
+        /// `constraint violation` or `force residual`.
+        measure: &'static str,
+        /// The independent value (h0 or E* h0/λ).
+        value: f64,
+        /// The tolerance.
+        tol: f64,
+    },
 }
 
 impl fmt::Display for StopReason {
@@ -213,6 +264,19 @@ impl fmt::Display for StopReason {
                  symmetric start): it sits at an instability, where the branch ends; a tighter tolerance or \
                  more iterations will not help — take a smaller load or γ0 step to locate the jump, or \
                  warm-start from a state on the branch you want to follow"
+            );
+        }
+        if let StopReason::Unverified {
+            measure,
+            value,
+            tol,
+        } = self
+        {
+            return write!(
+                f,
+                "the minimiser stopped as converged, but an independent evaluation finds the \
+                 {measure} {value:.3e} above the tolerance {tol:.3e}: the state is not a solution \
+                 (please report the case)"
             );
         }
         f.write_str(match self {
@@ -232,7 +296,9 @@ impl fmt::Display for StopReason {
                 "the state became non-finite (NaN or infinity): a numerical breakdown; try the other \
                  method (polonsky-keer / fire) and please report the case"
             }
-            StopReason::LossOfSymmetry { .. } => unreachable!("written above"),
+            StopReason::LossOfSymmetry { .. } | StopReason::Unverified { .. } => {
+                unreachable!("written above")
+            }
         })
     }
 }
@@ -444,6 +510,24 @@ impl Model {
             stats.max_violation = f64::INFINITY;
             stats.force_residual = f64::INFINITY;
         }
+        // Converged means the state meets the tolerance the minimiser stops on, as measured
+        // independently: Polonsky–Keer the complementarity of its pressure and gaps, the others
+        // the force residual. A state that violates it is never reported converged, however the
+        // minimiser stopped (a uniform start once passed as converged after 0 iterations).
+        let (measure, value, tol) = if minimizer.name().starts_with("polonsky-keer") {
+            let c = complementarity_violation(&self.heights, &state);
+            ("constraint violation", c, opts.tol_gap)
+        } else {
+            ("force residual", force, opts.tol_force)
+        };
+        if stats.converged && (value > tol || value.is_nan()) {
+            stats.converged = false;
+            stats.reason = Some(StopReason::Unverified {
+                measure,
+                value,
+                tol,
+            });
+        }
         if symmetric_start && !stats.converged && stats.reason != Some(StopReason::NonFinite) {
             let defect = inversion_defect(&self.grid, &state.u);
             if defect > SYMMETRY_LOST * max_abs(&state.u).max(1.0) {
@@ -477,6 +561,28 @@ impl Model {
                 pressure,
                 "> 0 without adhesion (under force control a non-positive load has no equilibrium)",
             ));
+        }
+        let max = pressure_max(opts.tol_gap, self.grid.lx.max(self.grid.ly));
+        if pressure.abs() > max {
+            return Err(ContactError::Pressure {
+                value: pressure,
+                allowed: format!(
+                    "|p̄| ≤ {max:.3e} for tol_gap = {:?} h0 on this cell: beyond, rounding of the \
+                     pressure (ε p̄) alone deflects the surface by more than the tolerance (and \
+                     every load above the full-contact pressure gives full contact anyway)",
+                    opts.tol_gap
+                ),
+            });
+        }
+        if !adhesive && pressure < PRESSURE_MIN {
+            return Err(ContactError::Pressure {
+                value: pressure,
+                allowed: format!(
+                    "p̄ ≥ {PRESSURE_MIN:e} without adhesion: below, the solver's squares of \
+                     pressures near the smallest double lose all precision, and any such load \
+                     already rests on the highest node alone (area 1/N)"
+                ),
+            });
         }
         if method.starts_with("polonsky-keer") && !interaction.is_hard_wall() {
             return Err(ContactError::Parameter {
@@ -557,6 +663,21 @@ pub struct State {
     pub u: Vec<f64>,
     /// Pressure on the body (E* h0/λ).
     pub p: Vec<f64>,
+}
+
+/// The hard-wall constraints' largest violation by a state: the gap where the pressure pushes
+/// (p > 0 requires g = 0) and the penetration anywhere (g ≥ 0), in h0. What Polonsky–Keer
+/// bounds by `tol_gap`, evaluated from the state it returns.
+fn complementarity_violation(heights: &[f64], state: &State) -> f64 {
+    let mut v = 0.0f64;
+    for ((&u, &p), &h) in state.u.iter().zip(&state.p).zip(heights) {
+        let g = u - h;
+        v = v.max(-g);
+        if p > 0.0 {
+            v = v.max(g.abs());
+        }
+    }
+    v
 }
 
 /// Relative inversion defect up to which a field counts as symmetric (rounding of the sampled

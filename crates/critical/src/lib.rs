@@ -147,7 +147,7 @@ impl CriticalError {
     pub(crate) fn param(name: &'static str, value: f64, allowed: &'static str) -> Self {
         CriticalError::Parameter {
             name,
-            value: format!("{value}"),
+            value: format!("{value:?}"),
             allowed,
         }
     }
@@ -209,11 +209,13 @@ pub fn default_saddle_loads() -> Vec<f64> {
 impl CriticalOptions {
     /// Checks the options.
     pub fn validate(&self) -> Result<(), CriticalError> {
-        if !(self.tol_gap.is_finite() && self.tol_gap > 0.0) {
+        // the contact solver's bound (contact::TOL_GAP_MAX): checked here so that a tolerance
+        // as large as the gaps is refused as such, not blamed later on the percolation search
+        if !(self.tol_gap > 0.0 && self.tol_gap <= contact::TOL_GAP_MAX) {
             return Err(CriticalError::param(
                 "tol_gap",
                 self.tol_gap,
-                "finite and > 0 (h0)",
+                "0 < tol_gap ≤ 1e-3 (h0; contact::TOL_GAP_MAX)",
             ));
         }
         if !(self.rel_width.is_finite() && self.rel_width > 0.0 && self.rel_width < 1.0) {

@@ -29,7 +29,7 @@ pub fn read(inputs: &Inputs) -> Result<Vec<SweepData>> {
         let d = SweepData::read(r)?;
         if d.interaction != name {
             bail!(
-                "input `{name}` is a {} sweep (`{}`); it must be the {name} sweep",
+                "input `{name}` holds the {} sweep (`{}`); it must be the {name} sweep",
                 d.interaction,
                 r.path().display()
             );
@@ -80,7 +80,7 @@ pub fn read_resolution(inputs: &Inputs) -> Result<Vec<(String, Vec<GridSweep>)>>
             let s = GridSweep::read(r)?;
             if s.data.interaction != name || s.data.control != "load" {
                 bail!(
-                    "input `{name}` (`{}`) is a {} sweep varying the {}; it must be a {name} load path",
+                    "input `{name}` (`{}`) holds the {} sweep varying the {}; it must be a {name} load path",
                     r.path().display(),
                     s.data.interaction,
                     s.data.control

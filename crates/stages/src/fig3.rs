@@ -80,7 +80,7 @@ pub fn inputs() -> Vec<InputSpec> {
 pub fn check(d: &SweepData, model: &str, input: &str) -> Result<()> {
     if d.interaction != "adhesion" || d.control != "strength" {
         bail!(
-            "input `{input}` is a {} sweep varying the {}; Figure 3 needs adhesion with control = \"strength\"",
+            "input `{input}` holds the {} sweep varying the {}; Figure 3 needs adhesion with control = \"strength\"",
             d.interaction,
             d.control
         );

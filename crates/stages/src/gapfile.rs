@@ -80,7 +80,7 @@ fn cell_attr(r: &ArtefactReader, name: &str) -> Result<f64> {
         );
     };
     if !(x.is_finite() && x > 0.0) {
-        bail!("`{file}`: root attribute `{name}` = {x}; allowed: a finite number > 0");
+        bail!("`{file}`: root attribute `{name}` = {x:?}; allowed: a finite number > 0");
     }
     Ok(x)
 }
@@ -162,7 +162,7 @@ pub fn check_gap_values(gap: &Array2<f64>) -> std::result::Result<(), String> {
                     if v > -1e-3 {
                         format!("{v:e}")
                     } else {
-                        format!("{v}")
+                        format!("{v:?}")
                     }
                 )
             },
@@ -173,6 +173,64 @@ pub fn check_gap_values(gap: &Array2<f64>) -> std::result::Result<(), String> {
             }
         )),
     }
+}
+
+/// The gaps of a field against what double precision can represent in a flow solve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GapRange {
+    /// Nodes with g > 0.
+    pub open_nodes: usize,
+    /// Open nodes whose cube, the local conductivity g³, is not a normal double
+    /// (0 < g < ∛(f64::MIN_POSITIVE) ≈ 2.8e-103 h0): the flow solver treats a zero cube as contact
+    /// and computes with a subnormal one at reduced precision.
+    pub underflow_nodes: usize,
+    /// The largest gap (h0).
+    pub max_gap: f64,
+}
+
+/// Bounds on the largest gap of a field for a flow solve (h0): the solver's residual norms square
+/// the conductivities g³, so g⁶ must be a normal double, g ∈ [MIN_POSITIVE^(1/6),
+/// MAX^(1/6)] ≈ [5.3e-52, 2.4e51]. Measured on a 16² field of varied gaps: the largest gap
+/// 9e-51 and 9e29 solve exactly (K/g³ unchanged), 3e-61 and 3e59 end with a NaN residual.
+pub fn max_gap_range() -> (f64, f64) {
+    (f64::MIN_POSITIVE.powf(1.0 / 6.0), f64::MAX.powf(1.0 / 6.0))
+}
+
+/// Checks that a gap field's flow is representable in double precision: refuses a field whose
+/// largest gap is outside [`max_gap_range`] (its flow would come out as NaN, or as zero with
+/// `percolating: false` once every cube underflows, when it is merely out of range), and counts
+/// the open nodes whose conductivity underflows (the caller warns).
+pub fn check_gap_range(gap: &Array2<f64>) -> Result<GapRange> {
+    let (low, high) = max_gap_range();
+    let max_gap = gap.iter().copied().fold(0.0, f64::max);
+    let open_nodes = gap.iter().filter(|&&g| g > 0.0).count();
+    let cube_min = f64::MIN_POSITIVE.cbrt();
+    let underflow_nodes = gap.iter().filter(|&&g| g > 0.0 && g < cube_min).count();
+    if max_gap > high {
+        bail!(
+            "the largest gap {max_gap:?} h0 exceeds {high:.2e}: the squares of the local \
+             conductivities g³, which the flow solver forms, overflow double precision; allowed: \
+             a largest gap in [{low:.2e}, {high:.2e}] (rescale the field: the conductivity scales \
+             as g³)"
+        );
+    }
+    if open_nodes > 0 && max_gap < low {
+        bail!(
+            "the largest gap {max_gap:?} h0 is below {low:.2e}: the local conductivities g³ \
+             ({}) underflow double precision in the flow solver; allowed: a largest gap in \
+             [{low:.2e}, {high:.2e}] (rescale the field: the conductivity scales as g³)",
+            if underflow_nodes == open_nodes {
+                "every one of them is 0 in doubles".to_string()
+            } else {
+                "and their squares".to_string()
+            }
+        );
+    }
+    Ok(GapRange {
+        open_nodes,
+        underflow_nodes,
+        max_gap,
+    })
 }
 
 /// The scalar results of a flow solve as JSON (what `saddleflow flow` prints, and each point of
@@ -213,6 +271,27 @@ mod tests {
         g[[1, 2]] = 0.0;
         let e = check_gap_values(&g).unwrap_err();
         assert!(e.contains("NaN") && e.contains("(3, 3)"), "{e}");
+    }
+
+    #[test]
+    fn gap_range_is_checked() {
+        let (low, high) = max_gap_range();
+        // (2.2e-308)^(1/6) and (1.8e308)^(1/6)
+        assert!((low / 5.30e-52 - 1.0).abs() < 1e-2, "{low}");
+        assert!((high / 2.37e51 - 1.0).abs() < 1e-2, "{high}");
+        let mut g = Array2::from_elem((4, 4), 0.5);
+        g[[0, 0]] = 0.0;
+        g[[1, 1]] = 1e-104;
+        let r = check_gap_range(&g).unwrap();
+        assert_eq!((r.open_nodes, r.underflow_nodes, r.max_gap), (15, 1, 0.5));
+        let e = check_gap_range(&g.mapv(|x| x * 1e-200)).unwrap_err();
+        assert!(e.to_string().contains("0 in doubles"), "{e}");
+        let e = check_gap_range(&g.mapv(|x| x * 1e-60)).unwrap_err();
+        assert!(e.to_string().contains("underflow"), "{e}");
+        let e = check_gap_range(&g.mapv(|x| x * 1e60)).unwrap_err();
+        assert!(e.to_string().contains("overflow"), "{e}");
+        // all closed: nothing to represent, the solver reports no percolation
+        assert!(check_gap_range(&Array2::zeros((4, 4))).is_ok());
     }
 
     #[test]

@@ -191,12 +191,12 @@ pub fn parse_segments(
             },
             (None, Some(step)) => {
                 if step <= 0.0 {
-                    return Err(at(format!("`step` must be > 0, found {step}")));
+                    return Err(at(format!("`step` must be > 0, found {step:?}")));
                 }
                 let n = (span.abs() / step - 1e-9).ceil();
                 if n > MAX_POINTS as f64 {
                     return Err(at(format!(
-                        "`step` = {step} gives {n} points; at most {MAX_POINTS} are allowed"
+                        "`step` = {step:?} gives {n:.3e} points; at most {MAX_POINTS} are allowed"
                     )));
                 }
                 (n as usize).max(1)
