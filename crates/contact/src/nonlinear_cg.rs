@@ -1,0 +1,488 @@
+//! Bound-constrained nonlinear conjugate gradients on the elastic surface height, preconditioned
+//! by the elastic stiffness, for any interaction on top of the hard wall (adhesion, repulsion).
+//!
+//! Minimises the energy per area E(u) = ½⟨u, K u⟩ + p̄ ū + ⟨γ(u − h)⟩ over u ≥ h (force control:
+//! the mean of u is free, the load enters through p̄ ū). The gradient (per node, times N) is
+//! r = σ + p̄ + γ'(g) with σ = K u, the same unbalanced pressure FIRE drives to zero. Nodes on the
+//! wall (g = 0) with r ≥ 0 are held (the wall pushes); their gradient and direction are zero.
+//!
+//! Each iteration:
+//! 1. z = M⁻¹ r on the free nodes (M the modal stiffness k(q) = qE*/2, with k_min for the mean
+//!    mode: FIRE's mass weighting, the Vollebregt idea that made Polonsky–Keer fast), restricted
+//!    to the free nodes. Since r vanishes on the held set, ⟨r, z⟩ = ⟨r, M⁻¹ r⟩ > 0.
+//! 2. d = −z + β d_old with β from [`Beta`] (Polak–Ribière+ by default); d = −z if d is not a
+//!    descent direction.
+//! 3. One transform pair gives K d. Along the ray the energy is then known without further
+//!    transforms: the elastic part is the exact quadratic α⟨d, σ + p̄⟩ + ½α²⟨d, K d⟩ and the
+//!    interaction is local. A safeguarded Newton iteration from α = 0 finds the *first* minimum
+//!    along the ray (not the deepest): that is how a warm start stays on its metastable branch.
+//! 4. u ← max(u + α d, h). Without clipping σ ← σ + α K d exactly; with clipping σ = K u is
+//!    recomputed (one pair). A step that raises the energy beyond rounding is halved (strict
+//!    descent: the iteration can never climb over a barrier to another branch).
+//!
+//! Cost: two transform pairs per iteration (M⁻¹ r and K d), three when nodes are clipped, plus a
+//! few local passes for the line search. σ is recomputed from scratch every [`REFRESH`]
+//! iterations and before convergence is accepted, so rounding cannot accumulate.
+//!
+//! Convergence: the force residual of FIRE (largest unbalanced pressure off the wall, largest
+//! pull at the wall) at most `tol_force`, on a freshly computed σ.
+//!
+//! Approximations: the line search ignores the wall (nodes that would penetrate are clipped
+//! afterwards); the energy check after the step keeps the iteration a strict descent.
+//!
+//! Branch safeguard: a node within [`IN_RANGE`] ranges of the wall moves by at most one range ρ
+//! per step. Without it the long preconditioned steps carried nodes over the interaction's
+//! barriers: on a 32² square-model load path (γ0 = 0.2, ρ = 0.04) the cold start already
+//! landed in a state with 8 more contact nodes than FIRE's, and loading stayed ahead of FIRE;
+//! with it the two agree on all but a few lattice-trapped points (tests/nonlinear_cg.rs).
+//!
+//! Candidates measured against each other (square model, γ0 = 0.2, ρ = 0.04, zero load, cold
+//! start, tol_force 1e-10, iterations): Polak–Ribière+ 40 (256²), 86 (1024²); Fletcher–Reeves
+//! (Bugnicourt et al.'s CG without restart, here with the same line search) 46 and 144, but
+//! 1849–14 480 on 128² under load, where it stalls; steepest descent with the same line search
+//! 206 and 219; FIRE 224 and 274. PR+ is the default. Not tried for lack of time: L-BFGS-B and
+//! the gap-primal scheme of Rey, Anciaux & Molinari 2017.
+
+use crate::{
+    ContactError, Interaction, Minimizer, Model, SolveStats, SolverOptions, State, StopReason,
+};
+
+/// How the conjugate direction mixes in the previous one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Beta {
+    /// Polak–Ribière with restart on negative β (PR+): β = max(0, ⟨z, r − r_old⟩/⟨z_old, r_old⟩).
+    PolakRibiere,
+    /// Fletcher–Reeves: β = ⟨z, r⟩/⟨z_old, r_old⟩ (no restart, as Bugnicourt et al. 2018).
+    FletcherReeves,
+    /// β = 0: preconditioned steepest descent with the same line search (for comparison).
+    SteepestDescent,
+}
+
+/// The nonlinear conjugate-gradient minimiser.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NonlinearCg {
+    /// Conjugacy formula.
+    pub beta: Beta,
+}
+
+impl Default for NonlinearCg {
+    fn default() -> Self {
+        NonlinearCg {
+            beta: Beta::PolakRibiere,
+        }
+    }
+}
+
+/// Iterations between recomputations of σ = K u from scratch.
+pub const REFRESH: usize = 50;
+/// Iterations without a 1 % improvement of the residual after which the solve is stagnant.
+const STAGNATION: usize = 2000;
+/// Halvings of a step that raises the energy before the direction is reset to −z.
+const MAX_HALVINGS: usize = 30;
+/// Nodes with a gap below this many interaction ranges are held to one range of motion per step.
+pub const IN_RANGE: f64 = 3.0;
+/// Inner iterations of the line search.
+const LINE_ITER: usize = 60;
+
+/// One node on a ray: its gap and its direction.
+#[derive(Clone, Copy)]
+struct Node {
+    g: f64,
+    d: f64,
+}
+
+/// Everything the line search needs about one ray: the nodes the interaction can reach, and the
+/// elastic scalars.
+struct Ray<'a> {
+    /// Nodes with d ≠ 0 that are, or may come, within the interaction's cutoff.
+    nodes: &'a [Node],
+    /// Σ d (σ + p̄).
+    a: f64,
+    /// Σ d K d.
+    b: f64,
+    law: Law,
+}
+
+impl Ray<'_> {
+    /// φ'(α) and φ''(α) (times N) of the energy along the ray, the wall ignored.
+    fn slope(&self, alpha: f64) -> (f64, f64) {
+        let (mut s1, mut s2) = (0.0, 0.0);
+        for nd in self.nodes {
+            let x = (nd.g + alpha * nd.d).max(0.0);
+            if x < self.law.cut {
+                let (_, d1, d2) = self.law.eval(x);
+                s1 += nd.d * d1;
+                s2 += nd.d * nd.d * d2;
+            }
+        }
+        (self.a + alpha * self.b + s1, self.b + s2)
+    }
+
+    /// φ(α) (times N): the energy change along the ray, the wall ignored.
+    fn change(&self, alpha: f64) -> f64 {
+        let mut s = 0.0;
+        for nd in self.nodes {
+            let x = (nd.g + alpha * nd.d).max(0.0);
+            s += self.law.eval(x).0 - self.law.eval(nd.g).0;
+        }
+        alpha * self.a + 0.5 * alpha * alpha * self.b + s
+    }
+
+    /// The first minimum of the energy along the ray: the smallest α > 0 where φ' changes sign
+    /// from negative to positive, by Newton steps safeguarded with a bracket [lo, hi], never
+    /// beyond `alpha_cap`.
+    fn first_minimum(&self, alpha_cap: f64) -> f64 {
+        let (mut lo, mut hi) = (0.0f64, f64::INFINITY);
+        let (mut alpha, (mut s1, mut s2)) = (0.0, self.slope(0.0));
+        let tol = 1e-6 * s1.abs();
+        for _ in 0..LINE_ITER {
+            if s1 < 0.0 {
+                lo = alpha;
+            } else {
+                hi = alpha;
+            }
+            if s1.abs() <= tol && alpha > 0.0 {
+                break;
+            }
+            let newton = if s2 > 0.0 { alpha - s1 / s2 } else { f64::NAN };
+            let next = if newton > lo && newton < hi {
+                newton.min(alpha_cap)
+            } else if hi.is_finite() {
+                0.5 * (lo + hi)
+            } else {
+                // no usable curvature: expand (the preconditioned step has scale 1), capped
+                (2.0 * lo).max(1.0).min(alpha_cap)
+            };
+            if next == alpha || hi - lo <= 1e-14 * hi.min(alpha_cap) {
+                break;
+            }
+            alpha = next;
+            (s1, s2) = self.slope(alpha);
+            if alpha >= alpha_cap && s1 < 0.0 {
+                return alpha_cap;
+            }
+        }
+        if s1 > 0.0 && lo > 0.0 { lo } else { alpha }
+    }
+}
+
+/// The interaction with a cutoff beyond which its energy and derivatives are below rounding.
+#[derive(Clone, Copy)]
+struct Law {
+    interaction: Interaction,
+    /// Gap beyond which γ, γ', γ'' are below e⁻⁴⁰ ≈ 4e-18 of their scale (γ0, γ0/ρ, γ0/ρ²
+    /// times at most (g/ρ)² ≤ 100): treated as zero.
+    cut: f64,
+}
+
+impl Law {
+    fn new(interaction: Interaction) -> Self {
+        let cut = match interaction {
+            Interaction::HardWall => 0.0,
+            Interaction::Adhesion { rho, .. } => 40.0 * rho,
+            // exp(−g²/2ρ²) < e⁻⁴⁰ for g > √80 ρ ≈ 8.9ρ
+            Interaction::Repulsion { rho, .. } => 10.0 * rho,
+        };
+        Law { interaction, cut }
+    }
+
+    /// γ(x), γ'(x), γ''(x) with one exponential.
+    #[inline]
+    fn eval(&self, x: f64) -> (f64, f64, f64) {
+        if x >= self.cut {
+            return (0.0, 0.0, 0.0);
+        }
+        match self.interaction {
+            Interaction::HardWall => (0.0, 0.0, 0.0),
+            Interaction::Adhesion { gamma0, rho } => {
+                let e = -gamma0 * (-x / rho).exp();
+                (e, -e / rho, e / (rho * rho))
+            }
+            Interaction::Repulsion { gamma_r, rho } => {
+                let r2 = rho * rho;
+                let e = gamma_r * (-0.5 * x * x / r2).exp();
+                (e, -e * x / r2, e / r2 * (x * x / r2 - 1.0))
+            }
+        }
+    }
+}
+
+/// Gradient r on the free nodes (0 on held ones), residual, contact count and smallest open gap.
+fn gradient(
+    u: &[f64],
+    h: &[f64],
+    sigma: &[f64],
+    law: Law,
+    pressure: f64,
+    r: &mut [f64],
+) -> (f64, usize, f64) {
+    let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
+    for i in 0..u.len() {
+        let g = u[i] - h[i];
+        let ri = sigma[i] + pressure + law.eval(g.max(0.0)).1;
+        if g <= 0.0 {
+            contact += 1;
+            // the wall pushes (r ≥ 0: held); a pull (r < 0) is unbalanced
+            res = res.max(-ri);
+            r[i] = ri.min(0.0);
+        } else {
+            res = res.max(ri.abs());
+            r[i] = ri;
+            min_gap = min_gap.min(g);
+        }
+    }
+    (res, contact, min_gap)
+}
+
+/// Work buffers and the conjugacy memory of one solve.
+struct Work {
+    sigma: Vec<f64>,
+    r: Vec<f64>,
+    r_old: Vec<f64>,
+    z: Vec<f64>,
+    d: Vec<f64>,
+    kd: Vec<f64>,
+    nodes: Vec<Node>,
+    u_prev: Vec<f64>,
+    sigma_prev: Vec<f64>,
+    /// ⟨r, z⟩ of the previous direction; 0 forces a restart (d = −z).
+    rz_old: f64,
+    /// Steps since σ was computed from scratch.
+    stale: usize,
+    /// Energy per area and its rounding slack.
+    energy: (f64, f64),
+}
+
+impl NonlinearCg {
+    /// d = −z + β d_old on the free nodes; returns ⟨d, r⟩ (< 0 for a descent direction).
+    fn direction(&self, w: &mut Work, u: &[f64], h: &[f64]) -> f64 {
+        let (mut rz, mut rz_cross) = (0.0, 0.0);
+        for i in 0..u.len() {
+            if w.r[i] == 0.0 && u[i] <= h[i] {
+                w.z[i] = 0.0; // held by the wall
+            }
+            rz += w.r[i] * w.z[i];
+            rz_cross += w.r_old[i] * w.z[i];
+        }
+        let beta = if w.rz_old <= 0.0 {
+            0.0
+        } else {
+            match self.beta {
+                Beta::PolakRibiere => ((rz - rz_cross) / w.rz_old).max(0.0),
+                Beta::FletcherReeves => rz / w.rz_old,
+                Beta::SteepestDescent => 0.0,
+            }
+        };
+        let mut slope = 0.0;
+        for i in 0..u.len() {
+            w.d[i] = beta * w.d[i] - w.z[i];
+            if w.z[i] == 0.0 && w.r[i] == 0.0 {
+                w.d[i] = 0.0;
+            }
+            slope += w.d[i] * w.r[i];
+        }
+        if slope >= 0.0 && beta != 0.0 {
+            slope = 0.0;
+            for i in 0..u.len() {
+                w.d[i] = -w.z[i];
+                slope += w.d[i] * w.r[i];
+            }
+        }
+        w.rz_old = rz;
+        w.r_old.copy_from_slice(&w.r);
+        slope
+    }
+}
+
+/// The line search along d (with K d in `w.kd`) and the step: u ← max(u + α d, h), halved until
+/// the energy does not rise beyond rounding. Returns false if no step lowered it.
+fn step(
+    w: &mut Work,
+    kernel: &mut crate::elastic::ElasticKernel,
+    u: &mut [f64],
+    h: &[f64],
+    law: Law,
+    pressure: f64,
+) -> bool {
+    let n = u.len();
+    let (mut a, mut b) = (0.0, 0.0);
+    // the largest useful step: every node moving down has reached the wall
+    let mut alpha_cap = 0.0f64;
+    w.nodes.clear();
+    for i in 0..n {
+        let (g, d) = (u[i] - h[i], w.d[i]);
+        a += d * (w.sigma[i] + pressure);
+        b += d * w.kd[i];
+        if d < 0.0 {
+            alpha_cap = alpha_cap.max(-g / d);
+        }
+        if d != 0.0 && (g < law.cut || d < 0.0) {
+            w.nodes.push(Node { g, d });
+        }
+    }
+    if alpha_cap == 0.0 {
+        alpha_cap = f64::MAX;
+    }
+    // Branch safeguard: a node within the interaction's range moves by at most one range per
+    // step, so the ray cannot carry it over a barrier of the interaction.
+    let range = law.interaction.range();
+    for i in 0..n {
+        let (g, d) = (u[i] - h[i], w.d[i]);
+        if d != 0.0 && g < IN_RANGE * range {
+            alpha_cap = alpha_cap.min(range / d.abs());
+        }
+    }
+    let ray = Ray {
+        nodes: &w.nodes,
+        a,
+        b,
+        law,
+    };
+    let mut alpha = ray.first_minimum(alpha_cap);
+    w.u_prev.copy_from_slice(u);
+    w.sigma_prev.copy_from_slice(&w.sigma);
+    let (e0, slack0) = w.energy;
+    for _ in 0..=MAX_HALVINGS {
+        let mut clipped = false;
+        for i in 0..n {
+            let x = w.u_prev[i] + alpha * w.d[i];
+            clipped |= x < h[i];
+            u[i] = x.max(h[i]);
+        }
+        w.stale += 1;
+        let e_new = if clipped || w.stale >= REFRESH {
+            kernel.stress(u, &mut w.sigma);
+            w.stale = 0;
+            crate::fire::energy(u, &w.sigma, h, law.interaction, pressure)
+        } else {
+            for i in 0..n {
+                w.sigma[i] = w.sigma_prev[i] + alpha * w.kd[i];
+            }
+            // exact along the ray without clipping: no full pass needed
+            (e0 + ray.change(alpha) / n as f64, slack0)
+        };
+        if e_new.0 <= e0 + slack0 {
+            w.energy = e_new;
+            return true;
+        }
+        alpha *= 0.5;
+    }
+    u.copy_from_slice(&w.u_prev);
+    w.sigma.copy_from_slice(&w.sigma_prev);
+    w.energy = (e0, slack0);
+    false
+}
+
+impl Minimizer for NonlinearCg {
+    fn name(&self) -> &'static str {
+        match self.beta {
+            Beta::PolakRibiere => "nonlinear-cg",
+            Beta::FletcherReeves => "nonlinear-cg-fr",
+            Beta::SteepestDescent => "nonlinear-cg-sd",
+        }
+    }
+
+    fn relax(
+        &self,
+        model: &mut Model,
+        interaction: Interaction,
+        pressure: f64,
+        opts: &SolverOptions,
+        state: &mut State,
+    ) -> Result<SolveStats, ContactError> {
+        let Model {
+            heights: h, kernel, ..
+        } = model;
+        let n = h.len();
+        let State { u, p } = state;
+        let law = Law::new(interaction);
+        let m0 = kernel.k_min();
+        let weights = kernel.weights(|k| if k > 0.0 { k } else { m0 });
+        let detach_gap = 20.0 * interaction.range().max(1e-3);
+        for (ui, hi) in u.iter_mut().zip(h.iter()) {
+            *ui = ui.max(*hi);
+        }
+        let mut w = Work {
+            sigma: vec![0.0; n],
+            r: vec![0.0; n],
+            r_old: vec![0.0; n],
+            z: vec![0.0; n],
+            d: vec![0.0; n],
+            kd: vec![0.0; n],
+            nodes: Vec::with_capacity(n),
+            u_prev: vec![0.0; n],
+            sigma_prev: vec![0.0; n],
+            rz_old: 0.0,
+            stale: 0,
+            energy: (0.0, 0.0),
+        };
+        kernel.stress(u, &mut w.sigma);
+        w.energy = crate::fire::energy(u, &w.sigma, h, interaction, pressure);
+        let mut stats = SolveStats {
+            method: self.name(),
+            iterations: 0,
+            converged: false,
+            reason: None,
+            max_violation: 0.0,
+            force_residual: f64::INFINITY,
+            wall_s: 0.0,
+            trace: Vec::new(),
+        };
+        let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
+        loop {
+            let (mut res, contact, min_gap) = gradient(u, h, &w.sigma, law, pressure, &mut w.r);
+            if res <= opts.tol_force && w.stale > 0 {
+                // accept only on a σ computed from scratch
+                kernel.stress(u, &mut w.sigma);
+                w.stale = 0;
+                (res, _, _) = gradient(u, h, &w.sigma, law, pressure, &mut w.r);
+            }
+            if opts.trace {
+                stats.trace.push(w.energy.0);
+            }
+            stats.force_residual = res;
+            if res <= opts.tol_force {
+                stats.converged = true;
+                break;
+            }
+            if contact == 0 && pressure <= 0.0 && min_gap > detach_gap {
+                return Err(ContactError::Detached { pressure, min_gap });
+            }
+            if res < 0.99 * best {
+                (best, best_iter) = (res, stats.iterations);
+            } else if stats.iterations - best_iter > STAGNATION {
+                stats.reason = Some(StopReason::Stagnation);
+                break;
+            }
+            if res > 1e12 * best.max(opts.tol_force) {
+                stats.reason = Some(StopReason::ResidualGrowth);
+                break;
+            }
+            if stats.iterations >= opts.max_iter {
+                stats.reason = Some(StopReason::IterationCap);
+                break;
+            }
+            stats.iterations += 1;
+            kernel.precondition(&w.r, &weights, &mut w.z);
+            if self.direction(&mut w, u, h) >= 0.0 {
+                // not even −z descends: the gradient is at rounding level
+                stats.reason = Some(StopReason::Stagnation);
+                break;
+            }
+            kernel.stress(&w.d, &mut w.kd);
+            if !step(&mut w, kernel, u, h, law, pressure) {
+                if w.rz_old == 0.0 {
+                    // −z did not lower the energy either: rounding level
+                    stats.reason = Some(StopReason::Stagnation);
+                    break;
+                }
+                w.rz_old = 0.0; // restart along −z
+            }
+        }
+        kernel.stress(u, &mut w.sigma);
+        for i in 0..n {
+            p[i] = w.sigma[i] + pressure;
+        }
+        Ok(stats)
+    }
+}
