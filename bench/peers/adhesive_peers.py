@@ -47,7 +47,7 @@ def run_tamaas(d, n, mean_gap):
         model, np.ascontiguousarray(h), 1e-10, tm.PolonskyKeerRey.gap, tm.PolonskyKeerRey.gap
     )
     adh = tm.ExponentialAdhesionFunctional(np.ascontiguousarray(h))
-    adh.setParameters({"rho": RHO, "surface_energy": GAMMA0})
+    adh.parameters = {"rho": RHO, "surface_energy": GAMMA0}
     solver.addFunctionalTerm(adh)
     solver.max_iter = 100000
     solver.dump_freq = 1

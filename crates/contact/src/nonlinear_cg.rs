@@ -632,3 +632,91 @@ impl Minimizer for NonlinearCg {
         Ok(stats)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ADHESION: Interaction = Interaction::Adhesion {
+        gamma0: 0.2,
+        rho: 0.04,
+    };
+
+    #[test]
+    fn law_matches_the_interaction_and_its_finite_differences() {
+        for inter in [
+            ADHESION,
+            Interaction::Repulsion {
+                gamma_r: 0.2,
+                rho: 0.04,
+            },
+        ] {
+            let law = Law::new(inter);
+            for &x in &[0.0, 0.01, 0.04, 0.1, 0.3] {
+                let (e, d1, d2) = law.eval(x);
+                assert!((e - inter.energy(x)).abs() < 1e-15, "{inter:?} {x}");
+                assert!((d1 - inter.derivative(x)).abs() < 1e-13, "{inter:?} {x}");
+                let h = 1e-6;
+                let fd = (inter.derivative(x + h) - inter.derivative((x - h).max(0.0)))
+                    / (x + h - (x - h).max(0.0));
+                // central difference: error ~ h² γ'''' ≈ 1e-12 · γ0/ρ⁴ ≈ 1e-7; one-sided at 0
+                assert!(
+                    (d2 - fd).abs() < 1e-3 * inter.max_curvature(),
+                    "{inter:?} {x}"
+                );
+            }
+            // beyond the cutoff everything is below e⁻⁴⁰ of its scale
+            assert_eq!(law.eval(law.cut), (0.0, 0.0, 0.0));
+            assert!(inter.derivative(law.cut).abs() < 1e-16 * inter.max_curvature());
+        }
+    }
+
+    #[test]
+    fn line_search_solves_the_quadratic_exactly() {
+        // no node within the interaction's reach: φ'(α) = a + α b, minimum at −a/b
+        let ray = Ray {
+            nodes: &[],
+            a: -3.0,
+            b: 2.0,
+            law: Law::new(ADHESION),
+        };
+        assert!((ray.first_minimum(f64::MAX) - 1.5).abs() < 1e-14);
+        // the cap binds when the minimum lies beyond it
+        assert_eq!(ray.first_minimum(1.0), 1.0);
+        // φ(α) = a α + ½ b α²
+        assert!((ray.change(1.5) - (-3.0 * 1.5 + 0.5 * 2.0 * 2.25)).abs() < 1e-14);
+    }
+
+    #[test]
+    fn line_search_stops_at_the_first_minimum_along_the_ray() {
+        // One node at g = 0.3 moving to the wall (d = −1): φ' = −0.001 + 2α − 5 exp(−(0.3 − α)/0.04)
+        // has a shallow minimum near α ≈ 0.0025 and a maximum near 0.195; at the wall (α = 0.3)
+        // the energy is far lower (−0.11, the adhesion energy γ0 gained against 0.09 elastic).
+        let nodes = [Node { g: 0.3, d: -1.0 }];
+        let ray = Ray {
+            nodes: &nodes,
+            a: -0.001,
+            b: 2.0,
+            law: Law::new(ADHESION),
+        };
+        let alpha = ray.first_minimum(f64::MAX);
+        // the first sign change of φ' from − to +, by a dense scan (independent of Newton)
+        let mut first = f64::NAN;
+        let mut prev = ray.slope(0.0).0;
+        for k in 1..=200_000 {
+            let x = k as f64 * 1e-6;
+            let s = ray.slope(x).0;
+            if prev < 0.0 && s >= 0.0 {
+                first = x;
+                break;
+            }
+            prev = s;
+        }
+        assert!(first < 0.02, "scan found {first}");
+        assert!((alpha - first).abs() < 2e-6, "{alpha} vs scan {first}");
+        assert!(ray.slope(alpha).1 > 0.0, "a minimum, not a maximum");
+        assert!(ray.change(alpha) < 0.0);
+        // the deeper state is beyond the barrier: the line search did not jump to it
+        assert!(ray.change(0.3) < ray.change(alpha) - 0.1);
+    }
+}

@@ -210,3 +210,55 @@ fn agrees_with_fire_on_the_strength_path_at_zero_load() {
     assert!(io < if_, "iterations {io} (ours) vs {if_} (FIRE)");
     assert!(!jumps(&fire, Branch::Loading).is_empty());
 }
+
+#[test]
+fn warm_start_from_its_own_solution_converges_at_once() {
+    assert_eq!(
+        "nonlinear-cg".parse::<Method>().unwrap(),
+        Method::NonlinearCg
+    );
+    let (s, mut m) = square(6);
+    let opts = SolverOptions {
+        tol_force: TOL_FORCE,
+        method: Method::NonlinearCg,
+        ..SolverOptions::default()
+    };
+    for inter in [
+        Interaction::Adhesion {
+            gamma0: 0.2,
+            rho: RHO,
+        },
+        Interaction::Repulsion {
+            gamma_r: 0.2,
+            rho: RHO,
+        },
+    ] {
+        let p = 0.1 * s.p_fc_grid();
+        let a = m.solve(inter, p, &opts, None).unwrap();
+        assert!(a.stats.converged, "{inter:?}: {:?}", a.stats);
+        let b = m.solve(inter, p, &opts, Some(&a)).unwrap();
+        assert!(
+            b.stats.converged && b.stats.iterations <= 1,
+            "{:?}",
+            b.stats
+        );
+        assert!((a.energy - b.energy).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn far_beyond_pull_off_the_surfaces_separate_with_a_clear_error() {
+    let (_, mut m) = square(5);
+    let opts = SolverOptions {
+        method: Method::NonlinearCg,
+        ..SolverOptions::default()
+    };
+    let inter = Interaction::Adhesion {
+        gamma0: 0.2,
+        rho: RHO,
+    };
+    match m.solve(inter, -1.0, &opts, None) {
+        Err(contact::ContactError::Detached { .. }) => {}
+        other => panic!("expected detachment, got {other:?}"),
+    }
+}
