@@ -28,7 +28,7 @@ for e in "${ns[@]}"; do
   echo "== n = $size: heights (contact crate)"
   ADHESIVE_NS="$e" ADHESIVE_FIRE= ADHESIVE_DUMP="$out" cargo bench -q -p contact --bench adhesive >/dev/null
   echo "== n = $size: tamaas at mean gap $gap"
-  p=$(cd bench/peers && "$py" adhesive_peers.py tamaas "$out" "$size" "$gap" | tee /dev/stderr | tail -1)
+  p=$(cd bench/peers && "$py" adhesive_peers.py tamaas "$out" "$size" "$gap")
   echo "== n = $size: contact crate at p = $p"
   ADHESIVE_NS="$e" ADHESIVE_FIRE="$e" ADHESIVE_PRESSURE="$p" ADHESIVE_DUMP="$out" \
     cargo bench -q -p contact --bench adhesive | grep -v '^RESULT'

@@ -11,12 +11,16 @@
 //! Environment:
 //! - `ADHESIVE_NS` grid exponents, default `8,9,10`;
 //! - `ADHESIVE_FIRE` grid exponents where FIRE runs too, default `8,9,10`;
+//! - `ADHESIVE_CANDIDATES` grid exponents where the other candidates of
+//!   `contact::nonlinear_cg` run too (Fletcher–Reeves, steepest descent, L-BFGS), default none;
 //! - `ADHESIVE_PRESSURE` mean pressure (E* h0/λ), default 0;
 //! - `ADHESIVE_DUMP=DIR` writes per n the heights and our displacement of the cold solve (raw
 //!   little-endian f64, row-major (n, n), first index x) as `DIR/heights_n{N}.f64` and
 //!   `DIR/ours_u_n{N}.f64`, for `bench/peers/adhesive_peers.py`.
 
-use contact::{Interaction, Lattice, Method, Model, Solution, SolverOptions, Surface};
+use contact::fire::Fire;
+use contact::nonlinear_cg::{Beta, NonlinearCg};
+use contact::{Interaction, Lattice, Minimizer, Model, Solution, SolverOptions, Surface};
 use std::io::Write;
 use std::time::Instant;
 
@@ -42,7 +46,7 @@ fn write_f64(path: &str, data: impl Iterator<Item = f64>) {
 
 fn run(
     model: &mut Model,
-    method: Method,
+    method: &dyn Minimizer,
     pressure: f64,
     warm: Option<&Solution>,
     n: usize,
@@ -50,11 +54,12 @@ fn run(
 ) -> Solution {
     let opts = SolverOptions {
         tol_force: 1e-10,
-        method,
         ..SolverOptions::default()
     };
     let (c0, t0) = (cpu_seconds(), Instant::now());
-    let sol = model.solve(ADHESION, pressure, &opts, warm).expect("solve");
+    let sol = model
+        .solve_with(method, ADHESION, pressure, &opts, warm)
+        .expect("solve");
     let (cpu, wall) = (cpu_seconds() - c0, t0.elapsed().as_secs_f64());
     let s = &sol.stats;
     println!(
@@ -71,6 +76,7 @@ fn run(
 fn main() {
     let ns = env_list::<usize>("ADHESIVE_NS", "8,9,10");
     let fire = env_list::<usize>("ADHESIVE_FIRE", "8,9,10");
+    let candidates = env_list::<usize>("ADHESIVE_CANDIDATES", "");
     let pressure: f64 = std::env::var("ADHESIVE_PRESSURE")
         .ok()
         .map(|s| s.parse().expect("ADHESIVE_PRESSURE: a number"))
@@ -85,14 +91,26 @@ fn main() {
         let n = s.grid.nx;
         let mut model = Model::new(&s).expect("model");
         let step = 0.01 * s.p_fc_grid();
-        let mut methods = vec![Method::NonlinearCg];
+        let mut methods: Vec<Box<dyn Minimizer>> = vec![Box::new(NonlinearCg::default())];
         if fire.contains(&e) {
-            methods.push(Method::Fire);
+            methods.push(Box::new(Fire::default()));
         }
-        for &m in &methods {
-            let cold = run(&mut model, m, pressure, None, n, "cold");
-            run(&mut model, m, pressure + step, Some(&cold), n, "warm");
-            if m == Method::NonlinearCg
+        if candidates.contains(&e) {
+            for beta in [Beta::FletcherReeves, Beta::SteepestDescent, Beta::Lbfgs] {
+                methods.push(Box::new(NonlinearCg { beta }));
+            }
+        }
+        for (k, m) in methods.iter().enumerate() {
+            let cold = run(&mut model, m.as_ref(), pressure, None, n, "cold");
+            run(
+                &mut model,
+                m.as_ref(),
+                pressure + step,
+                Some(&cold),
+                n,
+                "warm",
+            );
+            if k == 0
                 && let Some(dir) = &dump
             {
                 write_f64(

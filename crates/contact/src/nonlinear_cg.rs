@@ -44,16 +44,25 @@
 //! state a cold start reaches is not defined by the physics. From warm starts (paths) the two
 //! agree (tests/nonlinear_cg.rs).
 //!
-//! Candidates measured against each other (square model, γ0 = 0.2, ρ = 0.04, zero load, cold
-//! start, tol_force 1e-10, iterations): Polak–Ribière+ 40 (256²), 86 (1024²); Fletcher–Reeves
-//! (Bugnicourt et al.'s CG without restart, here with the same line search) 46 and 144, but
-//! 1849–14 480 on 128² under load, where it stalls; steepest descent with the same line search
-//! 206 and 219; FIRE 224 and 274. L-BFGS ([`Beta::Lbfgs`], memory 5, the same preconditioner,
-//! line search and held set; pairs dropped when a step clips nodes, without which it stalled on
-//! adhesion) takes about as many iterations as PR+ (256²: 47 vs 44 at zero load, 84 vs 82 at
-//! p̄ = 0.84; repulsion 128², p̄ = 0.5: 136 vs 154) at a higher cost per iteration (2m extra
-//! passes). PR+ is the default. Not tried for lack of time: the gap-primal scheme of Rey,
-//! Anciaux & Molinari 2017 (tamaas's; bench/peers/adhesive.sh runs it).
+//! Candidates measured against each other (`ADHESIVE_CANDIDATES=8,9 cargo bench -p contact
+//! --bench adhesive`: square model, γ0 = 0.2, ρ = 0.04, zero load, residual ≤ 1e-10;
+//! iterations cold / warm (one 0.01 p_fc step), CPU s of the cold solve):
+//!
+//! | minimiser                        | 256²             | 512²             | 1024²           |
+//! |----------------------------------|------------------|------------------|-----------------|
+//! | PR+ (default)                    | 44 / 36, 0.11 s  | 45 / 51, 0.52 s  | 64 / 59, 3.2 s  |
+//! | Fletcher–Reeves (no restart, as  | 58 / 36, 0.15 s  | 106 / 43, 1.0 s  |                 |
+//! | Bugnicourt et al. 2018)          |                  |                  |                 |
+//! | steepest descent, same search    | 225 / 135, 0.63 s| 280 / 117, 2.8 s |                 |
+//! | L-BFGS, memory 5                 | 47 / 35, 0.16 s  | 50 / 41, 0.58 s  |                 |
+//! | FIRE                             | 224 / 235, 0.36 s| 256 / 225, 1.8 s | 274 / 259, 8.3 s|
+//!
+//! L-BFGS ([`Beta::Lbfgs`]: the same preconditioner as initial inverse Hessian, line search and
+//! held set; pairs dropped when a step clips nodes, without which it stalled on adhesion) needs
+//! as many iterations as PR+ at 2m more passes per iteration; Fletcher–Reeves stalled for
+//! thousands of iterations on 128² under load (before the step limits below) and is slower
+//! here. PR+ is the default. Not implemented: the gap-primal scheme of Rey, Anciaux & Molinari
+//! 2017 (tamaas's own; bench/peers/adhesive.sh runs tamaas beside ours).
 //!
 //! Where the iterations go: after the first steps the active set settles and the rest is the
 //! linear rate of CG on the preconditioned Hessian I − K⁻¹|γ''|, whose smallest eigenvalues are
@@ -111,7 +120,7 @@ pub const IN_RANGE: f64 = 3.0;
 /// (cold, square model, iterations without → with, 2 chosen): repulsion 128² p̄ = 0.5 154 → 95,
 /// 256² p̄ = 0.3 98 → 84, p̄ = 1.5 130 → 108; factor 1: 114, 83, 102; factor 4: 120, 81, 103;
 /// adhesion unchanged (44, 79, 74 at 256², p̄ = 0, 0.84, 1.47).
-const CONTACT_GROWTH: f64 = 2.0;
+pub const CONTACT_GROWTH: f64 = 2.0;
 /// Inner iterations of the line search.
 const LINE_ITER: usize = 60;
 
