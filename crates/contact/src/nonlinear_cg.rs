@@ -284,7 +284,6 @@ struct Work {
     kd: Vec<f64>,
     nodes: Vec<Node>,
     u_prev: Vec<f64>,
-    sigma_prev: Vec<f64>,
     /// ⟨r, z⟩ of the previous direction; 0 forces a restart (d = −z).
     rz_old: f64,
     /// Steps since σ was computed from scratch.
@@ -398,6 +397,7 @@ impl NonlinearCg {
                 w.d[i] = 0.0;
             }
             slope += w.d[i] * w.r[i];
+            w.r_old[i] = w.r[i];
         }
         if slope >= 0.0 && beta != 0.0 {
             slope = 0.0;
@@ -407,31 +407,20 @@ impl NonlinearCg {
             }
         }
         w.rz_old = rz;
-        w.r_old.copy_from_slice(&w.r);
         slope
     }
 }
 
-/// The step at which the wall would hold more than `f` × max(contact, n/64) new nodes: the line
+/// The step at which the wall would hold more than [`CONTACT_GROWTH`] × max(contact, n/64) new
+/// nodes, from `hits` (the steps at which the free nodes moving down reach the wall): the line
 /// search ignores the wall, and a step far past the first contacts puts many nodes on it that
 /// the following iterations must release one by one.
-fn contact_growth_cap(w: &mut Work, u: &[f64], h: &[f64], f: f64) -> f64 {
-    let n = u.len();
-    let mut contact = 0usize;
-    w.hits.clear();
-    for i in 0..n {
-        let g = u[i] - h[i];
-        if g <= 0.0 {
-            contact += 1;
-        } else if w.d[i] < 0.0 {
-            w.hits.push(g / -w.d[i]);
-        }
-    }
-    let allowed = ((f * contact.max(n / 64) as f64) as usize).max(1);
-    if w.hits.len() <= allowed {
+fn contact_growth_cap(hits: &mut [f64], contact: usize, n: usize) -> f64 {
+    let allowed = ((CONTACT_GROWTH * contact.max(n / 64) as f64) as usize).max(1);
+    if hits.len() <= allowed {
         return f64::MAX;
     }
-    let (_, kth, _) = w.hits.select_nth_unstable_by(allowed, f64::total_cmp);
+    let (_, kth, _) = hits.select_nth_unstable_by(allowed, f64::total_cmp);
     *kth
 }
 
@@ -448,27 +437,36 @@ fn step(
     let n = u.len();
     let (mut a, mut b) = (0.0, 0.0);
     // the largest useful step: every node moving down has reached the wall
-    let mut alpha_cap = 0.0f64;
+    let mut wall_cap = 0.0f64;
     // Branch safeguard: a node within the interaction's range moves by at most one range per
     // step, so the ray cannot carry it over a barrier of the interaction.
     let range = law.interaction.range();
     let mut range_cap = f64::MAX;
+    let mut contact = 0usize;
+    w.hits.clear();
     for i in 0..n {
         let (g, d) = (u[i] - h[i], w.d[i]);
+        w.u_prev[i] = u[i];
         a += d * (w.sigma[i] + pressure);
         b += d * w.kd[i];
+        if g <= 0.0 {
+            contact += 1;
+        }
         if d < 0.0 {
-            alpha_cap = alpha_cap.max(-g / d);
+            wall_cap = wall_cap.max(-g / d);
+            if g > 0.0 {
+                w.hits.push(-g / d);
+            }
         }
         if d != 0.0 && g < IN_RANGE * range {
             range_cap = range_cap.min(range / d.abs());
         }
     }
-    if alpha_cap == 0.0 {
-        alpha_cap = f64::MAX;
+    if wall_cap == 0.0 {
+        wall_cap = f64::MAX;
     }
-    alpha_cap = alpha_cap.min(range_cap);
-    alpha_cap = alpha_cap.min(contact_growth_cap(w, u, h, CONTACT_GROWTH));
+    let growth_cap = contact_growth_cap(&mut w.hits, contact, n);
+    let alpha_cap = wall_cap.min(range_cap).min(growth_cap);
     // the line search needs only the nodes the interaction reaches for α ≤ alpha_cap
     w.nodes.clear();
     for i in 0..n {
@@ -484,25 +482,26 @@ fn step(
         law,
     };
     let mut alpha = ray.first_minimum(alpha_cap);
-    w.u_prev.copy_from_slice(u);
-    w.sigma_prev.copy_from_slice(&w.sigma);
     let (e0, slack0) = w.energy;
+    // σ = σ_prev + moved · K d while known that way (no clipping so far), else None
+    let mut moved = Some(0.0);
     for _ in 0..=MAX_HALVINGS {
         let mut clipped = false;
+        let shift = moved.map_or(0.0, |m| alpha - m);
         for i in 0..n {
             let x = w.u_prev[i] + alpha * w.d[i];
             clipped |= x < h[i];
             u[i] = x.max(h[i]);
+            w.sigma[i] += shift * w.kd[i];
         }
+        moved = moved.map(|_| alpha);
         w.stale += 1;
-        let e_new = if clipped || w.stale >= REFRESH {
+        let e_new = if clipped || moved.is_none() || w.stale >= REFRESH {
             kernel.stress(u, &mut w.sigma);
             w.stale = 0;
+            moved = None;
             crate::fire::energy(u, &w.sigma, h, law.interaction, pressure)
         } else {
-            for i in 0..n {
-                w.sigma[i] = w.sigma_prev[i] + alpha * w.kd[i];
-            }
             // exact along the ray without clipping: no full pass needed
             (e0 + ray.change(alpha) / n as f64, slack0)
         };
@@ -514,7 +513,10 @@ fn step(
         alpha *= 0.5;
     }
     u.copy_from_slice(&w.u_prev);
-    w.sigma.copy_from_slice(&w.sigma_prev);
+    match moved {
+        Some(m) => w.sigma.iter_mut().zip(&w.kd).for_each(|(s, k)| *s -= m * k),
+        None => kernel.stress(u, &mut w.sigma),
+    }
     w.energy = (e0, slack0);
     false
 }
@@ -558,7 +560,6 @@ impl Minimizer for NonlinearCg {
             kd: vec![0.0; n],
             nodes: Vec::with_capacity(n),
             u_prev: vec![0.0; n],
-            sigma_prev: vec![0.0; n],
             rz_old: 0.0,
             stale: 0,
             energy: (0.0, 0.0),
