@@ -124,11 +124,12 @@ pub const CONTACT_GROWTH: f64 = 2.0;
 /// Inner iterations of the line search.
 const LINE_ITER: usize = 60;
 
-/// One node on a ray: its gap and its direction.
+/// One node on a ray: its gap, its direction and its interaction energy γ(g).
 #[derive(Clone, Copy)]
 struct Node {
     g: f64,
     d: f64,
+    e: f64,
 }
 
 /// Everything the line search needs about one ray: the nodes the interaction can reach, and the
@@ -140,44 +141,40 @@ struct Ray<'a> {
     a: f64,
     /// Σ d K d.
     b: f64,
+    /// φ'(0) and φ''(0) (times N), from the gradient pass (no exponentials needed).
+    start: (f64, f64),
     law: Law,
 }
 
 impl Ray<'_> {
-    /// φ'(α) and φ''(α) (times N) of the energy along the ray, the wall ignored.
-    fn slope(&self, alpha: f64) -> (f64, f64) {
-        let (mut s1, mut s2) = (0.0, 0.0);
+    /// φ'(α), φ''(α) and φ(α) (times N) of the energy along the ray, the wall ignored.
+    fn slope(&self, alpha: f64) -> (f64, f64, f64) {
+        let (mut s1, mut s2, mut s0) = (0.0, 0.0, 0.0);
         for nd in self.nodes {
             let x = (nd.g + alpha * nd.d).max(0.0);
-            if x < self.law.cut {
-                let (_, d1, d2) = self.law.eval(x);
-                s1 += nd.d * d1;
-                s2 += nd.d * nd.d * d2;
-            }
+            let (e, d1, d2) = self.law.eval(x);
+            s0 += e - nd.e;
+            s1 += nd.d * d1;
+            s2 += nd.d * nd.d * d2;
         }
-        (self.a + alpha * self.b + s1, self.b + s2)
-    }
-
-    /// φ(α) (times N): the energy change along the ray, the wall ignored.
-    fn change(&self, alpha: f64) -> f64 {
-        let mut s = 0.0;
-        for nd in self.nodes {
-            let x = (nd.g + alpha * nd.d).max(0.0);
-            s += self.law.eval(x).0 - self.law.eval(nd.g).0;
-        }
-        alpha * self.a + 0.5 * alpha * alpha * self.b + s
+        (
+            self.a + alpha * self.b + s1,
+            self.b + s2,
+            alpha * self.a + 0.5 * alpha * alpha * self.b + s0,
+        )
     }
 
     /// The first minimum of the energy along the ray: the smallest α > 0 where φ' changes sign
     /// from negative to positive, by Newton steps safeguarded with a bracket [lo, hi], never
-    /// beyond `alpha_cap`.
-    fn first_minimum(&self, alpha_cap: f64) -> f64 {
-        let (mut lo, mut hi) = (0.0f64, f64::INFINITY);
-        let (mut alpha, (mut s1, mut s2)) = (0.0, self.slope(0.0));
+    /// beyond `alpha_cap`. Returns α and φ(α).
+    fn first_minimum(&self, alpha_cap: f64) -> (f64, f64) {
+        let (mut lo, mut hi, mut phi_lo) = (0.0f64, f64::INFINITY, 0.0);
+        let (mut alpha, mut phi) = (0.0, 0.0);
+        let (mut s1, mut s2) = self.start;
         let tol = 1e-6 * s1.abs();
         for _ in 0..LINE_ITER {
             if s1 < 0.0 {
-                lo = alpha;
+                (lo, phi_lo) = (alpha, phi);
             } else {
                 hi = alpha;
             }
@@ -197,12 +194,16 @@ impl Ray<'_> {
                 break;
             }
             alpha = next;
-            (s1, s2) = self.slope(alpha);
+            (s1, s2, phi) = self.slope(alpha);
             if alpha >= alpha_cap && s1 < 0.0 {
-                return alpha_cap;
+                return (alpha_cap, phi);
             }
         }
-        if s1 > 0.0 && lo > 0.0 { lo } else { alpha }
+        if s1 > 0.0 && lo > 0.0 {
+            (lo, phi_lo)
+        } else {
+            (alpha, phi)
+        }
     }
 }
 
@@ -247,7 +248,8 @@ impl Law {
     }
 }
 
-/// Gradient r on the free nodes (0 on held ones), residual, contact count and smallest open gap.
+/// Gradient r on the free nodes (0 on held ones), residual, contact count and smallest open gap;
+/// `local` receives γ(g) and γ''(g) per node for the line search.
 fn gradient(
     u: &[f64],
     h: &[f64],
@@ -255,11 +257,14 @@ fn gradient(
     law: Law,
     pressure: f64,
     r: &mut [f64],
+    local: &mut [(f64, f64)],
 ) -> (f64, usize, f64) {
     let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
     for i in 0..u.len() {
         let g = u[i] - h[i];
-        let ri = sigma[i] + pressure + law.eval(g.max(0.0)).1;
+        let (e, d1, d2) = law.eval(g.max(0.0));
+        local[i] = (e, d2);
+        let ri = sigma[i] + pressure + d1;
         if g <= 0.0 {
             contact += 1;
             // the wall pushes (r ≥ 0: held); a pull (r < 0) is unbalanced
@@ -296,6 +301,8 @@ struct Work {
     clipped: bool,
     /// Steps at which free nodes moving down would reach the wall.
     hits: Vec<f64>,
+    /// γ(g) and γ''(g) per node at the current state.
+    local: Vec<(f64, f64)>,
 }
 
 /// The L-BFGS direction d = −H r (two-loop recursion, H0 = M⁻¹ on the free nodes); returns
@@ -443,12 +450,15 @@ fn step(
     let range = law.interaction.range();
     let mut range_cap = f64::MAX;
     let mut contact = 0usize;
+    let (mut s1, mut s2) = (0.0, 0.0);
     w.hits.clear();
     for i in 0..n {
         let (g, d) = (u[i] - h[i], w.d[i]);
         w.u_prev[i] = u[i];
         a += d * (w.sigma[i] + pressure);
         b += d * w.kd[i];
+        s1 += d * w.r[i];
+        s2 += d * d * w.local[i].1;
         if g <= 0.0 {
             contact += 1;
         }
@@ -472,16 +482,21 @@ fn step(
     for i in 0..n {
         let (g, d) = (u[i] - h[i], w.d[i]);
         if d != 0.0 && (g < law.cut || g + alpha_cap * d < law.cut) {
-            w.nodes.push(Node { g, d });
+            w.nodes.push(Node {
+                g,
+                d,
+                e: w.local[i].0,
+            });
         }
     }
     let ray = Ray {
         nodes: &w.nodes,
         a,
         b,
+        start: (s1, b + s2),
         law,
     };
-    let mut alpha = ray.first_minimum(alpha_cap);
+    let (mut alpha, mut phi) = ray.first_minimum(alpha_cap);
     let (e0, slack0) = w.energy;
     // σ = σ_prev + moved · K d while known that way (no clipping so far), else None
     let mut moved = Some(0.0);
@@ -503,7 +518,7 @@ fn step(
             crate::fire::energy(u, &w.sigma, h, law.interaction, pressure)
         } else {
             // exact along the ray without clipping: no full pass needed
-            (e0 + ray.change(alpha) / n as f64, slack0)
+            (e0 + phi / n as f64, slack0)
         };
         if e_new.0 <= e0 + slack0 {
             w.energy = e_new;
@@ -511,6 +526,7 @@ fn step(
             return true;
         }
         alpha *= 0.5;
+        phi = ray.slope(alpha).2;
     }
     u.copy_from_slice(&w.u_prev);
     match moved {
@@ -566,6 +582,7 @@ impl Minimizer for NonlinearCg {
             history: std::collections::VecDeque::new(),
             clipped: false,
             hits: Vec::new(),
+            local: vec![(0.0, 0.0); n],
         };
         kernel.stress(u, &mut w.sigma);
         w.energy = crate::fire::energy(u, &w.sigma, h, interaction, pressure);
@@ -581,12 +598,13 @@ impl Minimizer for NonlinearCg {
         };
         let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
         loop {
-            let (mut res, contact, min_gap) = gradient(u, h, &w.sigma, law, pressure, &mut w.r);
+            let (mut res, contact, min_gap) =
+                gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local);
             if res <= opts.tol_force && w.stale > 0 {
                 // accept only on a σ computed from scratch
                 kernel.stress(u, &mut w.sigma);
                 w.stale = 0;
-                (res, _, _) = gradient(u, h, &w.sigma, law, pressure, &mut w.r);
+                (res, _, _) = gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local);
             }
             if opts.trace {
                 stats.trace.push(w.energy.0);
@@ -652,6 +670,32 @@ mod tests {
         rho: 0.04,
     };
 
+    /// A ray whose start (φ'(0), φ''(0)) is evaluated directly from the law.
+    fn ray(nodes: &[Node], a: f64, b: f64) -> Ray<'_> {
+        let law = Law::new(ADHESION);
+        let (mut s1, mut s2) = (a, b);
+        for nd in nodes {
+            let (_, d1, d2) = law.eval(nd.g);
+            s1 += nd.d * d1;
+            s2 += nd.d * nd.d * d2;
+        }
+        Ray {
+            nodes,
+            a,
+            b,
+            start: (s1, s2),
+            law,
+        }
+    }
+
+    fn node(g: f64, d: f64) -> Node {
+        Node {
+            g,
+            d,
+            e: ADHESION.energy(g),
+        }
+    }
+
     #[test]
     fn law_matches_the_interaction_and_its_finite_differences() {
         for inter in [
@@ -684,17 +728,13 @@ mod tests {
     #[test]
     fn line_search_solves_the_quadratic_exactly() {
         // no node within the interaction's reach: φ'(α) = a + α b, minimum at −a/b
-        let ray = Ray {
-            nodes: &[],
-            a: -3.0,
-            b: 2.0,
-            law: Law::new(ADHESION),
-        };
-        assert!((ray.first_minimum(f64::MAX) - 1.5).abs() < 1e-14);
-        // the cap binds when the minimum lies beyond it
-        assert_eq!(ray.first_minimum(1.0), 1.0);
+        let ray = ray(&[], -3.0, 2.0);
+        let (alpha, phi) = ray.first_minimum(f64::MAX);
+        assert!((alpha - 1.5).abs() < 1e-14);
         // φ(α) = a α + ½ b α²
-        assert!((ray.change(1.5) - (-3.0 * 1.5 + 0.5 * 2.0 * 2.25)).abs() < 1e-14);
+        assert!((phi - (-3.0 * 1.5 + 0.5 * 2.0 * 2.25)).abs() < 1e-14);
+        // the cap binds when the minimum lies beyond it
+        assert_eq!(ray.first_minimum(1.0).0, 1.0);
     }
 
     #[test]
@@ -702,17 +742,13 @@ mod tests {
         // One node at g = 0.3 moving to the wall (d = −1): φ' = −0.001 + 2α − 5 exp(−(0.3 − α)/0.04)
         // has a shallow minimum near α ≈ 0.0025 and a maximum near 0.195; at the wall (α = 0.3)
         // the energy is far lower (−0.11, the adhesion energy γ0 gained against 0.09 elastic).
-        let nodes = [Node { g: 0.3, d: -1.0 }];
-        let ray = Ray {
-            nodes: &nodes,
-            a: -0.001,
-            b: 2.0,
-            law: Law::new(ADHESION),
-        };
-        let alpha = ray.first_minimum(f64::MAX);
+        let nodes = [node(0.3, -1.0)];
+        let ray = ray(&nodes, -0.001, 2.0);
+        let (alpha, phi) = ray.first_minimum(f64::MAX);
         // the first sign change of φ' from − to +, by a dense scan (independent of Newton)
         let mut first = f64::NAN;
-        let mut prev = ray.slope(0.0).0;
+        let mut prev = ray.start.0;
+        assert!((prev - ray.slope(0.0).0).abs() < 1e-15);
         for k in 1..=200_000 {
             let x = k as f64 * 1e-6;
             let s = ray.slope(x).0;
@@ -725,8 +761,8 @@ mod tests {
         assert!(first < 0.02, "scan found {first}");
         assert!((alpha - first).abs() < 2e-6, "{alpha} vs scan {first}");
         assert!(ray.slope(alpha).1 > 0.0, "a minimum, not a maximum");
-        assert!(ray.change(alpha) < 0.0);
+        assert!(phi < 0.0 && (phi - ray.slope(alpha).2).abs() < 1e-15);
         // the deeper state is beyond the barrier: the line search did not jump to it
-        assert!(ray.change(0.3) < ray.change(alpha) - 0.1);
+        assert!(ray.slope(0.3).2 < phi - 0.1);
     }
 }
