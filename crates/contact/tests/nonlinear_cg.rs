@@ -70,6 +70,19 @@ fn jumps(points: &[Point], branch: Branch) -> Vec<f64> {
         .collect()
 }
 
+/// max |u(r) − u(−r)| on an n × n grid, −r the node inverted through the origin node (a symmetry
+/// of every model's sampling).
+fn inversion_defect(u: &[f64]) -> f64 {
+    let n = (u.len() as f64).sqrt() as usize;
+    let mut d = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            d = d.max((u[i * n + j] - u[((n - i) % n) * n + (n - j) % n]).abs());
+        }
+    }
+    d
+}
+
 /// Compares the two paths point by point and their jumps, and returns the summed iterations
 /// (ours, FIRE's).
 fn compare(label: &str, ours: &[Point], fire: &[Point], step: f64) -> (usize, usize) {
@@ -92,6 +105,16 @@ fn compare(label: &str, ours: &[Point], fire: &[Point], step: f64) -> (usize, us
     let n = ours[0].u.len() as f64;
     let mut differ = 0usize;
     for (o, f) in ours.iter().zip(fire) {
+        // A symmetry change is a branch change too: both minimisers keep the surface's
+        // inversion symmetry or both lose it (1e-6: six orders above a converged state's
+        // asymmetry, residual 1e-10 over stiffness ≥ π).
+        let (so, sf) = (inversion_defect(&o.u), inversion_defect(&f.u));
+        assert_eq!(
+            so < 1e-6,
+            sf < 1e-6,
+            "{label} x={}: inversion defect {so:e} (ours) vs {sf:e} (FIRE)",
+            o.x
+        );
         let du =
             o.u.iter()
                 .zip(&f.u)
