@@ -31,8 +31,8 @@ for e in "${ns[@]}"; do
   p=$(cd bench/peers && "$py" adhesive_peers.py tamaas "$out" "$size" "$gap")
   echo "== n = $size: contact crate at p = $p"
   ADHESIVE_NS="$e" ADHESIVE_FIRE="$e" ADHESIVE_PRESSURE="$p" ADHESIVE_DUMP="$out" \
-    cargo bench -q -p contact --bench adhesive | grep -v '^RESULT'
-  echo "== n = $size: one metric from each gap field (ours = the cold nonlinear-CG solve)"
-  (cd bench/peers && "$py" adhesive_peers.py metric "$out" "$size")
+    cargo bench -q -p contact --bench adhesive | tee "$out/ours_n$size.txt" | grep -v '^RESULT'
+  echo "== n = $size: one metric from each gap field (ours = the cold nonlinear-CG solve), CPU ratios"
+  (cd bench/peers && "$py" adhesive_peers.py metric "$out" "$size" "$out/ours_n$size.txt")
  done
 done

@@ -3,7 +3,8 @@ solver (`PolonskyKeerRey(model, h, tol, gap, gap)` with an `ExponentialAdhesionF
 Rey, Anciaux & Molinari 2017) on the square model, γ0 = 0.2, ρ = 0.04.
 
   python adhesive_peers.py tamaas DIR N MEAN_GAP   # solve, write DIR/tamaas_g_nN.f64 + case
-  python adhesive_peers.py metric DIR N            # one metric for both codes' gap fields
+  python adhesive_peers.py metric DIR N OURS.txt   # one metric for both codes' gap fields,
+                                                   # CPU ratios from our bench's RESULT lines
 
 tamaas runs at an imposed mean gap; its mean traction is then the load at which ours solves
 (bench/peers/adhesive.sh). The common metric is computed by one routine, `metric`, from each
@@ -70,7 +71,21 @@ def run_tamaas(d, n, mean_gap):
     print(p)  # the load, for adhesive.sh
 
 
-def run_metric(d, n):
+def ratios(ours_txt, tamaas_cpu, tamaas_gap):
+    """tamaas CPU / our CPU for each of our cold solves, and whether it reached tamaas's state."""
+    for line in open(ours_txt):
+        if not line.startswith("RESULT") or "case=cold" not in line:
+            continue
+        kv = dict(f.split("=", 1) for f in line.split()[1:])
+        same = abs(float(kv["mean_gap"]) - tamaas_gap) < 1e-8
+        print(
+            f"RATIO n={kv['n']} ours={kv['method']} iterations={kv['iterations']} cpu_s={float(kv['cpu']):.3f}"
+            f" tamaas_cpu_s={tamaas_cpu:.3f} ratio={tamaas_cpu / float(kv['cpu']):.2f}"
+            f" same_state={'yes' if same else 'NO (another metastable state)'}"
+        )
+
+
+def run_metric(d, n, ours_txt=None):
     h = np.fromfile(f"{d}/heights_n{n}.f64", dtype="<f8").reshape(n, n)
     case = json.load(open(f"{d}/tamaas_n{n}.json"))
     p = case["pressure"]
@@ -78,10 +93,13 @@ def run_metric(d, n):
     for name, g in [("ours", np.maximum(u - h, 0.0)), ("tamaas", np.fromfile(f"{d}/tamaas_g_n{n}.f64", dtype="<f8").reshape(n, n))]:
         res, mg, a = metric(g, h, p)
         print(f"RESULT metric={name} n={n} residual={res:.3e} mean_gap={mg:.15e} area={a:.9f}")
+    if ours_txt:
+        tg = np.fromfile(f"{d}/tamaas_g_n{n}.f64", dtype="<f8").mean()
+        ratios(ours_txt, case["cpu"], tg)
 
 
 if __name__ == "__main__":
     if sys.argv[1] == "tamaas":
         run_tamaas(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]))
     else:
-        run_metric(sys.argv[2], int(sys.argv[3]))
+        run_metric(sys.argv[2], int(sys.argv[3]), sys.argv[4] if len(sys.argv) > 4 else None)

@@ -285,3 +285,30 @@ fn far_beyond_pull_off_the_surfaces_separate_with_a_clear_error() {
         other => panic!("expected detachment, got {other:?}"),
     }
 }
+
+/// Without a finite-range part the problem is the convex hard wall: the same state as the
+/// Polonsky–Keer solver (an independent method in the pressure, stopping on the gap).
+#[test]
+fn agrees_with_polonsky_keer_on_the_hard_wall() {
+    let (s, mut m) = square(6);
+    let p = 0.1 * s.p_fc_grid();
+    let solve = |m: &mut Model, method| {
+        let opts = SolverOptions {
+            tol_force: TOL_FORCE,
+            method,
+            ..SolverOptions::default()
+        };
+        m.solve(Interaction::HardWall, p, &opts, None).unwrap()
+    };
+    let ours = solve(&mut m, Method::NonlinearCg);
+    let pk = solve(&mut m, Method::PolonskyKeer);
+    assert!(ours.stats.converged && pk.stats.converged);
+    assert_eq!(ours.contact_area, pk.contact_area);
+    // gaps agree to the tolerances: violation 1e-10 (PK), residual 1e-10 over stiffness ≥ π
+    let du = ours
+        .gap
+        .iter()
+        .zip(pk.gap.iter())
+        .fold(0.0f64, |d, (a, b)| d.max((a - b).abs()));
+    assert!(du < 1e-8, "max gap difference {du:e}");
+}
