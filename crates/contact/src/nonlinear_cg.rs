@@ -64,6 +64,11 @@
 //! here. PR+ is the default. Not implemented: the gap-primal scheme of Rey, Anciaux & Molinari
 //! 2017 (tamaas's own; bench/peers/adhesive.sh runs tamaas beside ours).
 //!
+//! Preconditioner variants tried (256², cold/warm iterations on five states: adhesion at
+//! p̄ = 0, 0.53, 1.47, repulsion at 0.3, 1.5): the mean-mode mass k_min (44/37, 55/29, 74/22,
+//! 84/70, 108/71) against 0.1–30 k_min (better for adhesion at zero load down to 31/26, worse
+//! elsewhere, up to 343/272), and masses k(q) + c for c = 1–30 E*/λ (no consistent change).
+//!
 //! Where the iterations go: after the first steps the active set settles and the rest is the
 //! linear rate of CG on the preconditioned Hessian I − K⁻¹|γ''|, whose smallest eigenvalues are
 //! the soft modes of the interaction (repulsion 128², p̄ = 0.5: residual ÷10 per ~8 iterations
