@@ -54,12 +54,14 @@ demo: build
 # Benchmarks (timings, iterations, peak memory) of the contact and flow solvers.
 bench:
     cargo bench -p contact --bench hardwall
+    cargo bench -p contact --bench adhesive
     cargo bench -p reynolds --bench flow
 
 # Side-by-side benchmarks against tamaas, ContactMechanics and PyAMG in a Python venv.
 bench-peers: build
     bench/peers/setup-venv.sh
     bench/peers/contact.sh
+    bench/peers/adhesive.sh
     bench/peers/flow.sh
 
 # Formatting and lints as CI would want them.

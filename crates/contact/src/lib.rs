@@ -5,7 +5,7 @@
 //! `g = u − h ≥ 0`, `u` the elastic surface's height). Units: E* = 1, λ = 1, h0 = 1; pressures in
 //! E* h0/λ, energies per area in E* h0²/λ.
 //!
-//! Two minimisers implement [`Minimizer`]:
+//! Three minimisers implement [`Minimizer`]:
 //! - [`polonsky_keer::PolonskyKeer`]: constrained conjugate gradients in the contact pressure
 //!   (Polonsky & Keer 1999), preconditioned by the elastic stiffness (Vollebregt 2014), for the
 //!   convex hard-wall problem. Converges to a bound on the constraint violation (gap on the
@@ -14,6 +14,11 @@
 //!   (masses ∝ modal stiffness, Zhou, Moseler & Müser 2019) and the hard wall as a projection;
 //!   handles any interaction and follows metastable branches from warm starts. Converges to a
 //!   bound on the force residual.
+//! - [`nonlinear_cg::NonlinearCg`]: bound-constrained nonlinear conjugate gradients on the
+//!   displacement, preconditioned by the elastic stiffness, with a line search that stops at the
+//!   first minimum along the ray; any interaction, follows metastable branches from warm starts,
+//!   converges to the same force-residual bound as FIRE in 3–5× fewer iterations (not yet chosen
+//!   by [`Method::Auto`]).
 //!
 //! [`Model::solve`] picks one, warm-starts from a previous [`Solution`] if given, and always
 //! returns the iterations, residuals and a converged flag; [`path`] runs quasi-static loading and
@@ -22,6 +27,7 @@
 pub mod elastic;
 pub mod fire;
 pub mod interaction;
+pub mod nonlinear_cg;
 pub mod path;
 pub mod polonsky_keer;
 pub mod spectral;
@@ -152,6 +158,8 @@ pub enum Method {
     PolonskyKeerPlain,
     /// Mass-weighted FIRE (any interaction).
     Fire,
+    /// Stiffness-preconditioned nonlinear conjugate gradients (any interaction).
+    NonlinearCg,
 }
 
 impl std::str::FromStr for Method {
@@ -162,10 +170,11 @@ impl std::str::FromStr for Method {
             "polonsky-keer" | "pk" => Ok(Method::PolonskyKeer),
             "polonsky-keer-plain" | "pk-plain" => Ok(Method::PolonskyKeerPlain),
             "fire" => Ok(Method::Fire),
+            "nonlinear-cg" | "ncg" => Ok(Method::NonlinearCg),
             _ => Err(ContactError::Parameter {
                 name: "method",
                 value: s.to_string(),
-                allowed: "\"auto\", \"polonsky-keer\", \"polonsky-keer-plain\" (hard wall only) or \"fire\"",
+                allowed: "\"auto\", \"polonsky-keer\", \"polonsky-keer-plain\" (hard wall only), \"fire\" or \"nonlinear-cg\"",
             }),
         }
     }
@@ -440,6 +449,13 @@ impl Model {
                 &polonsky_keer::PolonskyKeer {
                     preconditioned: opts.method == Method::PolonskyKeer,
                 },
+                interaction,
+                pressure,
+                opts,
+                warm,
+            ),
+            Method::NonlinearCg => self.solve_with(
+                &nonlinear_cg::NonlinearCg::default(),
                 interaction,
                 pressure,
                 opts,

@@ -1,0 +1,773 @@
+//! Bound-constrained nonlinear conjugate gradients on the elastic surface height, preconditioned
+//! by the elastic stiffness, for any interaction on top of the hard wall (adhesion, repulsion).
+//!
+//! Minimises the energy per area E(u) = ½⟨u, K u⟩ + p̄ ū + ⟨γ(u − h)⟩ over u ≥ h (force control:
+//! the mean of u is free, the load enters through p̄ ū). The gradient (per node, times N) is
+//! r = σ + p̄ + γ'(g) with σ = K u, the same unbalanced pressure FIRE drives to zero. Nodes on the
+//! wall (g = 0) with r ≥ 0 are held (the wall pushes); their gradient and direction are zero.
+//!
+//! Each iteration:
+//! 1. z = M⁻¹ r on the free nodes (M the modal stiffness k(q) = qE*/2, with k_min for the mean
+//!    mode: FIRE's mass weighting, the Vollebregt idea that made Polonsky–Keer fast), restricted
+//!    to the free nodes. Since r vanishes on the held set, ⟨r, z⟩ = ⟨r, M⁻¹ r⟩ > 0.
+//! 2. d = −z + β d_old with β from [`Beta`] (Polak–Ribière+ by default); d = −z if d is not a
+//!    descent direction.
+//! 3. One transform pair gives K d. Along the ray the energy is then known without further
+//!    transforms: the elastic part is the exact quadratic α⟨d, σ + p̄⟩ + ½α²⟨d, K d⟩ and the
+//!    interaction is local. A safeguarded Newton iteration from α = 0 finds the *first* minimum
+//!    along the ray (not the deepest): that is how a warm start stays on its metastable branch.
+//! 4. u ← max(u + α d, h). Without clipping σ ← σ + α K d exactly; with clipping σ = K u is
+//!    recomputed (one pair). A step that raises the energy beyond rounding is halved (strict
+//!    descent: the iteration can never climb over a barrier to another branch).
+//!
+//! Cost: two transform pairs per iteration (M⁻¹ r and K d), three when nodes are clipped, plus a
+//! few local passes for the line search. σ is recomputed from scratch every [`REFRESH`]
+//! iterations and before convergence is accepted, so rounding cannot accumulate.
+//!
+//! Convergence: the force residual of FIRE (largest unbalanced pressure off the wall, largest
+//! pull at the wall) at most `tol_force`, on a freshly computed σ.
+//!
+//! Approximations: the line search ignores the wall (nodes that would penetrate are clipped
+//! afterwards); the energy check after the step keeps the iteration a strict descent.
+//!
+//! Branch safeguard: a node within [`IN_RANGE`] ranges of the wall moves by at most one range ρ
+//! per step. Without it the long preconditioned steps carried nodes over the interaction's
+//! barriers: on a 32² square-model load path (γ0 = 0.2, ρ = 0.04) the cold start already
+//! landed in a state with 8 more contact nodes than FIRE's, and loading stayed ahead of FIRE;
+//! with it the two agree on all but a few lattice-trapped points (tests/nonlinear_cg.rs).
+//!
+//! Cold starts where two states coexist may end in another state than FIRE's: square model
+//! 256², p̄ = 0.8408 (tamaas's load at mean gap 0.5, where patches coalesce): FIRE and tamaas
+//! reach area 0.4173, mean gap 0.5, energy 2.502394; nonlinear CG area 0.3626, mean gap
+//! 0.5419, energy 2.501870 (lower). Both are minima: perturbed by random noise up to 1e-3 h0,
+//! FIRE and nonlinear CG return to each. FIRE's inertia carries it further into contact; which
+//! state a cold start reaches is not defined by the physics. From warm starts (paths) the two
+//! agree (tests/nonlinear_cg.rs).
+//!
+//! Candidates measured against each other (`ADHESIVE_CANDIDATES=8,9 cargo bench -p contact
+//! --bench adhesive`: square model, γ0 = 0.2, ρ = 0.04, zero load, residual ≤ 1e-10;
+//! iterations cold / warm (one 0.01 p_fc step), CPU s of the cold solve):
+//!
+//! | minimiser                        | 256²             | 512²             | 1024²           |
+//! |----------------------------------|------------------|------------------|-----------------|
+//! | PR+ (default)                    | 44 / 36, 0.11 s  | 45 / 51, 0.52 s  | 64 / 59, 3.2 s  |
+//! | Fletcher–Reeves (no restart, as  | 58 / 36, 0.15 s  | 106 / 43, 1.0 s  |                 |
+//! | Bugnicourt et al. 2018)          |                  |                  |                 |
+//! | steepest descent, same search    | 225 / 135, 0.63 s| 280 / 117, 2.8 s |                 |
+//! | L-BFGS, memory 5                 | 47 / 35, 0.16 s  | 50 / 41, 0.58 s  |                 |
+//! | FIRE                             | 224 / 235, 0.36 s| 256 / 225, 1.8 s | 274 / 259, 8.3 s|
+//!
+//! L-BFGS ([`Beta::Lbfgs`]: the same preconditioner as initial inverse Hessian, line search and
+//! held set; pairs dropped when a step clips nodes, without which it stalled on adhesion) needs
+//! as many iterations as PR+ at 2m more passes per iteration; Fletcher–Reeves stalled for
+//! thousands of iterations on 128² under load (before the step limits below) and is slower
+//! here. PR+ is the default. Not implemented: the gap-primal scheme of Rey, Anciaux & Molinari
+//! 2017 (tamaas's own; bench/peers/adhesive.sh runs tamaas beside ours).
+//!
+//! Preconditioner variants tried (256², cold/warm iterations on five states: adhesion at
+//! p̄ = 0, 0.53, 1.47, repulsion at 0.3, 1.5): the mean-mode mass k_min (44/37, 55/29, 74/22,
+//! 84/70, 108/71) against 0.1–30 k_min (better for adhesion at zero load down to 31/26, worse
+//! elsewhere, up to 343/272), and masses k(q) + c for c = 1–30 E*/λ (no consistent change).
+//!
+//! Where the iterations go: after the first steps the active set settles and the rest is the
+//! linear rate of CG on the preconditioned Hessian I − K⁻¹|γ''|, whose smallest eigenvalues are
+//! the soft modes of the interaction (repulsion 128², p̄ = 0.5: residual ÷10 per ~8 iterations
+//! over the last 100). From a cold start under repulsion the first steps, whose line search
+//! ignores the wall, put 3× too many nodes on the wall, and releasing them took ~40 iterations;
+//! a step is therefore capped where it would put more than [`CONTACT_GROWTH`] × max(contact,
+//! n/64) new nodes on the wall.
+
+use crate::{
+    ContactError, Interaction, Minimizer, Model, SolveStats, SolverOptions, State, StopReason,
+};
+
+/// How the conjugate direction mixes in the previous one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Beta {
+    /// Polak–Ribière with restart on negative β (PR+): β = max(0, ⟨z, r − r_old⟩/⟨z_old, r_old⟩).
+    PolakRibiere,
+    /// Fletcher–Reeves: β = ⟨z, r⟩/⟨z_old, r_old⟩ (no restart, as Bugnicourt et al. 2018).
+    FletcherReeves,
+    /// β = 0: preconditioned steepest descent with the same line search (for comparison).
+    SteepestDescent,
+    /// Not a β: limited-memory BFGS (the last [`LBFGS_MEMORY`] steps) with the stiffness
+    /// preconditioner as initial inverse Hessian and the same line search, steps and held set.
+    Lbfgs,
+}
+
+/// Step pairs an L-BFGS direction remembers.
+pub const LBFGS_MEMORY: usize = 5;
+
+/// The nonlinear conjugate-gradient minimiser.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NonlinearCg {
+    /// Conjugacy formula.
+    pub beta: Beta,
+}
+
+impl Default for NonlinearCg {
+    fn default() -> Self {
+        NonlinearCg {
+            beta: Beta::PolakRibiere,
+        }
+    }
+}
+
+/// Iterations between recomputations of σ = K u from scratch.
+pub const REFRESH: usize = 50;
+/// Iterations without a 1 % improvement of the residual after which the solve is stagnant.
+const STAGNATION: usize = 2000;
+/// Halvings of a step that raises the energy before the direction is reset to −z.
+const MAX_HALVINGS: usize = 30;
+/// Nodes with a gap below this many interaction ranges are held to one range of motion per step.
+pub const IN_RANGE: f64 = 3.0;
+/// A step may put at most this many times max(contact, n/64) new nodes on the wall. Measured
+/// (cold, square model, iterations without → with, 2 chosen): repulsion 128² p̄ = 0.5 154 → 95,
+/// 256² p̄ = 0.3 98 → 84, p̄ = 1.5 130 → 108; factor 1: 114, 83, 102; factor 4: 120, 81, 103;
+/// adhesion unchanged (44, 79, 74 at 256², p̄ = 0, 0.84, 1.47).
+pub const CONTACT_GROWTH: f64 = 2.0;
+/// Inner iterations of the line search.
+const LINE_ITER: usize = 60;
+
+/// One node on a ray: its gap, its direction and its interaction energy γ(g).
+#[derive(Clone, Copy)]
+struct Node {
+    g: f64,
+    d: f64,
+    e: f64,
+}
+
+/// Everything the line search needs about one ray: the nodes the interaction can reach, and the
+/// elastic scalars.
+struct Ray<'a> {
+    /// Nodes with d ≠ 0 that are, or may come, within the interaction's cutoff.
+    nodes: &'a [Node],
+    /// Σ d (σ + p̄).
+    a: f64,
+    /// Σ d K d.
+    b: f64,
+    /// φ'(0) and φ''(0) (times N), from the gradient pass (no exponentials needed).
+    start: (f64, f64),
+    law: Law,
+}
+
+impl Ray<'_> {
+    /// φ'(α), φ''(α) and φ(α) (times N) of the energy along the ray, the wall ignored.
+    fn slope(&self, alpha: f64) -> (f64, f64, f64) {
+        let (mut s1, mut s2, mut s0) = (0.0, 0.0, 0.0);
+        for nd in self.nodes {
+            let x = (nd.g + alpha * nd.d).max(0.0);
+            let (e, d1, d2) = self.law.eval(x);
+            s0 += e - nd.e;
+            s1 += nd.d * d1;
+            s2 += nd.d * nd.d * d2;
+        }
+        (
+            self.a + alpha * self.b + s1,
+            self.b + s2,
+            alpha * self.a + 0.5 * alpha * alpha * self.b + s0,
+        )
+    }
+
+    /// The first minimum of the energy along the ray: the smallest α > 0 where φ' changes sign
+    /// from negative to positive, by Newton steps safeguarded with a bracket [lo, hi], never
+    /// beyond `alpha_cap`. Returns α and φ(α).
+    fn first_minimum(&self, alpha_cap: f64) -> (f64, f64) {
+        let (mut lo, mut hi, mut phi_lo) = (0.0f64, f64::INFINITY, 0.0);
+        let (mut alpha, mut phi) = (0.0, 0.0);
+        let (mut s1, mut s2) = self.start;
+        let tol = 1e-6 * s1.abs();
+        for _ in 0..LINE_ITER {
+            if s1 < 0.0 {
+                (lo, phi_lo) = (alpha, phi);
+            } else {
+                hi = alpha;
+            }
+            if s1.abs() <= tol && alpha > 0.0 {
+                break;
+            }
+            let newton = if s2 > 0.0 { alpha - s1 / s2 } else { f64::NAN };
+            let next = if newton > lo && newton < hi {
+                newton.min(alpha_cap)
+            } else if hi.is_finite() {
+                0.5 * (lo + hi)
+            } else {
+                // no usable curvature: expand (the preconditioned step has scale 1), capped
+                (2.0 * lo).max(1.0).min(alpha_cap)
+            };
+            if next == alpha || hi - lo <= 1e-14 * hi.min(alpha_cap) {
+                break;
+            }
+            alpha = next;
+            (s1, s2, phi) = self.slope(alpha);
+            if alpha >= alpha_cap && s1 < 0.0 {
+                return (alpha_cap, phi);
+            }
+        }
+        if s1 > 0.0 && lo > 0.0 {
+            (lo, phi_lo)
+        } else {
+            (alpha, phi)
+        }
+    }
+}
+
+/// The interaction with a cutoff beyond which its energy and derivatives are below rounding.
+#[derive(Clone, Copy)]
+struct Law {
+    interaction: Interaction,
+    /// Gap beyond which γ, γ', γ'' are below e⁻⁴⁰ ≈ 4e-18 of their scale (γ0, γ0/ρ, γ0/ρ²
+    /// times at most (g/ρ)² ≤ 100): treated as zero.
+    cut: f64,
+}
+
+impl Law {
+    fn new(interaction: Interaction) -> Self {
+        let cut = match interaction {
+            Interaction::HardWall => 0.0,
+            Interaction::Adhesion { rho, .. } => 40.0 * rho,
+            // exp(−g²/2ρ²) < e⁻⁴⁰ for g > √80 ρ ≈ 8.9ρ
+            Interaction::Repulsion { rho, .. } => 10.0 * rho,
+        };
+        Law { interaction, cut }
+    }
+
+    /// γ(x), γ'(x), γ''(x) with one exponential.
+    #[inline]
+    fn eval(&self, x: f64) -> (f64, f64, f64) {
+        if x >= self.cut {
+            return (0.0, 0.0, 0.0);
+        }
+        match self.interaction {
+            Interaction::HardWall => (0.0, 0.0, 0.0),
+            Interaction::Adhesion { gamma0, rho } => {
+                let e = -gamma0 * (-x / rho).exp();
+                (e, -e / rho, e / (rho * rho))
+            }
+            Interaction::Repulsion { gamma_r, rho } => {
+                let r2 = rho * rho;
+                let e = gamma_r * (-0.5 * x * x / r2).exp();
+                (e, -e * x / r2, e / r2 * (x * x / r2 - 1.0))
+            }
+        }
+    }
+}
+
+/// Gradient r on the free nodes (0 on held ones), residual, contact count and smallest open gap;
+/// `local` receives γ(g) and γ''(g) per node for the line search.
+fn gradient(
+    u: &[f64],
+    h: &[f64],
+    sigma: &[f64],
+    law: Law,
+    pressure: f64,
+    r: &mut [f64],
+    local: &mut [(f64, f64)],
+) -> (f64, usize, f64) {
+    let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
+    for i in 0..u.len() {
+        let g = u[i] - h[i];
+        let (e, d1, d2) = law.eval(g.max(0.0));
+        local[i] = (e, d2);
+        let ri = sigma[i] + pressure + d1;
+        if g <= 0.0 {
+            contact += 1;
+            // the wall pushes (r ≥ 0: held); a pull (r < 0) is unbalanced
+            res = res.max(-ri);
+            r[i] = ri.min(0.0);
+        } else {
+            res = res.max(ri.abs());
+            r[i] = ri;
+            min_gap = min_gap.min(g);
+        }
+    }
+    (res, contact, min_gap)
+}
+
+/// Work buffers and the conjugacy memory of one solve.
+struct Work {
+    sigma: Vec<f64>,
+    r: Vec<f64>,
+    r_old: Vec<f64>,
+    z: Vec<f64>,
+    d: Vec<f64>,
+    kd: Vec<f64>,
+    nodes: Vec<Node>,
+    u_prev: Vec<f64>,
+    /// ⟨r, z⟩ of the previous direction; 0 forces a restart (d = −z).
+    rz_old: f64,
+    /// Steps since σ was computed from scratch.
+    stale: usize,
+    /// Energy per area and its rounding slack.
+    energy: (f64, f64),
+    /// L-BFGS pairs (s, y, 1/⟨s, y⟩), oldest first.
+    history: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)>,
+    /// The last step clipped nodes onto the wall (the active set changed).
+    clipped: bool,
+    /// Steps at which free nodes moving down would reach the wall.
+    hits: Vec<f64>,
+    /// γ(g) and γ''(g) per node at the current state.
+    local: Vec<(f64, f64)>,
+}
+
+/// The L-BFGS direction d = −H r (two-loop recursion, H0 = M⁻¹ on the free nodes); returns
+/// ⟨d, r⟩. The pair of the last step enters if its curvature ⟨s, y⟩ is positive (the adhesive
+/// energy is not convex: pairs across a softening region are skipped).
+fn lbfgs_direction(
+    w: &mut Work,
+    kernel: &mut crate::elastic::ElasticKernel,
+    weights: &[f64],
+    u: &[f64],
+    h: &[f64],
+) -> f64 {
+    let n = u.len();
+    let held = |r: &[f64], i: usize| r[i] == 0.0 && u[i] <= h[i];
+    if w.clipped {
+        // the active set changed: old curvature pairs describe another problem
+        w.history.clear();
+    }
+    if w.rz_old > 0.0 && !w.clipped {
+        let (mut s, mut y) = if w.history.len() == LBFGS_MEMORY {
+            let (s, y, _) = w.history.pop_front().expect("full");
+            (s, y)
+        } else {
+            (vec![0.0; n], vec![0.0; n])
+        };
+        let mut sy = 0.0;
+        for i in 0..n {
+            let free = !held(&w.r, i);
+            s[i] = if free { u[i] - w.u_prev[i] } else { 0.0 };
+            y[i] = if free { w.r[i] - w.r_old[i] } else { 0.0 };
+            sy += s[i] * y[i];
+        }
+        if sy > 0.0 {
+            w.history.push_back((s, y, 1.0 / sy));
+        }
+    } else {
+        w.history.clear();
+    }
+    loop {
+        w.d.copy_from_slice(&w.r);
+        let mut coef = Vec::with_capacity(w.history.len());
+        for (s, y, rho) in w.history.iter().rev() {
+            let a = rho * dot(s, &w.d);
+            w.d.iter_mut().zip(y).for_each(|(q, y)| *q -= a * y);
+            coef.push(a);
+        }
+        kernel.precondition(&w.d, weights, &mut w.z);
+        for i in 0..n {
+            if held(&w.r, i) {
+                w.z[i] = 0.0;
+            }
+        }
+        for ((s, y, rho), a) in w.history.iter().zip(coef.iter().rev()) {
+            let b = rho * dot(y, &w.z);
+            w.z.iter_mut().zip(s).for_each(|(z, s)| *z += (a - b) * s);
+        }
+        let mut slope = 0.0;
+        for i in 0..n {
+            w.d[i] = -w.z[i];
+            slope += w.d[i] * w.r[i];
+        }
+        if slope < 0.0 || w.history.is_empty() {
+            w.rz_old = 1.0;
+            w.r_old.copy_from_slice(&w.r);
+            return slope;
+        }
+        w.history.clear();
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+impl NonlinearCg {
+    /// d = −z + β d_old on the free nodes; returns ⟨d, r⟩ (< 0 for a descent direction).
+    fn direction(&self, w: &mut Work, u: &[f64], h: &[f64]) -> f64 {
+        let (mut rz, mut rz_cross) = (0.0, 0.0);
+        for i in 0..u.len() {
+            if w.r[i] == 0.0 && u[i] <= h[i] {
+                w.z[i] = 0.0; // held by the wall
+            }
+            rz += w.r[i] * w.z[i];
+            rz_cross += w.r_old[i] * w.z[i];
+        }
+        let beta = if w.rz_old <= 0.0 {
+            0.0
+        } else {
+            match self.beta {
+                Beta::PolakRibiere => ((rz - rz_cross) / w.rz_old).max(0.0),
+                Beta::FletcherReeves => rz / w.rz_old,
+                Beta::SteepestDescent | Beta::Lbfgs => 0.0,
+            }
+        };
+        let mut slope = 0.0;
+        for i in 0..u.len() {
+            w.d[i] = beta * w.d[i] - w.z[i];
+            if w.z[i] == 0.0 && w.r[i] == 0.0 {
+                w.d[i] = 0.0;
+            }
+            slope += w.d[i] * w.r[i];
+            w.r_old[i] = w.r[i];
+        }
+        if slope >= 0.0 && beta != 0.0 {
+            slope = 0.0;
+            for i in 0..u.len() {
+                w.d[i] = -w.z[i];
+                slope += w.d[i] * w.r[i];
+            }
+        }
+        w.rz_old = rz;
+        slope
+    }
+}
+
+/// The step at which the wall would hold more than [`CONTACT_GROWTH`] × max(contact, n/64) new
+/// nodes, from `hits` (the steps at which the free nodes moving down reach the wall): the line
+/// search ignores the wall, and a step far past the first contacts puts many nodes on it that
+/// the following iterations must release one by one.
+fn contact_growth_cap(hits: &mut [f64], contact: usize, n: usize) -> f64 {
+    let allowed = ((CONTACT_GROWTH * contact.max(n / 64) as f64) as usize).max(1);
+    if hits.len() <= allowed {
+        return f64::MAX;
+    }
+    let (_, kth, _) = hits.select_nth_unstable_by(allowed, f64::total_cmp);
+    *kth
+}
+
+/// The line search along d (with K d in `w.kd`) and the step: u ← max(u + α d, h), halved until
+/// the energy does not rise beyond rounding. Returns false if no step lowered it.
+fn step(
+    w: &mut Work,
+    kernel: &mut crate::elastic::ElasticKernel,
+    u: &mut [f64],
+    h: &[f64],
+    law: Law,
+    pressure: f64,
+) -> bool {
+    let n = u.len();
+    let (mut a, mut b) = (0.0, 0.0);
+    // the largest useful step: every node moving down has reached the wall
+    let mut wall_cap = 0.0f64;
+    // Branch safeguard: a node within the interaction's range moves by at most one range per
+    // step, so the ray cannot carry it over a barrier of the interaction.
+    let range = law.interaction.range();
+    let mut range_cap = f64::MAX;
+    let mut contact = 0usize;
+    let (mut s1, mut s2) = (0.0, 0.0);
+    w.hits.clear();
+    for i in 0..n {
+        let (g, d) = (u[i] - h[i], w.d[i]);
+        w.u_prev[i] = u[i];
+        a += d * (w.sigma[i] + pressure);
+        b += d * w.kd[i];
+        s1 += d * w.r[i];
+        s2 += d * d * w.local[i].1;
+        if g <= 0.0 {
+            contact += 1;
+        }
+        if d < 0.0 {
+            wall_cap = wall_cap.max(-g / d);
+            if g > 0.0 {
+                w.hits.push(-g / d);
+            }
+        }
+        if d != 0.0 && g < IN_RANGE * range {
+            range_cap = range_cap.min(range / d.abs());
+        }
+    }
+    if wall_cap == 0.0 {
+        wall_cap = f64::MAX;
+    }
+    let growth_cap = contact_growth_cap(&mut w.hits, contact, n);
+    let alpha_cap = wall_cap.min(range_cap).min(growth_cap);
+    // the line search needs only the nodes the interaction reaches for α ≤ alpha_cap
+    w.nodes.clear();
+    for i in 0..n {
+        let (g, d) = (u[i] - h[i], w.d[i]);
+        if d != 0.0 && (g < law.cut || g + alpha_cap * d < law.cut) {
+            w.nodes.push(Node {
+                g,
+                d,
+                e: w.local[i].0,
+            });
+        }
+    }
+    let ray = Ray {
+        nodes: &w.nodes,
+        a,
+        b,
+        start: (s1, b + s2),
+        law,
+    };
+    let (mut alpha, mut phi) = ray.first_minimum(alpha_cap);
+    let (e0, slack0) = w.energy;
+    // σ = σ_prev + moved · K d while known that way (no clipping so far), else None
+    let mut moved = Some(0.0);
+    for _ in 0..=MAX_HALVINGS {
+        let mut clipped = false;
+        let shift = moved.map_or(0.0, |m| alpha - m);
+        for i in 0..n {
+            let x = w.u_prev[i] + alpha * w.d[i];
+            clipped |= x < h[i];
+            u[i] = x.max(h[i]);
+            w.sigma[i] += shift * w.kd[i];
+        }
+        moved = moved.map(|_| alpha);
+        w.stale += 1;
+        let e_new = if clipped || moved.is_none() || w.stale >= REFRESH {
+            kernel.stress(u, &mut w.sigma);
+            w.stale = 0;
+            moved = None;
+            crate::fire::energy(u, &w.sigma, h, law.interaction, pressure)
+        } else {
+            // exact along the ray without clipping: no full pass needed
+            (e0 + phi / n as f64, slack0)
+        };
+        if e_new.0 <= e0 + slack0 {
+            w.energy = e_new;
+            w.clipped = clipped;
+            return true;
+        }
+        alpha *= 0.5;
+        phi = ray.slope(alpha).2;
+    }
+    u.copy_from_slice(&w.u_prev);
+    match moved {
+        Some(m) => w.sigma.iter_mut().zip(&w.kd).for_each(|(s, k)| *s -= m * k),
+        None => kernel.stress(u, &mut w.sigma),
+    }
+    w.energy = (e0, slack0);
+    false
+}
+
+impl Minimizer for NonlinearCg {
+    fn name(&self) -> &'static str {
+        match self.beta {
+            Beta::PolakRibiere => "nonlinear-cg",
+            Beta::FletcherReeves => "nonlinear-cg-fr",
+            Beta::SteepestDescent => "nonlinear-cg-sd",
+            Beta::Lbfgs => "lbfgs",
+        }
+    }
+
+    fn relax(
+        &self,
+        model: &mut Model,
+        interaction: Interaction,
+        pressure: f64,
+        opts: &SolverOptions,
+        state: &mut State,
+    ) -> Result<SolveStats, ContactError> {
+        let Model {
+            heights: h, kernel, ..
+        } = model;
+        let n = h.len();
+        let State { u, p } = state;
+        let law = Law::new(interaction);
+        let m0 = kernel.k_min();
+        let weights = kernel.weights(|k| if k > 0.0 { k } else { m0 });
+        let detach_gap = 20.0 * interaction.range().max(1e-3);
+        for (ui, hi) in u.iter_mut().zip(h.iter()) {
+            *ui = ui.max(*hi);
+        }
+        let mut w = Work {
+            sigma: vec![0.0; n],
+            r: vec![0.0; n],
+            r_old: vec![0.0; n],
+            z: vec![0.0; n],
+            d: vec![0.0; n],
+            kd: vec![0.0; n],
+            nodes: Vec::with_capacity(n),
+            u_prev: vec![0.0; n],
+            rz_old: 0.0,
+            stale: 0,
+            energy: (0.0, 0.0),
+            history: std::collections::VecDeque::new(),
+            clipped: false,
+            hits: Vec::new(),
+            local: vec![(0.0, 0.0); n],
+        };
+        kernel.stress(u, &mut w.sigma);
+        w.energy = crate::fire::energy(u, &w.sigma, h, interaction, pressure);
+        let mut stats = SolveStats {
+            method: self.name(),
+            iterations: 0,
+            converged: false,
+            reason: None,
+            max_violation: 0.0,
+            force_residual: f64::INFINITY,
+            wall_s: 0.0,
+            trace: Vec::new(),
+        };
+        let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
+        loop {
+            let (mut res, contact, min_gap) =
+                gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local);
+            if res <= opts.tol_force && w.stale > 0 {
+                // accept only on a σ computed from scratch
+                kernel.stress(u, &mut w.sigma);
+                w.stale = 0;
+                (res, _, _) = gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local);
+            }
+            if opts.trace {
+                stats.trace.push(w.energy.0);
+            }
+            stats.force_residual = res;
+            if res <= opts.tol_force {
+                stats.converged = true;
+                break;
+            }
+            if contact == 0 && pressure <= 0.0 && min_gap > detach_gap {
+                return Err(ContactError::Detached { pressure, min_gap });
+            }
+            if res < 0.99 * best {
+                (best, best_iter) = (res, stats.iterations);
+            } else if stats.iterations - best_iter > STAGNATION {
+                stats.reason = Some(StopReason::Stagnation);
+                break;
+            }
+            if res > 1e12 * best.max(opts.tol_force) {
+                stats.reason = Some(StopReason::ResidualGrowth);
+                break;
+            }
+            if stats.iterations >= opts.max_iter {
+                stats.reason = Some(StopReason::IterationCap);
+                break;
+            }
+            stats.iterations += 1;
+            let slope = if self.beta == Beta::Lbfgs {
+                lbfgs_direction(&mut w, kernel, &weights, u, h)
+            } else {
+                kernel.precondition(&w.r, &weights, &mut w.z);
+                self.direction(&mut w, u, h)
+            };
+            if slope >= 0.0 {
+                // not even −z descends: the gradient is at rounding level
+                stats.reason = Some(StopReason::Stagnation);
+                break;
+            }
+            kernel.stress(&w.d, &mut w.kd);
+            if !step(&mut w, kernel, u, h, law, pressure) {
+                if w.rz_old == 0.0 {
+                    // −z did not lower the energy either: rounding level
+                    stats.reason = Some(StopReason::Stagnation);
+                    break;
+                }
+                w.rz_old = 0.0; // restart along −z
+            }
+        }
+        kernel.stress(u, &mut w.sigma);
+        for i in 0..n {
+            p[i] = w.sigma[i] + pressure;
+        }
+        Ok(stats)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ADHESION: Interaction = Interaction::Adhesion {
+        gamma0: 0.2,
+        rho: 0.04,
+    };
+
+    /// A ray whose start (φ'(0), φ''(0)) is evaluated directly from the law.
+    fn ray(nodes: &[Node], a: f64, b: f64) -> Ray<'_> {
+        let law = Law::new(ADHESION);
+        let (mut s1, mut s2) = (a, b);
+        for nd in nodes {
+            let (_, d1, d2) = law.eval(nd.g);
+            s1 += nd.d * d1;
+            s2 += nd.d * nd.d * d2;
+        }
+        Ray {
+            nodes,
+            a,
+            b,
+            start: (s1, s2),
+            law,
+        }
+    }
+
+    fn node(g: f64, d: f64) -> Node {
+        Node {
+            g,
+            d,
+            e: ADHESION.energy(g),
+        }
+    }
+
+    #[test]
+    fn law_matches_the_interaction_and_its_finite_differences() {
+        for inter in [
+            ADHESION,
+            Interaction::Repulsion {
+                gamma_r: 0.2,
+                rho: 0.04,
+            },
+        ] {
+            let law = Law::new(inter);
+            for &x in &[0.0, 0.01, 0.04, 0.1, 0.3] {
+                let (e, d1, d2) = law.eval(x);
+                assert!((e - inter.energy(x)).abs() < 1e-15, "{inter:?} {x}");
+                assert!((d1 - inter.derivative(x)).abs() < 1e-13, "{inter:?} {x}");
+                let h = 1e-6;
+                let fd = (inter.derivative(x + h) - inter.derivative((x - h).max(0.0)))
+                    / (x + h - (x - h).max(0.0));
+                // central difference: error ~ h² γ'''' ≈ 1e-12 · γ0/ρ⁴ ≈ 1e-7; one-sided at 0
+                assert!(
+                    (d2 - fd).abs() < 1e-3 * inter.max_curvature(),
+                    "{inter:?} {x}"
+                );
+            }
+            // beyond the cutoff everything is below e⁻⁴⁰ of its scale
+            assert_eq!(law.eval(law.cut), (0.0, 0.0, 0.0));
+            assert!(inter.derivative(law.cut).abs() < 1e-16 * inter.max_curvature());
+        }
+    }
+
+    #[test]
+    fn line_search_solves_the_quadratic_exactly() {
+        // no node within the interaction's reach: φ'(α) = a + α b, minimum at −a/b
+        let ray = ray(&[], -3.0, 2.0);
+        let (alpha, phi) = ray.first_minimum(f64::MAX);
+        assert!((alpha - 1.5).abs() < 1e-14);
+        // φ(α) = a α + ½ b α²
+        assert!((phi - (-3.0 * 1.5 + 0.5 * 2.0 * 2.25)).abs() < 1e-14);
+        // the cap binds when the minimum lies beyond it
+        assert_eq!(ray.first_minimum(1.0).0, 1.0);
+    }
+
+    #[test]
+    fn line_search_stops_at_the_first_minimum_along_the_ray() {
+        // One node at g = 0.3 moving to the wall (d = −1): φ' = −0.001 + 2α − 5 exp(−(0.3 − α)/0.04)
+        // has a shallow minimum near α ≈ 0.0025 and a maximum near 0.195; at the wall (α = 0.3)
+        // the energy is far lower (−0.11, the adhesion energy γ0 gained against 0.09 elastic).
+        let nodes = [node(0.3, -1.0)];
+        let ray = ray(&nodes, -0.001, 2.0);
+        let (alpha, phi) = ray.first_minimum(f64::MAX);
+        // the first sign change of φ' from − to +, by a dense scan (independent of Newton)
+        let mut first = f64::NAN;
+        let mut prev = ray.start.0;
+        assert!((prev - ray.slope(0.0).0).abs() < 1e-15);
+        for k in 1..=200_000 {
+            let x = k as f64 * 1e-6;
+            let s = ray.slope(x).0;
+            if prev < 0.0 && s >= 0.0 {
+                first = x;
+                break;
+            }
+            prev = s;
+        }
+        assert!(first < 0.02, "scan found {first}");
+        assert!((alpha - first).abs() < 2e-6, "{alpha} vs scan {first}");
+        assert!(ray.slope(alpha).1 > 0.0, "a minimum, not a maximum");
+        assert!(phi < 0.0 && (phi - ray.slope(alpha).2).abs() < 1e-15);
+        // the deeper state is beyond the barrier: the line search did not jump to it
+        assert!(ray.slope(0.3).2 < phi - 0.1);
+    }
+}
