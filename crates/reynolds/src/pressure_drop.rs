@@ -292,6 +292,11 @@ mod tests {
                 (_, 3..=5) => 1.0,
                 _ => 0.0,
             });
+            // The window is centred on the last constriction as the percolation crate finds it.
+            let c = percolation::last_constriction(gap.view(), 1.0, 1.0, percolation::Axis::X, 0.0)
+                .unwrap()
+                .unwrap();
+            assert_eq!((c.completing.i, c.completing.j, c.gap), (8, 4, eps));
             let d = run(&gap, FlowAxis::X, &window((8, 4), 1, 1));
             let rest = 1.0 - d.fraction;
             assert!(d.fraction > last && rest > 0.0, "eps {eps}: {}", d.fraction);
