@@ -24,8 +24,12 @@
 //!   strictly wider fluid `U = {g > g* + δ}` or closes a new winding of one — a pass. Needed
 //!   because a level set can contain whole lines: with `g = c − h` the level through the saddles
 //!   of all three lattices is a set of straight lines (for the square model the diagonals
-//!   `x ± y = λ/2`), so every node on them is tied, but only the crossings — the saddles — join
-//!   troughs. [`Constriction::bottlenecks`] are the junctions.
+//!   `x ± y = λ/2`), so every node on them is tied; on the square lattice only the crossings —
+//!   the saddles — join troughs. On the triangular and hexagonal lattices the lines include the
+//!   grid rows `y = λ/2, 3λ/2`, 4-connected tie clusters through the saddles that do join
+//!   troughs: there a 4-connected path at the maximin level must run along them (from the
+//!   saddles whose channel is at 30° to x, the x step lies exactly on the level line), so the
+//!   junctions are the saddles plus those rows. [`Constriction::bottlenecks`] are the junctions.
 //! - *essential*: closing the node alone stops the winding. On the square lattice along x this
 //!   singles out the saddle whose channel runs along x; on the triangular and hexagonal lattices
 //!   no single saddle is essential (the channels form a network).
@@ -127,7 +131,9 @@ impl Constriction {
     }
 
     /// The bottlenecks: the tied nodes that are junctions (or not checked), the passes at the
-    /// maximin level. On the lattices with `g = c − h` these are exactly the saddle nodes.
+    /// maximin level. On the square lattice with `g = c − h` these are exactly the saddle nodes;
+    /// on the triangular and hexagonal ones the saddles plus the tied rows through them (module
+    /// docs). On a generic field, the completing node alone.
     pub fn bottlenecks(&self) -> impl Iterator<Item = &Bottleneck> {
         self.tied.iter().filter(|b| b.junction != Some(false))
     }
