@@ -34,8 +34,9 @@
 //!   singles out the saddle whose channel runs along x; on the triangular and hexagonal lattices
 //!   no single saddle is essential (the channels form a network).
 //!
-//! Each flag costs one labelling per tied node or tie cluster and is only computed for at most
-//! [`MAX_ESSENTIAL_CHECKS`] of them. On a generic (random) field there are no ties: the only tied
+//! The junction flags take one linear pass over the tied nodes after building the union–find of
+//! `U`. The essential flags cost one labelling per tied node and are only computed for at most
+//! [`MAX_ESSENTIAL_CHECKS`] tied nodes. On a generic (random) field there are no ties: the only tied
 //! node is the completing one, a junction and essential.
 
 use crate::{Axis, Connectivity, Forest, Winding, label};
@@ -102,7 +103,8 @@ pub struct Bottleneck {
     /// The node's tie cluster (its 4-connected set of tied nodes) joins two different clusters
     /// of the strictly wider fluid `{g > g* + δ}`, or closes a new winding of one: the node is
     /// a pass between wider regions, not a point on the rim of one (see the module docs).
-    /// `None` when not checked (more than [`MAX_ESSENTIAL_CHECKS`] tie clusters).
+    /// Always computed (linear time); `None` only for a completing node outside the tied list,
+    /// which does not happen.
     pub junction: Option<bool>,
     /// Closing this node alone stops the winding along the axis; `None` when not checked (more
     /// than [`MAX_ESSENTIAL_CHECKS`] tied nodes).
@@ -188,7 +190,7 @@ pub fn last_constriction(
                 fluid[[i, j]] = true;
                 stops
             });
-            let junction = junctions.as_ref().map(|m| m[[i, j]]);
+            let junction = Some(junctions[[i, j]]);
             node(i, j, junction, essential)
         })
         .collect();
@@ -206,109 +208,151 @@ pub fn last_constriction(
     }))
 }
 
+/// The four face neighbours of node `(i, j)` on the periodic `nx × ny` grid, each with the
+/// number of cell boundaries crossed `c ∈ {−1, 0, 1}²` (the neighbour's image offset).
+fn neighbours(i: usize, j: usize, nx: usize, ny: usize) -> [((usize, usize), [i32; 2]); 4] {
+    let (nxi, nyi) = (nx as isize, ny as isize);
+    [(1isize, 0isize), (-1, 0), (0, 1), (0, -1)].map(|(dx, dy)| {
+        let (ti, tj) = (i as isize + dx, j as isize + dy);
+        (
+            (ti.rem_euclid(nxi) as usize, tj.rem_euclid(nyi) as usize),
+            [ti.div_euclid(nxi) as i32, tj.div_euclid(nyi) as i32],
+        )
+    })
+}
+
+/// A union–find over switched-on nodes that keeps the winding content of every cluster.
+struct Growing {
+    nx: usize,
+    ny: usize,
+    on: Vec<bool>,
+    forest: Forest,
+    /// Winding content of each root.
+    winding: Vec<Winding>,
+}
+
+impl Growing {
+    fn new(nx: usize, ny: usize) -> Self {
+        let n = nx * ny;
+        assert!(
+            n < u32::MAX as usize,
+            "grid of {nx} x {ny} nodes is too large: at most {} nodes allowed",
+            u32::MAX - 1
+        );
+        Growing {
+            nx,
+            ny,
+            on: vec![false; n],
+            forest: Forest::new(n),
+            winding: vec![Winding::None; n],
+        }
+    }
+
+    /// Switches node `v` on, joins it to its switched-on face neighbours and returns the winding
+    /// content of its cluster.
+    fn switch_on(&mut self, v: u32) -> Winding {
+        let (i, j) = (v as usize / self.ny, v as usize % self.ny);
+        self.on[v as usize] = true;
+        let mut w = self.winding[v as usize];
+        for ((ui, uj), c) in neighbours(i, j, self.nx, self.ny) {
+            let u = (ui * self.ny + uj) as u32;
+            if !self.on[u as usize] {
+                continue;
+            }
+            let (ra, _) = self.forest.find(v);
+            let (rb, _) = self.forest.find(u);
+            let merged = self.winding[ra as usize].merge(self.winding[rb as usize]);
+            w = match self.forest.union(v, u, c) {
+                Some(cycle) => merged.with(cycle[0], cycle[1]),
+                None => merged,
+            };
+            let (r, _) = self.forest.find(v);
+            self.winding[r as usize] = w;
+        }
+        w
+    }
+}
+
 /// The flat index of the node whose switching-on (by decreasing gap) first makes a cluster wind
 /// along `axis`, if the fluid winds at all.
 fn completing_node(gap: ArrayView2<f64>, axis: Axis) -> Option<usize> {
     let (nx, ny) = gap.dim();
-    let n = nx * ny;
-    assert!(
-        n < u32::MAX as usize,
-        "grid of {nx} x {ny} nodes is too large: at most {} nodes allowed",
-        u32::MAX - 1
-    );
     let flat: Vec<f64> = gap.iter().copied().collect();
-    let mut order: Vec<u32> = (0..n as u32).filter(|&v| flat[v as usize] > 0.0).collect();
+    let mut order: Vec<u32> = (0..flat.len() as u32)
+        .filter(|&v| flat[v as usize] > 0.0)
+        .collect();
     // Decreasing gap, ties by index: a stable sort of a row-major list.
     order.sort_by(|&a, &b| flat[b as usize].total_cmp(&flat[a as usize]));
-    let mut on = vec![false; n];
-    let mut forest = Forest::new(n);
-    // Winding content of each root.
-    let mut winding = vec![Winding::None; n];
-    let (nxi, nyi) = (nx as isize, ny as isize);
-    for &v in &order {
-        let (i, j) = (v as usize / ny, v as usize % ny);
-        on[v as usize] = true;
-        for (dx, dy) in [(1isize, 0isize), (-1, 0), (0, 1), (0, -1)] {
-            let (ti, tj) = (i as isize + dx, j as isize + dy);
-            let (ui, uj) = (ti.rem_euclid(nxi) as usize, tj.rem_euclid(nyi) as usize);
-            let u = (ui * ny + uj) as u32;
-            if !on[u as usize] {
-                continue;
-            }
-            let c = [ti.div_euclid(nxi) as i32, tj.div_euclid(nyi) as i32];
-            let (ra, _) = forest.find(v);
-            let (rb, _) = forest.find(u);
-            let merged = winding[ra as usize].merge(winding[rb as usize]);
-            let w = match forest.union(v, u, c) {
-                Some(w) => merged.with(w[0], w[1]),
-                None => merged,
-            };
-            let (r, _) = forest.find(v);
-            winding[r as usize] = w;
-            if w.wraps(axis) {
-                return Some(v as usize);
-            }
-        }
-    }
-    None
+    let mut grid = Growing::new(nx, ny);
+    order
+        .into_iter()
+        .find(|&v| grid.switch_on(v).wraps(axis))
+        .map(|v| v as usize)
 }
 
 /// Marks the tied nodes (`|g − g*| ≤ δ`, `g > 0`) whose tie cluster is a junction of the wider
 /// fluid `U = {g > g* + δ}`: it touches two or more clusters of `U`, or adding it to the one it
-/// touches changes that cluster's winding. `None` if there are more than
-/// [`MAX_ESSENTIAL_CHECKS`] tie clusters (one labelling each).
-fn junctions(gap: ArrayView2<f64>, g_star: f64, delta: f64) -> Option<Array2<bool>> {
+/// touches changes that cluster's winding. Linear time: each tie cluster is walked once,
+/// placing its nodes in the periodically continued plane relative to its first node; every
+/// second route to a node or to the touched root is a closed path whose winding is tested.
+fn junctions(gap: ArrayView2<f64>, g_star: f64, delta: f64) -> Array2<bool> {
     let (nx, ny) = gap.dim();
     let tie = gap.mapv(|g| g > 0.0 && (g - g_star).abs() <= delta);
-    let mut wide = gap.mapv(|g| g > g_star + delta);
-    let ties = label(tie.view(), Connectivity::Four);
-    if ties.len() > MAX_ESSENTIAL_CHECKS {
-        return None;
+    let mut wide = Growing::new(nx, ny);
+    for (v, &g) in gap.iter().enumerate() {
+        if g > g_star + delta {
+            wide.switch_on(v as u32);
+        }
     }
-    let base = label(wide.view(), Connectivity::Four);
-    let mut is_junction = vec![false; ties.len()];
-    for (t, flag) in is_junction.iter_mut().enumerate() {
-        let members: Vec<(usize, usize)> = ties
-            .labels
-            .indexed_iter()
-            .filter(|&(_, &l)| l == t as u32)
-            .map(|(ij, _)| ij)
-            .collect();
-        let mut touched: Vec<u32> = Vec::new();
-        for &(i, j) in &members {
-            for (ui, uj) in [
-                ((i + 1) % nx, j),
-                ((i + nx - 1) % nx, j),
-                (i, (j + 1) % ny),
-                (i, (j + ny - 1) % ny),
-            ] {
-                let l = base.labels[[ui, uj]];
-                if l != crate::NO_CLUSTER && !touched.contains(&l) {
-                    touched.push(l);
+    let mut junction = Array2::from_elem((nx, ny), false);
+    // Image position of each visited tie node relative to its cluster's first node.
+    let mut pos: Vec<Option<[i64; 2]>> = vec![None; nx * ny];
+    for start in 0..nx * ny {
+        if !tie[[start / ny, start % ny]] || pos[start].is_some() {
+            continue;
+        }
+        pos[start] = Some([0, 0]);
+        let mut members = vec![start];
+        let mut stack = vec![start];
+        // The touched root, the image of that root as first reached, and the content.
+        let mut root: Option<(u32, [i64; 2])> = None;
+        let mut content = Winding::None;
+        let mut several = false;
+        while let Some(a) = stack.pop() {
+            let pa = pos[a].expect("visited");
+            for ((ui, uj), c) in neighbours(a / ny, a % ny, nx, ny) {
+                let u = ui * ny + uj;
+                let pu = [pa[0] + c[0] as i64, pa[1] + c[1] as i64];
+                if tie[[ui, uj]] {
+                    match pos[u] {
+                        None => {
+                            pos[u] = Some(pu);
+                            members.push(u);
+                            stack.push(u);
+                        }
+                        Some(q) => content = content.with(pu[0] - q[0], pu[1] - q[1]),
+                    }
+                } else if wide.on[u] {
+                    let (r, off) = wide.forest.find(u as u32);
+                    let img = [pu[0] + off[0] as i64, pu[1] + off[1] as i64];
+                    match root {
+                        None => root = Some((r, img)),
+                        Some((r0, _)) if r0 != r => several = true,
+                        Some((_, first)) => {
+                            content = content.with(img[0] - first[0], img[1] - first[1])
+                        }
+                    }
                 }
             }
         }
-        *flag = match touched.as_slice() {
-            [] => false,
-            [one] => {
-                for &(i, j) in &members {
-                    wide[[i, j]] = true;
-                }
-                let joined = label(wide.view(), Connectivity::Four);
-                for &(i, j) in &members {
-                    wide[[i, j]] = false;
-                }
-                let (i, j) = members[0];
-                joined.cluster_at(i, j).map(|c| c.winding)
-                    != Some(base.clusters[*one as usize].winding)
-            }
-            _ => true,
-        };
+        // Without a touched root the tie cluster is a junction if it winds by itself.
+        let before = root.map_or(Winding::None, |(r, _)| wide.winding[r as usize]);
+        let is_junction = several || before.merge(content) != before;
+        for v in members {
+            junction[[v / ny, v % ny]] = is_junction;
+        }
     }
-    Some(
-        ties.labels
-            .mapv(|l| l != crate::NO_CLUSTER && is_junction[l as usize]),
-    )
+    junction
 }
 
 /// The nodes with `|g − g*| ≤ δ` in the clusters of `{g ≥ g* − δ, g > 0}` winding along `axis`,
@@ -410,6 +454,9 @@ mod tests {
         assert_eq!(c.gap, 5.0);
         assert_eq!(c.tied.len(), 10);
         assert!(c.tied.iter().all(|b| b.i == 1 && b.essential == Some(true)));
+        // The column is a tie cluster that winds by itself: a junction, though no wider fluid
+        // exists.
+        assert_eq!(c.bottlenecks().count(), 10);
         // Closing the narrowing stops the x flow.
         for j in 3..=5 {
             gap[[7, j]] = 0.0;
@@ -418,6 +465,61 @@ mod tests {
             last_constriction(gap.view(), 3.0, 2.5, Axis::X, 0.0).unwrap(),
             None
         );
+    }
+
+    /// The junction flags against their definition evaluated by labelling: for every tie
+    /// cluster, count the clusters of `U` it touches, and if one, compare that cluster's winding
+    /// with the winding after adding the tie cluster. Quantised random gaps make many ties.
+    #[test]
+    fn junctions_match_labelling() {
+        let mut rng = Rng(7);
+        let mut seen = [0usize; 2];
+        for trial in 0..400 {
+            let (nx, ny) = (5 + trial % 3, 6);
+            let gap = Array2::from_shape_fn((nx, ny), |_| (rng.uniform() * 4.0).floor());
+            let g_star = 1.0 + (trial % 3) as f64;
+            let fast = junctions(gap.view(), g_star, 0.0);
+            let tie = gap.mapv(|g| g > 0.0 && g == g_star);
+            let mut wide = gap.mapv(|g| g > g_star);
+            let ties = label(tie.view(), Connectivity::Four);
+            let base = label(wide.view(), Connectivity::Four);
+            for t in 0..ties.len() as u32 {
+                let members: Vec<(usize, usize)> = ties
+                    .labels
+                    .indexed_iter()
+                    .filter(|&(_, &l)| l == t)
+                    .map(|(ij, _)| ij)
+                    .collect();
+                let mut touched: Vec<u32> = Vec::new();
+                for &(i, j) in &members {
+                    for ((ui, uj), _) in neighbours(i, j, nx, ny) {
+                        let l = base.labels[[ui, uj]];
+                        if l != crate::NO_CLUSTER && !touched.contains(&l) {
+                            touched.push(l);
+                        }
+                    }
+                }
+                let before = touched
+                    .first()
+                    .map_or(Winding::None, |&l| base.clusters[l as usize].winding);
+                for &(i, j) in &members {
+                    wide[[i, j]] = true;
+                }
+                let after = label(wide.view(), Connectivity::Four);
+                for &(i, j) in &members {
+                    wide[[i, j]] = false;
+                }
+                let (i, j) = members[0];
+                let expected =
+                    touched.len() > 1 || after.cluster_at(i, j).map(|c| c.winding) != Some(before);
+                for &(i, j) in &members {
+                    assert_eq!(fast[[i, j]], expected, "trial {trial}, node ({i}, {j})");
+                }
+                seen[expected as usize] += 1;
+            }
+        }
+        // Both outcomes occur often (the test is not vacuous).
+        assert!(seen[0] > 100 && seen[1] > 100, "{seen:?}");
     }
 
     #[test]
