@@ -20,7 +20,9 @@ mod curvature;
 mod stats;
 
 pub use critical::{CriticalKind, CriticalPoint};
-pub use curvature::{Channel, CurvatureError, SaddleCurvature, hessian_at, saddle_curvature};
+pub use curvature::{
+    Channel, CurvatureError, SaddleCurvature, Stencil, hessian_at, saddle_curvature,
+};
 pub use stats::Statistics;
 
 use ndarray::Array2;
