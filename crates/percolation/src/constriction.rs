@@ -145,6 +145,9 @@ impl Constriction {
 /// `lx × ly` cell) for fluid winding along `axis`; `None` if the fluid `{g > 0}` does not wind
 /// along it. `tie_tolerance` (relative to the largest gap, in [0, 1e-3]) decides which nodes
 /// count as tied with the bottleneck; `1e-12` absorbs rounding of sampled trigonometric fields.
+/// For computed (deformed) gaps use 0: their ties are not structural, and near L_c the
+/// bottleneck's gap can itself fall below any tolerance relative to the largest gap, which would
+/// then tie it with every nearly closed node.
 pub fn last_constriction(
     gap: ArrayView2<f64>,
     lx: f64,
