@@ -30,9 +30,13 @@
 //! See [`DualPercolation`].
 
 mod area;
+mod constriction;
 mod winding;
 
 pub use area::{ContactArea, PERIMETER_CORRECTION, contact_area};
+pub use constriction::{
+    Bottleneck, Constriction, ConstrictionError, MAX_ESSENTIAL_CHECKS, last_constriction,
+};
 pub use winding::Winding;
 
 use ndarray::{Array2, ArrayView2};

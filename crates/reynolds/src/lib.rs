@@ -41,9 +41,14 @@ mod dense_elimination;
 mod finite_volume;
 mod multigrid;
 mod pcg;
+mod pressure_drop;
 mod stencil;
 
 use ndarray::{Array2, ArrayView2};
+
+pub use pressure_drop::{
+    PressureDrop, PressureDropError, Window, pressure_drop_fraction, solve_with_pressure_drop,
+};
 use std::time::Instant;
 
 /// The axis along which the pressure drops (the flow direction).

@@ -44,7 +44,7 @@ impl CriticalPoint {
 }
 
 /// Symmetric 2×2 eigen-decomposition: eigenvalues ascending, unit eigenvector of the smaller one.
-fn eigen(h: [[f64; 2]; 2]) -> ([f64; 2], [f64; 2]) {
+pub(crate) fn eigen(h: [[f64; 2]; 2]) -> ([f64; 2], [f64; 2]) {
     let (a, b, d) = (h[0][0], h[0][1], h[1][1]);
     let mean = 0.5 * (a + d);
     let r = (0.25 * (a - d) * (a - d) + b * b).sqrt();

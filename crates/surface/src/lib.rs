@@ -16,9 +16,13 @@
 //! `(nx, ny)`: the first index is x.
 
 mod critical;
+mod curvature;
 mod stats;
 
 pub use critical::{CriticalKind, CriticalPoint};
+pub use curvature::{
+    Channel, CurvatureError, SaddleCurvature, Stencil, hessian_at, saddle_curvature,
+};
 pub use stats::Statistics;
 
 use ndarray::Array2;
