@@ -26,6 +26,7 @@ pub mod free_kernel;
 pub mod interaction;
 pub mod path;
 pub mod polonsky_keer;
+pub mod refinement;
 pub mod spectral;
 
 pub use interaction::Interaction;
