@@ -369,20 +369,14 @@ fn outer(
         let load_o = pressure - pw.iter().sum::<f64>() / (fnx * fny) as f64;
         let everywhere = load_w == pressure && p_out.iter().all(|&p| p == 0.0);
         if everywhere {
-            let contact_area = sw.contact_area * (lay.fx * lay.fy) as f64 / (fnx * fny) as f64;
-            return Ok(Refined {
-                window_grid: *win.grid(),
-                origin: lay.origin,
-                window_pressure: sw.pressure.clone(),
-                window_gap: sw.gap.clone(),
-                outside: warm_o,
+            let state = Coupled {
                 approach: delta_w,
                 window_load: load_w,
                 outer_iterations: it,
                 coupling: 0.0,
                 converged: sw.stats.converged,
-                contact_area,
-            });
+            };
+            return Ok(assemble(lay, win, sw, warm_o, state, 0.0));
         }
         if load_o <= 0.0 {
             return Err(ContactError::parameter(
@@ -416,36 +410,16 @@ fn outer(
         if converged || it == opts.max_outer {
             let out_contact = (0..nx * ny).filter(|&k| !inside[k] && po[k] > 0.0).count() as f64
                 / (nx * ny) as f64;
-            let contact_area =
-                sw.contact_area * (lay.fx * lay.fy) as f64 / (fnx * fny) as f64 + out_contact;
-            return Ok(Refined {
-                window_grid: *win.grid(),
-                origin: lay.origin,
-                window_pressure: sw.pressure.clone(),
-                window_gap: sw.gap.clone(),
-                outside: so,
+            let state = Coupled {
                 approach: delta_w,
                 window_load: load_w,
                 outer_iterations: it,
                 coupling,
                 converged,
-                contact_area,
-            });
+            };
+            return Ok(assemble(lay, win, sw, so, state, out_contact));
         }
-        // Secant on the mismatch m(F_W) (dm/dF_W < 0); the first step assumes the window alone
-        // is as stiff as its share of the load over its approach change is unknown, so it uses
-        // the pure fixed point F_W ← F_W (1 + m/δ) bounded to ±10 %.
-        let next = match secant {
-            Some((l0, m0)) if (mismatch - m0).abs() > 0.0 && (load_w - l0).abs() > 0.0 => {
-                let s = (mismatch - m0) / (load_w - l0);
-                if s < 0.0 {
-                    load_w - mismatch / s
-                } else {
-                    load_w * (1.0 + (mismatch / delta_w.abs().max(1e-300)).clamp(-0.1, 0.1))
-                }
-            }
-            _ => load_w * (1.0 + (mismatch / delta_w.abs().max(1e-300)).clamp(-0.1, 0.1)),
-        };
+        let next = next_load(load_w, mismatch, delta_w, secant);
         secant = Some((load_w, mismatch));
         load_w = next;
         u_ext_old = u_ext;
@@ -454,6 +428,59 @@ fn outer(
         warm_o = so;
     }
     unreachable!("max_outer ≥ 1 returns inside the loop")
+}
+
+/// The coupling scalars of a finished refined solve.
+struct Coupled {
+    approach: f64,
+    window_load: f64,
+    outer_iterations: usize,
+    coupling: f64,
+    converged: bool,
+}
+
+/// The refined solution from the last window and outside solves; `out_contact` is the contact
+/// fraction of the base nodes outside the window.
+fn assemble(
+    lay: &Layout,
+    win: &Model,
+    sw: Solution,
+    outside: Solution,
+    c: Coupled,
+    out_contact: f64,
+) -> Refined {
+    let fine_nodes = (lay.nx * lay.ny * lay.f * lay.f) as f64;
+    Refined {
+        window_grid: *win.grid(),
+        origin: lay.origin,
+        contact_area: sw.contact_area * (lay.fx * lay.fy) as f64 / fine_nodes + out_contact,
+        window_pressure: sw.pressure,
+        window_gap: sw.gap,
+        outside,
+        approach: c.approach,
+        window_load: c.window_load,
+        outer_iterations: c.outer_iterations,
+        coupling: c.coupling,
+        converged: c.converged,
+    }
+}
+
+/// The window's next load: a secant step on the mismatch m(F_W) = δ_O − δ_W (dm/dF_W < 0), from
+/// the previous (load, mismatch) if any; otherwise, or if the secant slope has the wrong sign
+/// (noise of the sub-solves), the bounded fixed-point step F_W (1 + m/δ_W), at most ±10 %.
+fn next_load(load_w: f64, mismatch: f64, delta_w: f64, previous: Option<(f64, f64)>) -> f64 {
+    let fixed_point = load_w * (1.0 + (mismatch / delta_w.abs().max(1e-300)).clamp(-0.1, 0.1));
+    match previous {
+        Some((l0, m0)) if mismatch != m0 && load_w != l0 => {
+            let s = (mismatch - m0) / (load_w - l0);
+            if s < 0.0 {
+                load_w - mismatch / s
+            } else {
+                fixed_point
+            }
+        }
+        _ => fixed_point,
+    }
 }
 
 /// Trigonometric interpolation of a base field onto the fine lattice (the spectrum zero-padded,
@@ -525,7 +552,7 @@ mod tests {
         gap_refined: f64,
         /// Window nodes whose contact state differs.
         differ: usize,
-        /// Open nodes on the line through the saddle across the channel (x = 1/2), both solves.
+        /// Open nodes on the line y = 0 through the saddle (the channel's width), both solves.
         open: (usize, usize),
         area: (f64, f64),
         converged: bool,
@@ -567,10 +594,11 @@ mod tests {
                 let (i, j) = ((r.origin.0 + a) % fnx, (r.origin.1 + b) % fny);
                 let (pu, pr) = (uni.pressure[[i, j]], r.window_pressure[[a, b]]);
                 c.differ += usize::from((pu > 0.0) != (pr > 0.0));
-                if i == fnx / 2 {
+                // the line y = 0 joins the two maxima through the saddle (1/2, 0)
+                if j == 0 {
                     c.open.0 += usize::from(uni.gap[[i, j]] > 0.0);
                     c.open.1 += usize::from(r.window_gap[[a, b]] > 0.0);
-                    if j == 0 {
+                    if i == fnx / 2 {
                         c.gap_refined = r.window_gap[[a, b]];
                     }
                 }

@@ -1,0 +1,105 @@
+//! Local-refinement benchmark: `cargo bench -p contact --bench refinement`.
+//!
+//! Problem: the square model just below percolation (mean pressure `REFINE_FRAC` p_fc of the
+//! base grid, default 0.21; the saddles are open), hard wall, sub-solve violation ≤ 1e-12 h0.
+//! A uniform solve on the fine lattice (base 2^`REFINE_BASE` refined 2^`REFINE_LEVELS`, defaults
+//! 9 and 2, i.e. 2048²) against refined solves with windows of `REFINE_WINDOWS` (default
+//! `64,128,256`) base nodes square around the saddle (1/2, 0), coupling tolerance 1e-10 h0.
+//! Prints wall time (the machine may be shared: compare within one run), outer iterations, the
+//! saddle gap and its relative difference from the uniform solve, the channel width at the
+//! saddle (open fine nodes on the line y = 0 joining the two maxima, inside the window) and the
+//! contact area.
+//!
+//! Each case prints one machine-readable line starting with `RESULT`.
+
+use contact::refinement::{RefineOptions, Window, solve_refined};
+use contact::{Interaction, Lattice, Model, SolverOptions, Surface};
+use std::time::Instant;
+
+fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn main() {
+    let base_n: u32 = env("REFINE_BASE", 9);
+    let levels: u32 = env("REFINE_LEVELS", 2);
+    let frac: f64 = env("REFINE_FRAC", 0.21);
+    let windows: Vec<usize> = std::env::var("REFINE_WINDOWS")
+        .unwrap_or_else(|_| "64,128,256".into())
+        .split(',')
+        .filter_map(|w| w.trim().parse().ok())
+        .collect();
+    let s = Surface::new(Lattice::Square, base_n).expect("base grid");
+    let fine = Surface::new(Lattice::Square, base_n + levels).expect("fine grid");
+    let load = frac * s.p_fc_grid();
+    let solver = SolverOptions {
+        tol_gap: 1e-12,
+        ..Default::default()
+    };
+    let (fnx, fny) = (fine.grid.nx, fine.grid.ny);
+    let t = Instant::now();
+    let uni = Model::new(&fine)
+        .expect("model")
+        .solve(Interaction::HardWall, load, &solver, None)
+        .expect("uniform solve");
+    let t_uni = t.elapsed().as_secs_f64();
+    let g_uni = uni.gap[[fnx / 2, 0]];
+    let open_uni = (0..fnx).filter(|&i| uni.gap[[i, 0]] > 0.0).count();
+    println!(
+        "uniform {fnx}²: {t_uni:.2} s, {} iterations, saddle gap {g_uni:.12e}, channel {open_uni} nodes, area {:.8}",
+        uni.stats.iterations, uni.contact_area
+    );
+    println!(
+        "RESULT uniform n={fnx} wall_s={t_uni:.3} gap={g_uni:.15e} area={:.10}",
+        uni.contact_area
+    );
+    let t = Instant::now();
+    let coarse = Model::new(&s)
+        .expect("model")
+        .solve(Interaction::HardWall, load, &solver, None)
+        .expect("base solve");
+    let g_c = coarse.gap[[s.grid.nx / 2, 0]];
+    println!(
+        "base {}² alone: {:.2} s, saddle gap {g_c:.12e} (rel {:+.3e}), area {:.8}",
+        s.grid.nx,
+        t.elapsed().as_secs_f64(),
+        g_c / g_uni - 1.0,
+        coarse.contact_area
+    );
+    for w in windows {
+        let opts = RefineOptions {
+            levels,
+            window: Window::centred(&s.grid, 0.5, 0.0, w, w),
+            tol_coupling: 1e-10,
+            max_outer: 200,
+            solver: solver.clone(),
+        };
+        let t = Instant::now();
+        let r = solve_refined(&s, load, &opts).expect("refined solve");
+        let wall = t.elapsed().as_secs_f64();
+        let (mut gap, mut open) = (f64::NAN, 0usize);
+        for a in 0..r.window_grid.nx {
+            for b in 0..r.window_grid.ny {
+                if !(r.origin.1 + b).is_multiple_of(fny) {
+                    continue;
+                }
+                open += usize::from(r.window_gap[[a, b]] > 0.0);
+                if (r.origin.0 + a) % fnx == fnx / 2 {
+                    gap = r.window_gap[[a, b]];
+                }
+            }
+        }
+        let rel = gap / g_uni - 1.0;
+        println!(
+            "window {w}² base nodes ({}² fine): {wall:.2} s, {} outer, converged {}, saddle gap {gap:.12e} (rel {rel:+.3e}), channel {open} nodes, area {:.8}",
+            r.window_grid.nx, r.outer_iterations, r.converged, r.contact_area
+        );
+        println!(
+            "RESULT window={w} wall_s={wall:.3} outer={} gap={gap:.15e} rel={rel:.3e} open={open} area={:.10}",
+            r.outer_iterations, r.contact_area
+        );
+    }
+}
