@@ -11,6 +11,12 @@
 //! contact area.
 //!
 //! Each case prints one machine-readable line starting with `RESULT`.
+//!
+//! Measured (REFINE_BASE=9 REFINE_FRAC=0.227 REFINE_WINDOWS=64,128,256, 2 cores shared with
+//! other jobs): uniform 2048² 14.9 s, saddle gap 2.081248e-3 h0, channel 113 nodes; base 512²
+//! alone −6.4e-5 relative; windows 64², 128², 256²: 36.9 s, 60.0 s, 208 s, 50, 48, 51 outer
+//! iterations, +2.9e-5, +2.0e-5, +2.6e-5 relative, channel 112 nodes. The refined solve is not yet
+//! cheaper than the uniform one (see the cost notes in `contact::refinement`).
 
 use contact::refinement::{RefineOptions, Window, solve_refined};
 use contact::{Interaction, Lattice, Model, SolverOptions, Surface};

@@ -34,10 +34,26 @@
 //! saddle through the long-range elastic response, and is what a larger window reduces
 //! (measured in the tests: 64² base, k = 2, square model near percolation, saddle gap vs the
 //! uniform 256² solve: base alone 3.9e-3 relative, window of 16² base nodes 2.6e-3, 32² 8.7e-4,
-//! 48² 5.9e-5, whole cell 0). The far error is smooth near the saddle, so it acts mostly as a
-//! shift of the critical load: L_c must come from the same refined discretisation.
+//! 48² 5.9e-5, whole cell 0). On a finer base the base grid alone is already as good as the
+//! coupling: square model at 0.227 p_fc (just below percolation, saddle gap 2.08e-3 h0), base
+//! 128², k = 2 against the uniform 512² solve (benches/refinement.rs): base alone −6.6e-4,
+//! windows of 16², 32², 64² base nodes −8.4e-4, −7.1e-4, +5.0e-4 relative; base 512², k = 2
+//! against the uniform 2048² solve: base alone −6.4e-5, windows of 64², 128², 256² base nodes
+//! +2.9e-5, +2.0e-5, +2.6e-5 (channel width at the saddle 112 fine nodes against 113). The
+//! floor that does not fall with the window is, we believe, the interface: the base pressure is
+//! read as band-limited (so that the base kernel is exact for it), and its interpolant, cut at
+//! the window's edge, rings into the window, where p_W ≥ 0 cannot cancel a spurious positive
+//! part; a block (piecewise-constant) reading of the base pressure with a base kernel built from
+//! the fine response to a block would remove that leak (not done). The saddle gap is a
+//! global quantity (the elastic response is long-ranged): its error is set by the contact lines
+//! everywhere, not only at the neck, so refining the saddle alone cannot bring it to 1e-6; it
+//! removes the neck's own under-resolution (what matters as |l| → 0), and the far error, smooth
+//! near the saddle, acts mostly as a shift of the critical load, so L_c must come from the same
+//! refined discretisation.
 //!
-//! Cost: every outer iteration transforms the whole fine lattice twice (u_ext and the window's
+//! Cost (measured, benches/refinement.rs, 2 shared cores): 512² base, k = 2: 37 s, 60 s, 208 s
+//! for windows of 64², 128², 256² base nodes (48–51 outer iterations to 1e-10 h0) against 15 s
+//! for the uniform 2048² solve. Every outer iteration transforms the whole fine lattice twice (u_ext and the window's
 //! response at the base nodes), and the fine Green's function is one more fine transform. This
 //! verification-grade coupling therefore still allocates the fine lattice (f² N_x N_y values)
 //! and saves only the fine solve's iterations; a near-field free convolution plus an
@@ -314,6 +330,13 @@ fn outer(
     let mut p_out: Vec<f64> = (0..nx * ny)
         .map(|k| if inside[k] { 0.0 } else { p0[k] })
         .collect();
+    if load_w <= 0.0 {
+        return Err(ContactError::Parameter {
+            name: "window",
+            value: format!("{:?}", lay.window),
+            allowed: "a window that carries load in the base solve (enlarge it to reach the contact)",
+        });
+    }
     if inside.iter().all(|&i| i) {
         // The window is the cell: the fine solve alone, no coupling.
         load_w = pressure;
@@ -669,5 +692,74 @@ mod tests {
                 c.area
             );
         }
+    }
+
+    /// Bad options are refused with the parameter named.
+    #[test]
+    fn bad_options_are_refused() {
+        let s = Surface::new(Lattice::Square, 4).unwrap();
+        let ok = RefineOptions {
+            levels: 1,
+            window: Window::centred(&s.grid, 0.5, 0.0, 4, 4),
+            tol_coupling: 1e-10,
+            max_outer: 10,
+            solver: SolverOptions::default(),
+        };
+        let name = |o: &RefineOptions, p: f64| match solve_refined(&s, p, o) {
+            Err(ContactError::Parameter { name, .. }) => name,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(
+            name(
+                &RefineOptions {
+                    levels: 0,
+                    ..ok.clone()
+                },
+                0.1
+            ),
+            "levels"
+        );
+        assert_eq!(
+            name(
+                &RefineOptions {
+                    levels: 7,
+                    ..ok.clone()
+                },
+                0.1
+            ),
+            "levels"
+        );
+        let w = Window {
+            wx: 17,
+            ..ok.window
+        };
+        assert_eq!(
+            name(
+                &RefineOptions {
+                    window: w,
+                    ..ok.clone()
+                },
+                0.1
+            ),
+            "window"
+        );
+        let t = RefineOptions {
+            tol_coupling: 0.0,
+            ..ok.clone()
+        };
+        assert_eq!(name(&t, 0.1), "tol_coupling");
+        assert_eq!(
+            name(
+                &RefineOptions {
+                    max_outer: 0,
+                    ..ok.clone()
+                },
+                0.1
+            ),
+            "max_outer"
+        );
+        assert_eq!(name(&ok, -1.0), "pressure");
+        // the centred window wraps around the periodic cell
+        assert_eq!((ok.window.i0, ok.window.j0), (6, 14));
     }
 }
