@@ -15,7 +15,9 @@
 //! Measured (REFINE_BASE=9 REFINE_FRAC=0.227 REFINE_WINDOWS=64,128,256, 2 cores shared with
 //! other jobs): uniform 2048² 14.9 s, saddle gap 2.081248e-3 h0, channel 113 nodes; base 512²
 //! alone −6.4e-5 relative; windows 64², 128², 256²: 36.9 s, 60.0 s, 208 s, 50, 48, 51 outer
-//! iterations, +2.9e-5, +2.0e-5, +2.6e-5 relative, channel 112 nodes. The refined solve is not yet
+//! iterations, +2.9e-5, +2.0e-5, +2.6e-5 relative, channel 112 nodes. With REFINE_LEVELS=3
+//! REFINE_WINDOWS=64: uniform 4096² 72.2 s (saddle gap 2.081249e-3, channel 225), base alone
+//! −6.5e-5, window 82.2 s, 46 outer iterations, +5.1e-5, channel 225. The refined solve is not yet
 //! cheaper than the uniform one (see the cost notes in `contact::refinement`).
 
 use contact::refinement::{RefineOptions, Window, solve_refined};

@@ -40,11 +40,14 @@
 //! windows of 16², 32², 64² base nodes −8.4e-4, −7.1e-4, +5.0e-4 relative; base 512², k = 2
 //! against the uniform 2048² solve: base alone −6.4e-5, windows of 64², 128², 256² base nodes
 //! +2.9e-5, +2.0e-5, +2.6e-5 (channel width at the saddle 112 fine nodes against 113). The
-//! floor that does not fall with the window is, we believe, the interface: the base pressure is
-//! read as band-limited (so that the base kernel is exact for it), and its interpolant, cut at
-//! the window's edge, rings into the window, where p_W ≥ 0 cannot cancel a spurious positive
-//! part; a block (piecewise-constant) reading of the base pressure with a base kernel built from
-//! the fine response to a block would remove that leak (not done). The saddle gap is a
+//! floor that does not fall with the window may be the interface: the base pressure is read as
+//! band-limited (so that the base kernel is exact for it), and its interpolant, cut at the
+//! window's edge, rings into the window. A block reading instead (the base pressure uniform on
+//! its pixel, seen by the window through the fine lattice, with a base kernel made of the fine
+//! response to a block, so the coupling is consistent and nothing leaks) was tried and is worse:
+//! base 128², windows 16², 32², 64²: +1.4e-2, +7.6e-3, +2.4e-3; the band-limited reading stays.
+//! With k = 3 (base 512², window 64², against the uniform 4096² solve, whose saddle gap differs
+//! from the 2048² one by 7.7e-7): +5.1e-5, base alone −6.5e-5. The saddle gap is a
 //! global quantity (the elastic response is long-ranged): its error is set by the contact lines
 //! everywhere, not only at the neck, so refining the saddle alone cannot bring it to 1e-6; it
 //! removes the neck's own under-resolution (what matters as |l| → 0), and the far error, smooth
@@ -53,7 +56,8 @@
 //!
 //! Cost (measured, benches/refinement.rs, 2 shared cores): 512² base, k = 2: 37 s, 60 s, 208 s
 //! for windows of 64², 128², 256² base nodes (48–51 outer iterations to 1e-10 h0) against 15 s
-//! for the uniform 2048² solve. Every outer iteration transforms the whole fine lattice twice (u_ext and the window's
+//! for the uniform 2048² solve; k = 3, window 64²: 82 s against 72 s for the uniform 4096² solve.
+//! Every outer iteration transforms the whole fine lattice twice (u_ext and the window's
 //! response at the base nodes), and the fine Green's function is one more fine transform. This
 //! verification-grade coupling therefore still allocates the fine lattice (f² N_x N_y values)
 //! and saves only the fine solve's iterations; a near-field free convolution plus an
