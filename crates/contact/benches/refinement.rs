@@ -12,6 +12,14 @@
 //!
 //! Each case prints one machine-readable line starting with `RESULT`.
 //!
+//! `REFINE_CRITICAL=1` instead finds, for each discretisation (uniform fine, base, refined with
+//! a `REFINE_WINDOW` window, default 32), the load at which the saddle closes and compares the
+//! saddle gaps at the same reduced load from each one's own critical load (defaults base 2^7).
+//! Measured (defaults): p_c/p_fc 0.228606867 uniform 512², 0.228630244 base 128², 0.228690466
+//! refined (window 32²); saddle gap at l = −1e-2, −3e-3, −1e-3, −3e-4: uniform 3.176e-3,
+//! 7.541e-4, 2.053e-4, 4.847e-5; base 3.133e-3, 7.234e-4, 1.768e-4, 4.231e-5; refined
+//! 3.036e-3, 6.459e-4, 1.313e-4, 3.081e-5 (h0).
+//!
 //! Measured (REFINE_BASE=9 REFINE_FRAC=0.227 REFINE_WINDOWS=64,128,256, 2 cores shared with
 //! other jobs): uniform 2048² 14.9 s, saddle gap 2.081248e-3 h0, channel 113 nodes; base 512²
 //! alone −6.4e-5 relative; windows 64², 128², 256²: 36.9 s, 60.0 s, 208 s, 50, 48, 51 outer
@@ -31,7 +39,88 @@ fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
         .unwrap_or(default)
 }
 
+/// Saddle gap at (1/2, 0) of the uniform solve (`w` = None) or the refined one at `frac` p_fc.
+fn saddle_gap(s: &Surface, levels: u32, frac: f64, w: Option<usize>) -> f64 {
+    let solver = SolverOptions {
+        tol_gap: 1e-13,
+        ..Default::default()
+    };
+    let load = frac * s.p_fc_grid();
+    match w {
+        None => {
+            let sol = Model::new(s)
+                .expect("model")
+                .solve(Interaction::HardWall, load, &solver, None)
+                .expect("solve");
+            sol.gap[[s.grid.nx / 2, 0]]
+        }
+        Some(w) => {
+            let opts = RefineOptions {
+                levels,
+                window: Window::centred(&s.grid, 0.5, 0.0, w, w),
+                tol_coupling: 1e-12,
+                max_outer: 200,
+                solver,
+            };
+            let r = solve_refined(s, load, &opts).expect("refined solve");
+            let f = 1usize << levels;
+            let (fnx, fny) = (s.grid.nx * f, s.grid.ny * f);
+            let a = (fnx / 2 + fnx - r.origin.0) % fnx;
+            let b = (fny - r.origin.1) % fny;
+            r.window_gap[[a, b]]
+        }
+    }
+}
+
+/// `REFINE_CRITICAL=1`: the load p_c at which the saddle closes, by bisection (relative 1e-9),
+/// for the uniform fine, the base and the refined discretisation, and the saddle gap of each at
+/// the same reduced load l = p/p_c − 1 measured from its own p_c.
+fn critical(base_n: u32, levels: u32, w: usize) {
+    let s = Surface::new(Lattice::Square, base_n).expect("base grid");
+    let fine = Surface::new(Lattice::Square, base_n + levels).expect("fine grid");
+    // (the base and fine p_fc are equal for the square model: its trough is on a node)
+    let cases: [(&str, &Surface, Option<usize>); 3] = [
+        ("uniform", &fine, None),
+        ("base", &s, None),
+        ("refined", &s, Some(w)),
+    ];
+    for (name, surf, win) in cases {
+        let (mut lo, mut hi) = (0.2, 0.25);
+        while hi / lo - 1.0 > 1e-9 {
+            let mid = 0.5 * (lo + hi);
+            if saddle_gap(surf, levels, mid, win) > 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let pc = 0.5 * (lo + hi);
+        let gaps: Vec<String> = [-1e-2, -3e-3, -1e-3, -3e-4]
+            .iter()
+            .map(|l| {
+                format!(
+                    "{l:e}: {:.6e}",
+                    saddle_gap(surf, levels, pc * (1.0 + l), win)
+                )
+            })
+            .collect();
+        println!(
+            "{name}: p_c/p_fc = {pc:.9}; saddle gap at l = {}",
+            gaps.join(", ")
+        );
+        println!("RESULT critical case={name} pc={pc:.10} {}", gaps.join(" "));
+    }
+}
+
 fn main() {
+    if env("REFINE_CRITICAL", 0) == 1 {
+        critical(
+            env("REFINE_BASE", 7),
+            env("REFINE_LEVELS", 2),
+            env("REFINE_WINDOW", 32),
+        );
+        return;
+    }
     let base_n: u32 = env("REFINE_BASE", 9);
     let levels: u32 = env("REFINE_LEVELS", 2);
     let frac: f64 = env("REFINE_FRAC", 0.21);
