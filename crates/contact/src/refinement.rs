@@ -128,8 +128,8 @@ pub struct RefineOptions {
 /// A refined solution.
 #[derive(Debug, Clone)]
 pub struct Refined {
-    /// Fine window grid: its cell is the window, `shift` places node (0, 0) at the window's first
-    /// fine node (in fine spacings).
+    /// Fine window grid: its cell is the window (spacing that of the fine lattice); its node
+    /// (a, b) is fine-lattice node `origin + (a, b)` (periodic).
     pub window_grid: Grid,
     /// Index of the window's first node on the fine lattice (periodic).
     pub origin: (usize, usize),
@@ -281,7 +281,7 @@ pub fn solve_refined(
         ny: lay.fy,
         lx: lay.fx as f64 * fine_grid.dx(),
         ly: lay.fy as f64 * fine_grid.dy(),
-        shift: (lay.origin.0 as f64, lay.origin.1 as f64),
+        shift: (0.0, 0.0),
     };
     let shape = (lay.fx, lay.fy);
     let mut win = Model::with_kernel(
