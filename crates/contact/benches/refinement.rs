@@ -18,7 +18,10 @@
 //! Measured (defaults): p_c/p_fc 0.228606867 uniform 512², 0.228630244 base 128², 0.228690466
 //! refined (window 32²); saddle gap at l = −1e-2, −3e-3, −1e-3, −3e-4: uniform 3.176e-3,
 //! 7.541e-4, 2.053e-4, 4.847e-5; base 3.133e-3, 7.234e-4, 1.768e-4, 4.231e-5; refined
-//! 3.036e-3, 6.459e-4, 1.313e-4, 3.081e-5 (h0).
+//! 3.036e-3, 6.459e-4, 1.313e-4, 3.081e-5 (h0). REFINE_BASE=8 REFINE_WINDOW=64: p_c/p_fc
+//! 0.228605358 uniform 1024², 0.228611988 base 256², 0.228634775 refined; saddle gap: uniform
+//! 3.179e-3, 7.562e-4, 2.065e-4, 5.024e-5; base 3.169e-3, 7.487e-4, 1.987e-4, 4.644e-5; refined
+//! 3.131e-3, 7.188e-4, 1.771e-4, 3.044e-5.
 //!
 //! Measured (REFINE_BASE=9 REFINE_FRAC=0.227 REFINE_WINDOWS=64,128,256, 2 cores shared with
 //! other jobs): uniform 2048² 14.9 s, saddle gap 2.081248e-3 h0, channel 113 nodes; base 512²
