@@ -24,12 +24,15 @@
 //! returns the iterations, residuals and a converged flag; [`path`] runs quasi-static loading and
 //! unloading branches.
 
+pub mod compliance;
 pub mod elastic;
 pub mod fire;
+pub mod free_kernel;
 pub mod interaction;
 pub mod nonlinear_cg;
 pub mod path;
 pub mod polonsky_keer;
+pub mod refinement;
 pub mod spectral;
 
 pub use interaction::Interaction;
@@ -371,6 +374,9 @@ pub struct Model {
     /// The heights are symmetric under r → −r (to rounding): loss of symmetry can be diagnosed.
     symmetric: bool,
     kernel: ElasticKernel,
+    /// The free-boundary kernel, if the problem is not periodic (see [`free_kernel`]); the
+    /// Polonsky–Keer minimiser then uses it instead of `kernel`.
+    free: Option<free_kernel::FreeKernel>,
 }
 
 impl Model {
@@ -415,6 +421,7 @@ impl Model {
             heights,
             h_max,
             symmetric,
+            free: None,
         })
     }
 
@@ -516,7 +523,11 @@ impl Model {
         // Every result is judged by the same measures, whichever minimiser produced it: the
         // minimiser's own (taken before it cleans up its final state) and an independent
         // evaluation of the state it returns.
-        let (violation, force) = residuals(self, interaction, pressure, &state.u, opts.tol_gap);
+        let (violation, force) = if self.free.is_some() {
+            free_kernel::residuals(self, pressure, &state)
+        } else {
+            residuals(self, interaction, pressure, &state.u, opts.tol_gap)
+        };
         stats.max_violation = stats.max_violation.max(violation);
         stats.force_residual = stats.force_residual.max(force);
         if !(violation.is_finite() && force.is_finite()) {
@@ -600,6 +611,13 @@ impl Model {
                 ),
             });
         }
+        if self.free.is_some() && !method.starts_with("polonsky-keer") {
+            return Err(ContactError::Parameter {
+                name: "method",
+                value: method.into(),
+                allowed: "\"polonsky-keer\", \"polonsky-keer-plain\" or \"auto\" with the hard wall (the free boundary is solved by Polonsky–Keer only)",
+            });
+        }
         if method.starts_with("polonsky-keer") && !interaction.is_hard_wall() {
             return Err(ContactError::Parameter {
                 name: "method",
@@ -642,7 +660,11 @@ impl Model {
         let contact = gap.iter().filter(|&&g| g == 0.0).count();
         let mean_u = state.u.iter().sum::<f64>() / n as f64;
         let mean_gap = gap.iter().sum::<f64>() / n as f64;
-        let energy = self.energy(interaction, pressure, &state.u, &state.p);
+        let energy = if self.free.is_some() {
+            free_kernel::energy(self, pressure, &state.p)
+        } else {
+            self.energy(interaction, pressure, &state.u, &state.p)
+        };
         Solution {
             grid: self.grid,
             interaction,

@@ -49,6 +49,7 @@
 //! Stops when the constraint violation (max |g| on S, max penetration off S) is at most
 //! `tol_gap`. Force balance is exact by construction (u = G p, mean p = p̄, p ≥ 0).
 
+use crate::compliance::Compliance;
 use crate::{
     ContactError, Interaction, Minimizer, Model, SolveStats, SolverOptions, State, StopReason,
 };
@@ -602,27 +603,32 @@ impl Minimizer for PolonskyKeer {
         state: &mut State,
     ) -> Result<SolveStats, ContactError> {
         debug_assert!(interaction.is_hard_wall());
-        let pre = self.preconditioned;
-        if opts.trace {
-            relax::<true>(self.name(), pre, model, pressure, opts, state)
-        } else {
-            relax::<false>(self.name(), pre, model, pressure, opts, state)
+        let (pre, name) = (self.preconditioned, self.name());
+        let Model {
+            heights: h,
+            kernel,
+            free,
+            ..
+        } = model;
+        // The same iteration for the periodic and the free-boundary kernel (see compliance.rs).
+        match (free.as_mut(), opts.trace) {
+            (None, true) => relax::<true, _>(name, pre, h, kernel, pressure, opts, state),
+            (None, false) => relax::<false, _>(name, pre, h, kernel, pressure, opts, state),
+            (Some(f), true) => relax::<true, _>(name, pre, h, f, pressure, opts, state),
+            (Some(f), false) => relax::<false, _>(name, pre, h, f, pressure, opts, state),
         }
     }
 }
 
-fn relax<const TRACE: bool>(
+fn relax<const TRACE: bool, K: Compliance>(
     name: &'static str,
     preconditioned: bool,
-    model: &mut Model,
+    h: &[f64],
+    kernel: &mut K,
     pressure: f64,
     opts: &SolverOptions,
     state: &mut State,
 ) -> Result<SolveStats, ContactError> {
-    let Model {
-        heights: h, kernel, ..
-    } = model;
-    let h: &[f64] = h;
     let n = h.len();
     let nf = n as f64;
     let (_, ny) = kernel.shape();
@@ -955,8 +961,8 @@ fn relax<const TRACE: bool>(
 
 /// Exact recomputation: P ← σP, U ← G P (so σ becomes 1); `finish(i, p_row, u_row)` reduces
 /// over each row of the new state as it comes out (summed in row order).
-fn refresh(
-    kernel: &mut crate::elastic::ElasticKernel,
+fn refresh<K: Compliance>(
+    kernel: &mut K,
     p: &mut [f64],
     u: &mut [f64],
     sigma: f64,
