@@ -44,6 +44,14 @@
 //! cancellation), and the cycle a symmetric positive definite preconditioner on the range. It
 //! is no longer the exact Galerkin product, which can only cost iterations.
 //!
+//! # Ground
+//! An operator with a ground (couplings to a node held at zero outside the grid, see the
+//! `stencil` module; reservoirs give it) keeps one through the hierarchy. A ground coupling
+//! `g_f` enters the Galerkin product like a face from `f` to a node whose interpolation is
+//! zero: it adds `g_f P_fC P_fD` to `A_c[C, D]`, i.e. subtracts it from the coarse coupling, and
+//! the coarse ground is `Pᵀ g` (the row sums of `Pᵀ A P`, since `P` interpolates constants
+//! exactly). The coarsest level is eliminated with the ground as one more (pinned) node.
+//!
 //! # Cycle
 //! V(ν, ν) with symmetric block-ordered Gauss–Seidel ([`Stencil::gauss_seidel`]): forward
 //! pre-sweeps, the exact reverse ordering as post-sweeps, `R = Pᵀ`: the cycle is a symmetric
@@ -126,12 +134,20 @@ impl Multigrid {
         let last = &levels.last().expect("at least one level").op;
         let active: Vec<usize> = (0..last.len()).filter(|&k| last.diag[k] > 0.0).collect();
         let coarse = if active.len() <= DENSE_MAX {
-            let m = active.len();
+            // With a ground, one more unknown at position m: the grounded outside, pinned.
+            let grounded = last.ground.iter().any(|&g| g > 0.0);
+            let m = active.len() + usize::from(grounded);
             let mut index = vec![usize::MAX; last.len()];
             for (p, &k) in active.iter().enumerate() {
                 index[k] = p;
             }
             let mut s = vec![vec![0.0; m]; m];
+            if grounded {
+                for (p, &k) in active.iter().enumerate() {
+                    s[p][m - 1] = last.ground[k];
+                    s[m - 1][p] = last.ground[k];
+                }
+            }
             let (nx, ny) = (last.nx, last.ny);
             for i in 0..nx {
                 for j in 0..ny {
@@ -151,7 +167,11 @@ impl Multigrid {
                     }
                 }
             }
-            CoarseSolver::Dense(DenseElimination::new(active, s))
+            let mut nodes = active;
+            if grounded {
+                nodes.push(crate::dense_elimination::OUTSIDE);
+            }
+            CoarseSolver::Dense(DenseElimination::new(nodes, s))
         } else {
             CoarseSolver::Relax
         };
@@ -345,6 +365,13 @@ fn galerkin(op: &Stencil, w: &[CellWeights]) -> Stencil {
             face(op.e[kx], &px, &pc_e);
             face(op.n[kc], &pc, &py);
             face(op.n[ky], &py, &pc_n);
+            if !op.ground.is_empty() {
+                let zero = [0.0; 4];
+                face(op.ground[kc], &pc, &zero);
+                face(op.ground[kx], &px, &zero);
+                face(op.ground[ky], &py, &zero);
+                face(op.ground[km], &pm, &zero);
+            }
             if nine {
                 face(op.ne[kc], &pm, &pc);
                 face(op.se[km], &pm, &pc_e);
@@ -390,7 +417,14 @@ fn galerkin(op: &Stencil, w: &[CellWeights]) -> Stencil {
     drop(cell_energy);
     let take = |t: usize| out.iter().map(|o| o[t]).collect::<Vec<f64>>();
     let (e, n, ne, se) = (take(0), take(1), take(2), take(3));
-    Stencil::nine_point(cx, cy, e, n, ne, se)
+    let ground = if op.ground.is_empty() {
+        Vec::new()
+    } else {
+        let mut g = vec![0.0; cx * cy];
+        restrict(op, w, &op.ground, cx, cy, &mut g);
+        g
+    };
+    Stencil::nine_point(cx, cy, e, n, ne, se).with_ground(ground)
 }
 
 /// The operator with its negative couplings set to zero (see the module docs: it stays
@@ -404,12 +438,13 @@ fn without_negative_couplings(op: Stencil) -> Stencil {
         n,
         ne,
         se,
+        ground,
         ..
     } = op;
     if ne.is_empty() {
-        Stencil::five_point(nx, ny, clamp(e), clamp(n))
+        Stencil::five_point(nx, ny, clamp(e), clamp(n)).with_ground(ground)
     } else {
-        Stencil::nine_point(nx, ny, clamp(e), clamp(n), clamp(ne), clamp(se))
+        Stencil::nine_point(nx, ny, clamp(e), clamp(n), clamp(ne), clamp(se)).with_ground(ground)
     }
 }
 
@@ -523,6 +558,9 @@ mod tests {
                 }
             }
         }
+        for (k, &g) in s.ground.iter().enumerate() {
+            a[k][k] += g;
+        }
         a
     }
 
@@ -568,6 +606,18 @@ mod tests {
                 .collect()
         };
         let fine = Stencil::five_point(nx, ny, coef(()), coef(()));
+        // The same with a ground on the first and last rows (reservoirs at both x ends).
+        let grounded = Stencil::five_point(nx, ny, coef(()), coef(())).with_ground(
+            (0..nx * ny)
+                .map(|k| {
+                    if k < ny || k >= (nx - 1) * ny {
+                        10f64.powf(-6.0 * rnd())
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+        );
         let matmul = |a: &Vec<Vec<f64>>, b: &Vec<Vec<f64>>, abs: bool| -> Vec<Vec<f64>> {
             let (n, k, m) = (a.len(), b.len(), b[0].len());
             let mut c = vec![vec![0.0; m]; n];
@@ -588,7 +638,12 @@ mod tests {
                 .map(|j| a.iter().map(|r| r[j]).collect())
                 .collect()
         };
-        for op in [fine.clone(), galerkin(&fine, &interpolation_weights(&fine))] {
+        for op in [
+            fine.clone(),
+            galerkin(&fine, &interpolation_weights(&fine)),
+            grounded.clone(),
+            galerkin(&grounded, &interpolation_weights(&grounded)),
+        ] {
             let w = interpolation_weights(&op);
             let coarse = galerkin(&op, &w);
             let a = dense_matrix(&op);
