@@ -40,8 +40,9 @@ pub(crate) struct Assembly<'a> {
     pub e: &'a [f64],
     pub n: &'a [f64],
     pub cut: usize,
-    /// Reservoirs instead of a periodic cell (then `cut` is unused and the x-faces across the
-    /// cell edge, column `nx − 1`, have zero couplings).
+    /// Reservoirs instead of a periodic cell: the x-faces across the cell edge (column
+    /// `nx − 1`) have zero couplings and the cut lies in `0..nx − 1` (see the `reservoir`
+    /// module for the gauge).
     pub reservoirs: Option<Reservoirs<'a>>,
 }
 
@@ -131,13 +132,7 @@ impl Assembly<'_> {
     pub fn rhs(&self, dp: f64) -> Vec<f64> {
         let (nx, ny) = (self.nx, self.ny);
         let mut b = vec![0.0; nx * ny];
-        if let Some(r) = &self.reservoirs {
-            // The inlet's known pressure moves to the right-hand side of column 0.
-            for j in 0..ny {
-                b[j] = r.inlet[j] * dp;
-            }
-            return b;
-        }
+
         let c = self.cut;
         let cp = (c + 1) % nx;
         for j in 0..ny {
@@ -154,11 +149,7 @@ impl Assembly<'_> {
         let ny = self.ny;
         let ip = if i + 1 == self.nx { 0 } else { i + 1 };
         let d = u[i * ny + j] - u[ip * ny + j];
-        if i == self.cut && self.reservoirs.is_none() {
-            d + dp
-        } else {
-            d
-        }
+        if i == self.cut { d + dp } else { d }
     }
 
     #[inline]
@@ -194,7 +185,9 @@ impl Assembly<'_> {
                     let (mut ground, mut face_noise) = (0.0, 0.0);
                     if let Some(r) = &self.reservoirs {
                         if i == 0 {
-                            let (s, d) = (r.inlet[j], dp - u[k]);
+                            // p = u + ΔP on the inlet side of the cut: the drop from
+                            // the inlet (ΔP) to the node is −u.
+                            let (s, d) = (r.inlet[j], -u[k]);
                             fw = s * d;
                             acc[0] += fw * d;
                             acc[6] += fw;
@@ -269,7 +262,7 @@ impl Assembly<'_> {
             for j in 0..ny {
                 let k = i * ny + j;
                 if flowing[k] && reservoirs {
-                    p[[i, j]] = u[k];
+                    p[[i, j]] = u[k] + if i <= self.cut { dp } else { 0.0 };
                 } else if flowing[k] {
                     let v = u[k] - if i > self.cut { dp } else { 0.0 };
                     p[[i, j]] = v;
@@ -288,7 +281,7 @@ impl Assembly<'_> {
         let jx = |i: usize, j: usize| self.e[i * ny + j] * self.drop_x(u, i, j, dp) / dy;
         let jy = |i: usize, j: usize| self.n[i * ny + j] * self.drop_y(u, i, j) / dx;
         let west = |i: usize, j: usize| match &self.reservoirs {
-            Some(r) if i == 0 => r.inlet[j] * (dp - u[j]) / dy,
+            Some(r) if i == 0 => -r.inlet[j] * u[j] / dy,
             _ => jx((i + nx - 1) % nx, j),
         };
         let east = |i: usize, j: usize| match &self.reservoirs {

@@ -22,11 +22,17 @@
 //! wind around the cell. Clusters are labelled by the `percolation` crate on the mask padded with
 //! a column of solid (and, for closed sides, a row), which breaks the periodic wrap there.
 //!
-//! # Operator
-//! The reservoir faces make the operator a grounded Laplacian (couplings to a node held at
-//! zero, the outlet; the inlet's pressure moves to the right-hand side): the same multigrid and
-//! conjugate gradients as the periodic cell, with the ground carried through the Galerkin
-//! products (see the `multigrid` module). The flux is the dissipation
+//! # Operator and gauge
+//! The reservoir faces make the operator a grounded Laplacian (couplings to the outside held at
+//! zero): the same multigrid and conjugate gradients as the periodic cell, with the ground
+//! carried through the Galerkin products (see the `multigrid` module). The unknown is
+//! `u = p − ΔP` up to and including the cut column `c` (the interior x-face column of least
+//! conductance, as for the periodic cell) and `u = p` after it: both reservoirs are at `u = 0`
+//! and the drop enters only through the cut, `p_c − p_{c+1} = u_c − u_{c+1} + ΔP`. Near a
+//! closing constriction the cut falls on it, so `u` stays near zero in the well-conducting ponds
+//! on both sides, where double precision must resolve tiny pressure differences (with
+//! `u = p` the ponds at the inlet would sit at `u ≈ 1` and their rounding noise would swamp a
+//! flux 10⁻⁹ of their conductance). The flux is the dissipation
 //! `Σ_faces s (Δp)² / ΔP` including the reservoir faces, and its certification compares it with
 //! the flux through all `nx + 1` cross-sections (inlet faces, interior columns, outlet faces).
 

@@ -309,3 +309,34 @@ fn random_gaps_with_contact_match_an_independent_dense_solve() {
         }
     }
 }
+
+/// Near a closing constriction: g = max(0, ε + cos 2πx + cos 2πy), ε = 1e-6, nodes at
+/// x = i/n. Column n/2 (x = 1/2) has a single fluid node, the saddle (n/2, 0) with g = ε, g³ ≈
+/// 1e-18: the flux is that of its two faces in series, `1 / (1/h(a, b₋) + 1/h(a, b₊))` (h the
+/// harmonic mean, a = g³ of the throat, b± of its x-neighbours), up to the resistance of the
+/// ponds, < 16 faces of g³ > 1e-4, i.e. < 2e-13 of the throat's. The gauge keeps the ponds near
+/// u = 0, so the cross-section fluxes agree with the dissipation flux (with u = p the inlet pond
+/// would sit at 1 and its rounding, 1e-16 × its conductance, would swamp a flux of 1e-18; the
+/// dense oracle above, which computes the flux as s (1 − p), fails here for that reason).
+#[test]
+fn near_critical_constrictions_stay_conservative() {
+    let n = 16;
+    let tau = std::f64::consts::TAU;
+    let g = Array2::from_shape_fn((n, n), |(i, j)| {
+        let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+        (1e-6 + (tau * x).cos() + (tau * y).cos()).max(0.0)
+    });
+    assert_eq!((0..n).filter(|&j| g[[n / 2, j]] > 0.0).count(), 1);
+    let h = |a: f64, b: f64| 2.0 * a * b / (a + b);
+    let a = g[[n / 2, 0]].powi(3);
+    let (bm, bp) = (g[[n / 2 - 1, 0]].powi(3), g[[n / 2 + 1, 0]].powi(3));
+    let want = 1.0 / (1.0 / h(a, bm) + 1.0 / h(a, bp));
+    for sides in SIDES {
+        let r = run(&g, 1.0, 1.0, FlowAxis::X, sides);
+        assert!(
+            r.percolating && r.conservation_error < 1e-6,
+            "{sides:?}: {r:?}"
+        );
+        assert!(rel(r.flux, want) < 1e-10, "{sides:?}: {} vs {want}", r.flux);
+    }
+}
