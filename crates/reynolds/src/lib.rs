@@ -120,7 +120,9 @@ pub enum Termination {
 pub struct FlowFields {
     /// Pressure `p = −x ΔP / L + φ` at the nodes, `x = i dx` along the flow axis, with the
     /// periodic part `φ` of zero mean over the flowing nodes; NaN at contact nodes and in
-    /// removed (non-flowing) pools, where it is undefined.
+    /// removed (non-flowing) pools, where it is undefined. Between reservoirs
+    /// ([`solve_between_reservoirs`]) the pressure itself, `ΔP = 1` at the inlet and 0 at the
+    /// outlet.
     pub pressure: Array2<f64>,
     /// x component of the current density `−g³ ∇p` (flux per unit length of cross-section),
     /// node-centred: the mean of the two x-faces of the node's control volume. Zero in contact
