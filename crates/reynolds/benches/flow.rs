@@ -11,6 +11,8 @@
 //! - `FLOW_EPS` values of ε, default `1e-3,1e-1,1e-6`;
 //! - `FLOW_THREADS` rayon pool sizes, default `1,2`;
 //! - `FLOW_TOL` relative residual, default 1e-10;
+//! - `FLOW_BOUNDARY` `periodic` (default: the periodic cell) or `reservoirs` (inlet and outlet
+//!   reservoirs at x = 0 and x = 1, closed side edges);
 //! - `FLOW_REPEAT` solves per case (the fastest is reported), default 1;
 //! - `FLOW_DUMP=DIR` also writes each gap field as raw little-endian f64, row-major `(n, n)`
 //!   (first index x), to `DIR/gap_n{N}_eps{ε}.f64`, for `bench/peers/flow_pyamg.py`.
@@ -18,7 +20,7 @@
 //! Each case also prints one machine-readable line starting with `RESULT`.
 
 use ndarray::Array2;
-use reynolds::{FlowAxis, FlowOptions, solve};
+use reynolds::{FlowAxis, FlowOptions, SideEdges, solve, solve_between_reservoirs};
 use std::io::Write;
 
 #[path = "../../../bench/env_list.rs"]
@@ -65,6 +67,11 @@ fn main() {
     let threads: Vec<usize> = env_list("FLOW_THREADS", "1,2");
     let repeat: usize = env_list("FLOW_REPEAT", "1")[0];
     let dump = std::env::var("FLOW_DUMP").ok();
+    let reservoirs = match std::env::var("FLOW_BOUNDARY").as_deref() {
+        Ok("reservoirs") => true,
+        Ok("periodic") | Err(_) => false,
+        Ok(other) => panic!("FLOW_BOUNDARY = {other:?}: allowed periodic, reservoirs"),
+    };
     let options = FlowOptions {
         tolerance: env_list("FLOW_TOL", "1e-10")[0],
         ..FlowOptions::default()
@@ -109,7 +116,21 @@ fn main() {
                     reset_peak();
                     let c0 = cpu_seconds();
                     let r = pool
-                        .install(|| solve(gap.view(), 1.0, 1.0, FlowAxis::X, &options))
+                        .install(|| {
+                            if reservoirs {
+                                let sides = SideEdges::NoFlux;
+                                solve_between_reservoirs(
+                                    gap.view(),
+                                    1.0,
+                                    1.0,
+                                    FlowAxis::X,
+                                    sides,
+                                    &options,
+                                )
+                            } else {
+                                solve(gap.view(), 1.0, 1.0, FlowAxis::X, &options)
+                            }
+                        })
                         .expect("valid input");
                     cpu = cpu.min(cpu_seconds() - c0);
                     peak = peak.max(status_kib("VmHWM:").unwrap_or(0));
@@ -141,8 +162,9 @@ fn main() {
                     }
                 );
                 println!(
-                    "RESULT solver=reynolds n={n} eps={eps:e} threads={t} setup_s={} wall_s={} cpu_s={} \
+                    "RESULT solver=reynolds boundary={} n={n} eps={eps:e} threads={t} setup_s={} wall_s={} cpu_s={} \
                      iterations={} residual={:e} conservation={:e} flux={:e} peak_mib={:.0} converged={}",
+                    if reservoirs { "reservoirs" } else { "periodic" },
                     r.setup_seconds,
                     r.wall_seconds,
                     cpu,

@@ -13,6 +13,11 @@
 //! strongest node is held at zero, which gives the solution of a consistent system with that
 //! gauge (a symmetric generalised inverse: the multigrid cycle stays symmetric).
 
+/// Grid index of an unknown that is not a grid node: the grounded outside (a reservoir held
+/// at zero). Its component is pinned at it, its right-hand side is zero and its value is not
+/// written back.
+pub(crate) const OUTSIDE: usize = usize::MAX;
+
 /// Factorised coarsest-level operator.
 #[derive(Clone, Debug)]
 pub(crate) struct DenseElimination {
@@ -44,7 +49,12 @@ impl DenseElimination {
             comp[start] = c;
             let mut best = (start, f64::NEG_INFINITY);
             while let Some(p) = stack.pop() {
-                let d: f64 = s[p].iter().map(|v| v.abs()).sum();
+                // The outside node, if in this component, is its pin.
+                let d: f64 = if nodes[p] == OUTSIDE {
+                    f64::INFINITY
+                } else {
+                    s[p].iter().map(|v| v.abs()).sum()
+                };
                 if d > best.1 {
                     best = (p, d);
                 }
@@ -100,7 +110,11 @@ impl DenseElimination {
     /// pinned nodes get zero.
     pub fn solve(&self, b: &[f64], x: &mut [f64]) {
         let m = self.nodes.len();
-        let mut y: Vec<f64> = self.nodes.iter().map(|&g| b[g]).collect();
+        let mut y: Vec<f64> = self
+            .nodes
+            .iter()
+            .map(|&g| if g == OUTSIDE { 0.0 } else { b[g] })
+            .collect();
         // Forward: eliminating k adds (s_ik / d_k) y_k to every later i.
         for (t, &k) in self.order.iter().enumerate() {
             let yk = y[k];
@@ -122,7 +136,9 @@ impl DenseElimination {
             }
         }
         for (p, &g) in self.nodes.iter().enumerate() {
-            x[g] = sol[p];
+            if g != OUTSIDE {
+                x[g] = sol[p];
+            }
         }
     }
 }

@@ -33,13 +33,48 @@ pub(crate) fn harmonic_mean(a: f64, b: f64) -> f64 {
 
 /// The discrete problem: the 5-point operator on the flowing (kept) nodes, with couplings
 /// `e = c dy/dx` on x-faces (node to `i + 1`) and `n = c dx/dy` on y-faces (node to `j + 1`),
-/// and the cut column (see the module docs).
+/// and the cut column (see the module docs), or reservoirs.
 pub(crate) struct Assembly<'a> {
     pub nx: usize,
     pub ny: usize,
     pub e: &'a [f64],
     pub n: &'a [f64],
     pub cut: usize,
+    /// Reservoirs instead of a periodic cell: the x-faces across the cell edge (column
+    /// `nx − 1`) have zero couplings and the cut lies in `0..nx − 1` (see the `reservoir`
+    /// module for the gauge).
+    pub reservoirs: Option<Reservoirs<'a>>,
+}
+
+/// Couplings of the first and last node columns to an inlet reservoir at pressure `ΔP`
+/// (before column 0) and an outlet reservoir at pressure 0 (after column `nx − 1`), each `ny`
+/// long: `2 g³ dy/dx` (the reservoir edge is half a cell from the node centre).
+pub(crate) struct Reservoirs<'a> {
+    pub inlet: &'a [f64],
+    pub outlet: &'a [f64],
+}
+
+/// Couplings `(inlet, outlet)` of the kept nodes of the first and last columns to the
+/// reservoirs: the conductance `g³` of the node over the half cell `dx/2`, times `dy`.
+pub(crate) fn reservoir_couplings(
+    g3: &[f64],
+    keep: ArrayView2<bool>,
+    dx: f64,
+    dy: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let (nx, ny) = keep.dim();
+    let at = |i: usize| -> Vec<f64> {
+        (0..ny)
+            .map(|j| {
+                if keep[[i, j]] {
+                    2.0 * g3[i * ny + j] * dy / dx
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    };
+    (at(0), at(nx - 1))
 }
 
 /// The cut column: the x-face column of least total conductance.
@@ -97,6 +132,7 @@ impl Assembly<'_> {
     pub fn rhs(&self, dp: f64) -> Vec<f64> {
         let (nx, ny) = (self.nx, self.ny);
         let mut b = vec![0.0; nx * ny];
+
         let c = self.cut;
         let cp = (c + 1) % nx;
         for j in 0..ny {
@@ -129,23 +165,48 @@ impl Assembly<'_> {
         let eps = f64::EPSILON;
         // Per row i: dissipation of its x- and y-faces, flux through its x-face column and the
         // rounding noise of that flux, squared residual (the net outflow of each node, computed
-        // face by face), its rounding floor, and the dissipation of rounding noise.
-        let rows: Vec<[f64; 6]> = (0..nx)
+        // face by face), its rounding floor, and the dissipation of rounding noise; with
+        // reservoirs also the flux through the inlet faces and its noise (row 0 only). The
+        // outlet faces count as the x-face column of the last row.
+        let rows: Vec<[f64; 8]> = (0..nx)
             .into_par_iter()
             .map(|i| {
                 let im = if i == 0 { nx - 1 } else { i - 1 };
                 let ip = if i + 1 == nx { 0 } else { i + 1 };
-                let mut acc = [0.0; 6];
+                let mut acc = [0.0; 8];
                 for j in 0..ny {
                     let jm = if j == 0 { ny - 1 } else { j - 1 };
                     let jp = if j + 1 == ny { 0 } else { j + 1 };
                     let k = i * ny + j;
                     let (dxe, dyn_) = (self.drop_x(u, i, j, dp), self.drop_y(u, i, j));
-                    let fe = self.e[k] * dxe;
-                    let fw = self.e[im * ny + j] * self.drop_x(u, im, j, dp);
+                    let mut fe = self.e[k] * dxe;
+                    let mut fw = self.e[im * ny + j] * self.drop_x(u, im, j, dp);
+                    // Reservoir faces: (coupling, drop, rounding noise of the drop).
+                    let (mut ground, mut face_noise) = (0.0, 0.0);
+                    if let Some(r) = &self.reservoirs {
+                        if i == 0 {
+                            // p = u + ΔP on the inlet side of the cut: the drop from
+                            // the inlet (ΔP) to the node is −u.
+                            let (s, d) = (r.inlet[j], -u[k]);
+                            fw = s * d;
+                            acc[0] += fw * d;
+                            acc[6] += fw;
+                            acc[7] += s * eps * u[k].abs();
+                            ground += s;
+                            face_noise += s * (eps * u[k].abs()).powi(2);
+                        }
+                        if i + 1 == nx {
+                            let (s, d) = (r.outlet[j], u[k]);
+                            fe = s * d;
+                            acc[0] += fe * d;
+                            acc[2] += s * eps * u[k].abs();
+                            ground += s;
+                            face_noise += s * (eps * u[k].abs()).powi(2);
+                        }
+                    }
                     let fnn = self.n[k] * dyn_;
                     let fs = self.n[i * ny + jm] * self.drop_y(u, i, jm);
-                    acc[0] += fe * dxe + fnn * dyn_;
+                    acc[0] += self.e[k] * dxe * dxe + fnn * dyn_;
                     acc[1] += fe;
                     // Rounding u to doubles perturbs a face's drop by ≈ ε(|u_k| + |u_m|).
                     let ne = eps * (u[k].abs() + u[ip * ny + j].abs());
@@ -155,19 +216,26 @@ impl Assembly<'_> {
                     let r = (fe - fw) + (fnn - fs);
                     acc[3] += r * r;
                     // Residual that rounding u_k to the nearest double alone can cause.
-                    let d = self.e[k] + self.e[im * ny + j] + self.n[k] + self.n[i * ny + jm];
+                    let d =
+                        self.e[k] + self.e[im * ny + j] + self.n[k] + self.n[i * ny + jm] + ground;
                     let f = d * u[k].abs() * eps;
                     acc[4] += f * f;
-                    acc[5] += self.e[k] * ne * ne + self.n[k] * nn * nn;
+                    acc[5] += self.e[k] * ne * ne + self.n[k] * nn * nn + face_noise;
                 }
                 acc
             })
             .collect();
         let sum = |t: usize| rows.iter().map(|r| r[t]).sum::<f64>();
+        let mut column_flux: Vec<f64> = rows.iter().map(|r| r[1]).collect();
+        let mut column_noise: Vec<f64> = rows.iter().map(|r| r[2]).collect();
+        if self.reservoirs.is_some() {
+            column_flux.push(sum(6));
+            column_noise.push(sum(7));
+        }
         Evaluation {
             flux: sum(0) / dp,
-            column_flux: rows.iter().map(|r| r[1]).collect(),
-            column_noise: rows.iter().map(|r| r[2]).collect(),
+            column_flux,
+            column_noise,
             residual_norm: sum(3).sqrt(),
             rounding_floor: ROUNDING_SAFETY * sum(4).sqrt(),
             flux_rounding: sum(5) / dp,
@@ -189,10 +257,13 @@ impl Assembly<'_> {
         let mut p = Array2::from_elem((nx, ny), f64::NAN);
         let mut mean = 0.0;
         let mut count = 0usize;
+        let reservoirs = self.reservoirs.is_some();
         for i in 0..nx {
             for j in 0..ny {
                 let k = i * ny + j;
-                if flowing[k] {
+                if flowing[k] && reservoirs {
+                    p[[i, j]] = u[k] + if i <= self.cut { dp } else { 0.0 };
+                } else if flowing[k] {
                     let v = u[k] - if i > self.cut { dp } else { 0.0 };
                     p[[i, j]] = v;
                     // Periodic part φ = p + x ΔP / L with x = i dx.
@@ -205,12 +276,19 @@ impl Assembly<'_> {
             let shift = mean / count as f64;
             p.mapv_inplace(|v| v - shift);
         }
-        // Face current densities: flux / face length.
+        // Face current densities: flux / face length; with reservoirs the first column's west
+        // faces and the last column's east faces are the reservoir faces.
         let jx = |i: usize, j: usize| self.e[i * ny + j] * self.drop_x(u, i, j, dp) / dy;
         let jy = |i: usize, j: usize| self.n[i * ny + j] * self.drop_y(u, i, j) / dx;
-        let cx = Array2::from_shape_fn((nx, ny), |(i, j)| {
-            0.5 * (jx(i, j) + jx((i + nx - 1) % nx, j))
-        });
+        let west = |i: usize, j: usize| match &self.reservoirs {
+            Some(r) if i == 0 => -r.inlet[j] * u[j] / dy,
+            _ => jx((i + nx - 1) % nx, j),
+        };
+        let east = |i: usize, j: usize| match &self.reservoirs {
+            Some(r) if i + 1 == nx => r.outlet[j] * u[i * ny + j] / dy,
+            _ => jx(i, j),
+        };
+        let cx = Array2::from_shape_fn((nx, ny), |(i, j)| 0.5 * (east(i, j) + west(i, j)));
         let cy = Array2::from_shape_fn((nx, ny), |(i, j)| {
             0.5 * (jy(i, j) + jy(i, (j + ny - 1) % ny))
         });

@@ -4,7 +4,10 @@
 //! `(nx, ny)` (first index = x) on a periodic `lx × ly` cell, imposes a unit mean pressure drop
 //! `ΔP = 1` across the cell along the chosen axis (periodic otherwise), and returns the flux and
 //! the effective conductivity, checked: every solve recomputes its true residual and the flux
-//! through every cross-section.
+//! through every cross-section. [`solve_between_reservoirs`] solves the same equation on a gap
+//! that need not be periodic, between an inlet and an outlet reservoir on opposite edges with
+//! closed or periodic side edges ([`SideEdges`]; see the `reservoir` module), with the same pool
+//! removal, solver and certification.
 //!
 //! # Units and conventions (PHYSICS.md, "Reynolds thin-film flow")
 //! - Local conductivity `g³` (the factor 1/(12η) is left out), lengths in the units of
@@ -42,7 +45,10 @@ mod finite_volume;
 mod multigrid;
 mod pcg;
 mod pressure_drop;
+mod reservoir;
 mod stencil;
+
+pub use reservoir::SideEdges;
 
 use ndarray::{Array2, ArrayView2};
 
@@ -119,7 +125,9 @@ pub enum Termination {
 pub struct FlowFields {
     /// Pressure `p = −x ΔP / L + φ` at the nodes, `x = i dx` along the flow axis, with the
     /// periodic part `φ` of zero mean over the flowing nodes; NaN at contact nodes and in
-    /// removed (non-flowing) pools, where it is undefined.
+    /// removed (non-flowing) pools, where it is undefined. Between reservoirs
+    /// ([`solve_between_reservoirs`]) the pressure itself, `ΔP = 1` at the inlet and 0 at the
+    /// outlet.
     pub pressure: Array2<f64>,
     /// x component of the current density `−g³ ∇p` (flux per unit length of cross-section),
     /// node-centred: the mean of the two x-faces of the node's control volume. Zero in contact
@@ -237,6 +245,35 @@ pub fn solve(
     axis: FlowAxis,
     options: &FlowOptions,
 ) -> Result<FlowResult, FlowError> {
+    solve_with(gap, lx, ly, axis, None, options)
+}
+
+/// Solves the Reynolds equation for the flow between two reservoirs on a gap field that need
+/// not be periodic (see the `reservoir` module): an inlet at pressure `ΔP = 1` along the edge
+/// before the first node column (across `axis`), an outlet at 0 after the last one, side edges
+/// as `sides`. Same discretisation, pool removal (fluid not connected to both reservoirs), solver
+/// and certification as [`solve`]; the conductivity is `K = Q L_flow / (ΔP L_cross)` with
+/// `L_flow = nx dx` (a uniform gap `g` gives `g³`).
+pub fn solve_between_reservoirs(
+    gap: ArrayView2<f64>,
+    lx: f64,
+    ly: f64,
+    axis: FlowAxis,
+    sides: SideEdges,
+    options: &FlowOptions,
+) -> Result<FlowResult, FlowError> {
+    solve_with(gap, lx, ly, axis, Some(sides), options)
+}
+
+/// The set-up shared by the periodic cell (`reservoirs == None`) and the reservoir problem.
+fn solve_with(
+    gap: ArrayView2<f64>,
+    lx: f64,
+    ly: f64,
+    axis: FlowAxis,
+    reservoirs: Option<SideEdges>,
+    options: &FlowOptions,
+) -> Result<FlowResult, FlowError> {
     let start = Instant::now();
     validate(gap, lx, ly)?;
     if !(options.tolerance > 0.0 && options.tolerance < 1.0) {
@@ -249,26 +286,86 @@ pub fn solve(
     };
     let (nx, ny) = gap.dim();
     let (dx, dy) = (lflow / nx as f64, lcross / ny as f64);
-    let dp = 1.0;
 
     let g3 = finite_volume::cubes(gap);
     let fluid = Array2::from_shape_fn((nx, ny), |(i, j)| g3[i * ny + j] > 0.0);
     let fluid_count = fluid.iter().filter(|&&f| f).count();
-    let keep = percolation::wrapping_mask(
-        fluid.view(),
-        percolation::Connectivity::Four,
-        percolation::Axis::X,
-    );
-    let keep_flat: Vec<bool> = keep.iter().copied().collect();
-    let flowing_nodes = keep_flat.iter().filter(|&&k| k).count();
-    let removed_nodes = fluid_count - flowing_nodes;
+    let keep = match reservoirs {
+        None => percolation::wrapping_mask(
+            fluid.view(),
+            percolation::Connectivity::Four,
+            percolation::Axis::X,
+        ),
+        Some(sides) => reservoir::spanning_mask(fluid.view(), sides),
+    };
+    let flowing_nodes = keep.iter().filter(|&&k| k).count();
+    let setup = Setup {
+        axis,
+        nx,
+        ny,
+        dx,
+        dy,
+        lflow,
+        lcross,
+        flowing_nodes,
+        removed_nodes: fluid_count - flowing_nodes,
+        start,
+    };
+    if flowing_nodes == 0 {
+        return Ok(setup.not_percolating(options));
+    }
+    let (mut e, mut n) = finite_volume::couplings(&g3, keep.view(), dx, dy);
+    let ends = reservoirs.map(|sides| {
+        reservoir::cut_edges(&mut e, &mut n, nx, ny, sides);
+        finite_volume::reservoir_couplings(&g3, keep.view(), dx, dy)
+    });
+    drop(g3);
+    // Between reservoirs the cut must be an interior column (the edge column has no x-faces).
+    let columns = if ends.is_some() { nx - 1 } else { nx };
+    let cut = finite_volume::cut_column(&e[..columns * ny], ny);
+    // The multigrid hierarchy owns a copy of the fine couplings (its finest operator).
+    let ground = ends
+        .as_ref()
+        .map(|(inlet, outlet)| reservoir::ground(inlet, outlet, nx, ny))
+        .unwrap_or_default();
+    let op = stencil::Stencil::five_point(nx, ny, e.clone(), n.clone()).with_ground(ground);
+    let mut mg = multigrid::Multigrid::new(op, options.smoothing_sweeps.max(1));
+    let asm = finite_volume::Assembly {
+        nx,
+        ny,
+        e: &e,
+        n: &n,
+        cut,
+        reservoirs: ends
+            .as_ref()
+            .map(|(inlet, outlet)| finite_volume::Reservoirs { inlet, outlet }),
+    };
+    Ok(setup.iterate(&asm, &mut mg, &keep, options))
+}
 
-    let not_percolating = |setup: f64| {
+/// Sizes and timings of one solve, and the result assembly.
+struct Setup {
+    axis: FlowAxis,
+    nx: usize,
+    ny: usize,
+    dx: f64,
+    dy: f64,
+    lflow: f64,
+    lcross: f64,
+    flowing_nodes: usize,
+    removed_nodes: usize,
+    start: Instant,
+}
+
+impl Setup {
+    fn not_percolating(&self, options: &FlowOptions) -> FlowResult {
+        let (nx, ny) = (self.nx, self.ny);
         let fields = options.return_fields.then(|| {
             let zero = Array2::zeros((nx, ny));
             let nan = Array2::from_elem((nx, ny), f64::NAN);
-            orient(axis, nan, zero.clone(), zero)
+            orient(self.axis, nan, zero.clone(), zero)
         });
+        let elapsed = self.start.elapsed().as_secs_f64();
         FlowResult {
             conductivity: 0.0,
             flux: 0.0,
@@ -281,126 +378,122 @@ pub fn solve(
             flux_rounding_error: 0.0,
             conservation_error: 0.0,
             flux_error_estimate: 0.0,
-            wall_seconds: start.elapsed().as_secs_f64(),
-            setup_seconds: setup,
+            wall_seconds: elapsed,
+            setup_seconds: elapsed,
             levels: 0,
             flowing_nodes: 0,
-            removed_nodes,
+            removed_nodes: self.removed_nodes,
             fields,
         }
-    };
-    if flowing_nodes == 0 {
-        return Ok(not_percolating(start.elapsed().as_secs_f64()));
     }
 
-    let (e, n) = finite_volume::couplings(&g3, keep.view(), dx, dy);
-    drop(g3);
-    let cut = finite_volume::cut_column(&e, ny);
-    // The multigrid hierarchy owns a copy of the fine couplings (its finest operator).
-    let op = stencil::Stencil::five_point(nx, ny, e.clone(), n.clone());
-    let mut mg = multigrid::Multigrid::new(op, options.smoothing_sweeps.max(1));
-    let setup_seconds = start.elapsed().as_secs_f64();
-    let asm = finite_volume::Assembly {
-        nx,
-        ny,
-        e: &e,
-        n: &n,
-        cut,
-    };
-    let b = asm.rhs(dp);
-    let bnorm = stencil::dot(&b, &b).sqrt();
-    let mut u = vec![0.0; nx * ny];
-    let true_residual = |x: &[f64]| {
-        let ev = asm.evaluate(x, dp);
-        (ev.residual_norm, ev.rounding_floor)
-    };
-    // The relative residual bounds the error of the flux only as well as `b` measures the flux
-    // (near a critical constriction the ponds' conductance dwarfs the throat's, and a residual
-    // of 1e-10 left 7 % in the flux). So a solve that meets the tolerance but whose
-    // cross-section fluxes still disagree beyond rounding is repeated with a 100× tighter
-    // tolerance, down to 1e-16; the iterations add up.
-    let mut tol = options.tolerance;
-    let mut iterations = 0usize;
-    let (outcome, ev) = loop {
-        let mut outcome = pcg::solve(
-            &mut mg,
-            &b,
-            &mut u,
-            tol,
-            options.max_iterations.saturating_sub(iterations),
-            &true_residual,
-        );
-        iterations += outcome.iterations;
-        outcome.iterations = iterations;
-        let ev = asm.evaluate(&u, dp);
-        let beyond = conservation_deviation(&ev, 4.0);
-        if outcome.stop != pcg::Stop::Converged
-            || beyond <= CONSERVATION_TOLERANCE
-            || tol <= 1e-16
-            || iterations >= options.max_iterations
-        {
-            break (outcome, ev);
-        }
-        tol = (tol * 1e-2).max(1e-16);
-    };
-    let levels = mg.depth();
-    let flux = ev.flux;
-    let flux_error_estimate = {
-        let mut r = vec![0.0; nx * ny];
-        mg.fine().residual(&b, &u, &mut r);
-        let mut z = vec![0.0; nx * ny];
-        mg.apply(&r, &mut z);
-        let energy = stencil::dot(&z, &r).max(0.0);
-        if flux > 0.0 {
-            energy / (flux * dp)
+    /// Conjugate gradients, the certification of the flux and the result.
+    fn iterate(
+        &self,
+        asm: &finite_volume::Assembly,
+        mg: &mut multigrid::Multigrid,
+        keep: &Array2<bool>,
+        options: &FlowOptions,
+    ) -> FlowResult {
+        let (nx, ny) = (self.nx, self.ny);
+        let setup_seconds = self.start.elapsed().as_secs_f64();
+        let dp = 1.0;
+        let b = asm.rhs(dp);
+        let bnorm = stencil::dot(&b, &b).sqrt();
+        let mut u = vec![0.0; nx * ny];
+        let true_residual = |x: &[f64]| {
+            let ev = asm.evaluate(x, dp);
+            (ev.residual_norm, ev.rounding_floor)
+        };
+        // The relative residual bounds the error of the flux only as well as `b` measures the
+        // flux (near a critical constriction the ponds' conductance dwarfs the throat's, and a
+        // residual of 1e-10 left 7 % in the flux). So a solve that meets the tolerance but whose
+        // cross-section fluxes still disagree beyond rounding is repeated with a 100× tighter
+        // tolerance, down to 1e-16; the iterations add up.
+        let mut tol = options.tolerance;
+        let mut iterations = 0usize;
+        let (outcome, ev) = loop {
+            let mut outcome = pcg::solve(
+                mg,
+                &b,
+                &mut u,
+                tol,
+                options.max_iterations.saturating_sub(iterations),
+                &true_residual,
+            );
+            iterations += outcome.iterations;
+            outcome.iterations = iterations;
+            let ev = asm.evaluate(&u, dp);
+            let beyond = conservation_deviation(&ev, 4.0);
+            if outcome.stop != pcg::Stop::Converged
+                || beyond <= CONSERVATION_TOLERANCE
+                || tol <= 1e-16
+                || iterations >= options.max_iterations
+            {
+                break (outcome, ev);
+            }
+            tol = (tol * 1e-2).max(1e-16);
+        };
+        let levels = mg.depth();
+        let flux = ev.flux;
+        let flux_error_estimate = {
+            let mut r = vec![0.0; nx * ny];
+            mg.fine().residual(&b, &u, &mut r);
+            let mut z = vec![0.0; nx * ny];
+            mg.apply(&r, &mut z);
+            let energy = stencil::dot(&z, &r).max(0.0);
+            if flux > 0.0 {
+                energy / (flux * dp)
+            } else {
+                f64::INFINITY
+            }
+        };
+        let conservation_error = conservation_deviation(&ev, 0.0);
+        let conservation_beyond_noise = conservation_deviation(&ev, 4.0);
+        let flux_rounding_error = if flux > 0.0 {
+            ev.flux_rounding / flux
         } else {
-            f64::INFINITY
+            0.0
+        };
+        let termination = match outcome.stop {
+            pcg::Stop::Converged => Termination::Converged,
+            pcg::Stop::RoundoffLimited => Termination::RoundoffLimited,
+            pcg::Stop::IterationCap => Termination::IterationCap,
+            pcg::Stop::Stagnation => Termination::Stagnation,
+            pcg::Stop::Growth => Termination::ResidualGrowth,
+            pcg::Stop::Breakdown => Termination::Breakdown,
+        };
+        let fields = options.return_fields.then(|| {
+            let keep_flat: Vec<bool> = keep.iter().copied().collect();
+            let (p, cx, cy) = asm.fields(&u, dp, self.dx, self.dy, &keep_flat);
+            orient(self.axis, p, cx, cy)
+        });
+        FlowResult {
+            conductivity: flux * self.lflow / (dp * self.lcross),
+            flux,
+            percolating: true,
+            // never a flux whose cross-sections disagree beyond rounding, unless its energy
+            // error certifies it (see `flux_error_estimate`)
+            converged: (conservation_beyond_noise <= CONSERVATION_TOLERANCE
+                || flux_error_estimate <= CERTIFIED_FLUX_ERROR)
+                && (termination == Termination::Converged
+                    || (termination == Termination::RoundoffLimited
+                        && flux_rounding_error <= 1e-9)),
+            termination,
+            iterations: outcome.iterations,
+            relative_residual: ev.residual_norm / bnorm,
+            residual_floor: ev.rounding_floor / bnorm,
+            flux_rounding_error,
+            conservation_error,
+            flux_error_estimate,
+            wall_seconds: self.start.elapsed().as_secs_f64(),
+            setup_seconds,
+            levels,
+            flowing_nodes: self.flowing_nodes,
+            removed_nodes: self.removed_nodes,
+            fields,
         }
-    };
-    drop(mg);
-    let conservation_error = conservation_deviation(&ev, 0.0);
-    let conservation_beyond_noise = conservation_deviation(&ev, 4.0);
-    let flux_rounding_error = if flux > 0.0 {
-        ev.flux_rounding / flux
-    } else {
-        0.0
-    };
-    let termination = match outcome.stop {
-        pcg::Stop::Converged => Termination::Converged,
-        pcg::Stop::RoundoffLimited => Termination::RoundoffLimited,
-        pcg::Stop::IterationCap => Termination::IterationCap,
-        pcg::Stop::Stagnation => Termination::Stagnation,
-        pcg::Stop::Growth => Termination::ResidualGrowth,
-        pcg::Stop::Breakdown => Termination::Breakdown,
-    };
-    let fields = options.return_fields.then(|| {
-        let (p, cx, cy) = asm.fields(&u, dp, dx, dy, &keep_flat);
-        orient(axis, p, cx, cy)
-    });
-    Ok(FlowResult {
-        conductivity: flux * lflow / (dp * lcross),
-        flux,
-        percolating: true,
-        // never a flux whose cross-sections disagree beyond rounding, unless its energy error
-        // certifies it (see `flux_error_estimate`)
-        converged: (conservation_beyond_noise <= CONSERVATION_TOLERANCE
-            || flux_error_estimate <= CERTIFIED_FLUX_ERROR)
-            && (termination == Termination::Converged
-                || (termination == Termination::RoundoffLimited && flux_rounding_error <= 1e-9)),
-        termination,
-        iterations: outcome.iterations,
-        relative_residual: ev.residual_norm / bnorm,
-        residual_floor: ev.rounding_floor / bnorm,
-        flux_rounding_error,
-        conservation_error,
-        flux_error_estimate,
-        wall_seconds: start.elapsed().as_secs_f64(),
-        setup_seconds,
-        levels,
-        flowing_nodes,
-        removed_nodes,
-        fields,
-    })
+    }
 }
 
 /// Largest disagreement of the cross-section fluxes with the flux beyond the cross-sections'

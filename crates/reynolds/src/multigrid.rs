@@ -44,6 +44,19 @@
 //! cancellation), and the cycle a symmetric positive definite preconditioner on the range. It
 //! is no longer the exact Galerkin product, which can only cost iterations.
 //!
+//! # Ground
+//! An operator with a ground (couplings to a node held at zero outside the grid, see the
+//! `stencil` module; reservoirs give it) keeps one through the hierarchy. The interpolation
+//! counts a node's ground in the denominator of its weights (BoxMG's treatment of a Dirichlet
+//! boundary: next to a reservoir the interpolant decays towards the reservoir's zero instead of
+//! extrapolating a constant), so there the weights sum to less than one. A ground coupling
+//! `g_f` enters the Galerkin product like a face from `f` to a node whose interpolation is zero:
+//! it adds `g_f P_fC P_fD` to `A_c[C, D]`, i.e. subtracts it from the coarse coupling; the face
+//! products give the off-diagonal entries of `Pᵀ A P` for any `P`. The coarse ground is the row
+//! sum of `Pᵀ A P`, `Pᵀ (g − A w)` with `w = 1 − P 1` ([`coarse_ground`]); it is clamped at zero
+//! like the couplings. The coarsest level is eliminated with the ground as one more (pinned)
+//! node.
+//!
 //! # Cycle
 //! V(ν, ν) with symmetric block-ordered Gauss–Seidel ([`Stencil::gauss_seidel`]): forward
 //! pre-sweeps, the exact reverse ordering as post-sweeps, `R = Pᵀ`: the cycle is a symmetric
@@ -126,12 +139,20 @@ impl Multigrid {
         let last = &levels.last().expect("at least one level").op;
         let active: Vec<usize> = (0..last.len()).filter(|&k| last.diag[k] > 0.0).collect();
         let coarse = if active.len() <= DENSE_MAX {
-            let m = active.len();
+            // With a ground, one more unknown at position m: the grounded outside, pinned.
+            let grounded = last.ground.iter().any(|&g| g > 0.0);
+            let m = active.len() + usize::from(grounded);
             let mut index = vec![usize::MAX; last.len()];
             for (p, &k) in active.iter().enumerate() {
                 index[k] = p;
             }
             let mut s = vec![vec![0.0; m]; m];
+            if grounded {
+                for (p, &k) in active.iter().enumerate() {
+                    s[p][m - 1] = last.ground[k];
+                    s[m - 1][p] = last.ground[k];
+                }
+            }
             let (nx, ny) = (last.nx, last.ny);
             for i in 0..nx {
                 for j in 0..ny {
@@ -151,7 +172,11 @@ impl Multigrid {
                     }
                 }
             }
-            CoarseSolver::Dense(DenseElimination::new(active, s))
+            let mut nodes = active;
+            if grounded {
+                nodes.push(crate::dense_elimination::OUTSIDE);
+            }
+            CoarseSolver::Dense(DenseElimination::new(nodes, s))
         } else {
             CoarseSolver::Relax
         };
@@ -233,6 +258,7 @@ fn down(i: usize, n: usize) -> usize {
 fn interpolation_weights(op: &Stencil) -> Vec<CellWeights> {
     let (cx, cy) = (op.nx / 2, op.ny / 2);
     let pos = |v: f64| v.max(0.0);
+    let ground = |i: usize, j: usize| op.ground.get(i * op.ny + j).map_or(0.0, |&g| pos(g));
     let par = op.len() >= PARALLEL_MIN;
     // Pass 1: edges, [w_W, w_E, w_S, w_N] per cell.
     let edge = |cell: usize| -> [f64; 4] {
@@ -242,12 +268,14 @@ fn interpolation_weights(op: &Stencil) -> Vec<CellWeights> {
         let (a, b) = split(
             pos(c[0]) + pos(c[4]) + pos(c[7]),
             pos(c[1]) + pos(c[5]) + pos(c[6]),
+            ground(i + 1, j),
         );
         // y-edge (2I, 2J+1)
         let c = op.couplings(i, j + 1);
         let (s, n) = split(
             pos(c[2]) + pos(c[4]) + pos(c[6]),
             pos(c[3]) + pos(c[5]) + pos(c[7]),
+            ground(i, j + 1),
         );
         [a, b, s, n]
     };
@@ -261,7 +289,7 @@ fn interpolation_weights(op: &Stencil) -> Vec<CellWeights> {
         let (ci, cj) = (cell / cy, cell % cy);
         let c = op.couplings(2 * ci + 1, 2 * cj + 1);
         let [sw, se, ss, sn, ssw, sne, sse, snw] = c.map(pos);
-        let total = sw + se + ss + sn + ssw + sne + sse + snw;
+        let total = sw + se + ss + sn + ssw + sne + sse + snw + ground(2 * ci + 1, 2 * cj + 1);
         let here = &edges[cell];
         let east = &edges[up(ci, cx) * cy + cj];
         let north = &edges[ci * cy + up(cj, cy)];
@@ -286,9 +314,10 @@ fn interpolation_weights(op: &Stencil) -> Vec<CellWeights> {
     }
 }
 
+/// Weights `(a, b) / (a + b + g)` towards two coarse neighbours of a node with ground `g`.
 #[inline]
-fn split(a: f64, b: f64) -> (f64, f64) {
-    let t = a + b;
+fn split(a: f64, b: f64, g: f64) -> (f64, f64) {
+    let t = a + b + g;
     if t > 0.0 { (a / t, b / t) } else { (0.5, 0.5) }
 }
 
@@ -345,6 +374,13 @@ fn galerkin(op: &Stencil, w: &[CellWeights]) -> Stencil {
             face(op.e[kx], &px, &pc_e);
             face(op.n[kc], &pc, &py);
             face(op.n[ky], &py, &pc_n);
+            if !op.ground.is_empty() {
+                let zero = [0.0; 4];
+                face(op.ground[kc], &pc, &zero);
+                face(op.ground[kx], &px, &zero);
+                face(op.ground[ky], &py, &zero);
+                face(op.ground[km], &pm, &zero);
+            }
             if nine {
                 face(op.ne[kc], &pm, &pc);
                 face(op.se[km], &pm, &pc_e);
@@ -390,7 +426,31 @@ fn galerkin(op: &Stencil, w: &[CellWeights]) -> Stencil {
     drop(cell_energy);
     let take = |t: usize| out.iter().map(|o| o[t]).collect::<Vec<f64>>();
     let (e, n, ne, se) = (take(0), take(1), take(2), take(3));
-    Stencil::nine_point(cx, cy, e, n, ne, se)
+    let ground = if op.ground.is_empty() {
+        Vec::new()
+    } else {
+        coarse_ground(op, w, cx, cy)
+    };
+    Stencil::nine_point(cx, cy, e, n, ne, se).with_ground(ground)
+}
+
+/// The ground of `Pᵀ A P`: its row sums, `Pᵀ A P 1 = Pᵀ A (1 − w)` with `w = 1 − P 1` the weight
+/// a fine node gives the grounded outside (zero on active nodes away from the ground), i.e.
+/// `Pᵀ (g − A w)`. It can come out negative; [`without_negative_couplings`] clamps it.
+fn coarse_ground(op: &Stencil, w: &[CellWeights], cx: usize, cy: usize) -> Vec<f64> {
+    let mut p1 = vec![0.0; op.len()];
+    interpolate_add(op, w, &vec![1.0; cx * cy], cx, cy, &mut p1);
+    let outside: Vec<f64> = p1
+        .iter()
+        .zip(&op.inv_diag)
+        .map(|(&v, &d)| if d > 0.0 { 1.0 - v } else { 0.0 })
+        .collect();
+    let mut aw = vec![0.0; op.len()];
+    op.apply_dot(&outside, &mut aw);
+    let r: Vec<f64> = op.ground.iter().zip(&aw).map(|(g, a)| g - a).collect();
+    let mut gc = vec![0.0; cx * cy];
+    restrict(op, w, &r, cx, cy, &mut gc);
+    gc
 }
 
 /// The operator with its negative couplings set to zero (see the module docs: it stays
@@ -404,12 +464,14 @@ fn without_negative_couplings(op: Stencil) -> Stencil {
         n,
         ne,
         se,
+        ground,
         ..
     } = op;
+    let ground = clamp(ground);
     if ne.is_empty() {
-        Stencil::five_point(nx, ny, clamp(e), clamp(n))
+        Stencil::five_point(nx, ny, clamp(e), clamp(n)).with_ground(ground)
     } else {
-        Stencil::nine_point(nx, ny, clamp(e), clamp(n), clamp(ne), clamp(se))
+        Stencil::nine_point(nx, ny, clamp(e), clamp(n), clamp(ne), clamp(se)).with_ground(ground)
     }
 }
 
@@ -523,6 +585,9 @@ mod tests {
                 }
             }
         }
+        for (k, &g) in s.ground.iter().enumerate() {
+            a[k][k] += g;
+        }
         a
     }
 
@@ -568,6 +633,18 @@ mod tests {
                 .collect()
         };
         let fine = Stencil::five_point(nx, ny, coef(()), coef(()));
+        // The same with a ground on the first and last rows (reservoirs at both x ends).
+        let grounded = Stencil::five_point(nx, ny, coef(()), coef(())).with_ground(
+            (0..nx * ny)
+                .map(|k| {
+                    if k < ny || k >= (nx - 1) * ny {
+                        10f64.powf(-6.0 * rnd())
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+        );
         let matmul = |a: &Vec<Vec<f64>>, b: &Vec<Vec<f64>>, abs: bool| -> Vec<Vec<f64>> {
             let (n, k, m) = (a.len(), b.len(), b[0].len());
             let mut c = vec![vec![0.0; m]; n];
@@ -588,7 +665,12 @@ mod tests {
                 .map(|j| a.iter().map(|r| r[j]).collect())
                 .collect()
         };
-        for op in [fine.clone(), galerkin(&fine, &interpolation_weights(&fine))] {
+        for op in [
+            fine.clone(),
+            galerkin(&fine, &interpolation_weights(&fine)),
+            grounded.clone(),
+            galerkin(&grounded, &interpolation_weights(&grounded)),
+        ] {
             let w = interpolation_weights(&op);
             let coarse = galerkin(&op, &w);
             let a = dense_matrix(&op);
@@ -609,9 +691,10 @@ mod tests {
                     );
                 }
             }
-            // Constants are interpolated exactly on the active fine nodes.
+            // Constants are interpolated exactly on the active fine nodes (not next to a ground,
+            // where the interpolation decays towards the grounded outside).
             for f in 0..m {
-                if op.diag[f] > 0.0 {
+                if op.diag[f] > 0.0 && op.ground.is_empty() {
                     let sum: f64 = p[f].iter().sum();
                     assert!((sum - 1.0).abs() < 1e-14, "row {f} of P sums to {sum}");
                 }

@@ -15,6 +15,11 @@
 //! two nearly equal values is exact in floating point, so the residual of a nearly uniform
 //! pressure in a highly conducting pond carries no rounding noise of the size of the pressure
 //! itself. Nodes with zero diagonal are inactive (contact, removed pools): they stay zero.
+//!
+//! An operator may also have a *ground*: a non-negative coupling `g[k]` of node `k` to a node
+//! held at zero outside the grid (a reservoir at fixed pressure), `(A x)_k += g_k x_k`. Its
+//! diagonal is then the sum of the couplings plus `g_k`; with a non-zero ground every connected
+//! component touching it is positive definite.
 
 use rayon::prelude::*;
 
@@ -36,6 +41,8 @@ pub(crate) struct Stencil {
     pub diag: Vec<f64>,
     /// `1 / diag`, zero for inactive nodes.
     pub inv_diag: Vec<f64>,
+    /// Coupling of each node to the grounded outside (empty: none).
+    pub ground: Vec<f64>,
 }
 
 #[inline(always)]
@@ -60,9 +67,18 @@ impl Stencil {
             se: Vec::new(),
             diag: Vec::new(),
             inv_diag: Vec::new(),
+            ground: Vec::new(),
         };
         s.finish();
         s
+    }
+
+    /// The operator with a ground coupling per node (see the module docs; empty: none).
+    pub fn with_ground(mut self, ground: Vec<f64>) -> Self {
+        debug_assert!(ground.is_empty() || ground.len() == self.len());
+        self.ground = ground;
+        self.finish();
+        self
     }
 
     /// A 9-point operator from its four coupling arrays.
@@ -83,6 +99,7 @@ impl Stencil {
             se,
             diag: Vec::new(),
             inv_diag: Vec::new(),
+            ground: Vec::new(),
         };
         s.finish();
         s
@@ -123,7 +140,8 @@ impl Stencil {
         let mut diag = vec![0.0; nx * ny];
         let compute = |(i, row): (usize, &mut [f64])| {
             for (j, d) in row.iter_mut().enumerate() {
-                *d = self.couplings(i, j).iter().sum();
+                *d = self.couplings(i, j).iter().sum::<f64>()
+                    + self.ground.get(i * ny + j).copied().unwrap_or(0.0);
             }
         };
         if nx * ny >= PARALLEL_MIN {
@@ -203,6 +221,11 @@ impl Stencil {
                         + nep[jm] * (v - xp[jm])
                         + se[j] * (v - xn[jm])
                         + sep[jp] * (v - xp[jp]);
+                }
+            }
+            if !self.ground.is_empty() {
+                for ((o, &g), &v) in o.iter_mut().zip(&self.ground[i * ny..(i + 1) * ny]).zip(xc) {
+                    *o += g * v;
                 }
             }
             if let Some(b) = b {
@@ -503,13 +526,36 @@ mod tests {
                 }
             }
         }
+        for (k, &g) in s.ground.iter().enumerate() {
+            a[k][k] += g;
+        }
         a
     }
 
     #[test]
     fn apply_matches_dense_and_gauss_seidel_is_symmetric() {
-        for &(nx, ny, nine) in &[(4, 6, false), (6, 4, true), (2, 4, true), (8, 8, true)] {
-            let s = random_stencil(nx, ny, nine, 7 + nx as u64);
+        for &(nx, ny, nine, grounded) in &[
+            (4, 6, false, false),
+            (6, 4, true, false),
+            (2, 4, true, false),
+            (8, 8, true, false),
+            (4, 6, false, true),
+            (8, 8, true, true),
+        ] {
+            let mut s = random_stencil(nx, ny, nine, 7 + nx as u64);
+            if grounded {
+                // A ground on the first and last rows, as reservoirs at both ends give.
+                let ground = (0..nx * ny)
+                    .map(|k| {
+                        if k < ny || k >= (nx - 1) * ny {
+                            0.5 + (k % 3) as f64
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                s = s.with_ground(ground);
+            }
             let a = dense(&s);
             let nn = nx * ny;
             let x: Vec<f64> = (0..nn).map(|k| ((k * 37) % 11) as f64 - 5.0).collect();

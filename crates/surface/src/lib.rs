@@ -17,12 +17,18 @@
 
 mod critical;
 mod curvature;
+mod height_field;
+pub mod self_affine;
+pub mod spectrum;
 mod stats;
 
 pub use critical::{CriticalKind, CriticalPoint};
 pub use curvature::{
     Channel, CurvatureError, SaddleCurvature, Stencil, hessian_at, saddle_curvature,
 };
+pub use height_field::HeightField;
+pub use self_affine::{Amplitudes, Normalisation, SelfAffine};
+pub use spectrum::{PsdBin, SpectralStatistics, Spectrum};
 pub use stats::Statistics;
 
 use ndarray::Array2;
@@ -44,6 +50,15 @@ pub enum SurfaceError {
     GridExponent(u32),
     /// A sub-grid shift that is not finite or not in [0, 1).
     Shift(f64, f64),
+    /// Any other parameter out of its range.
+    Parameter {
+        /// Parameter name.
+        name: &'static str,
+        /// The offending value.
+        value: String,
+        /// The allowed range.
+        allowed: &'static str,
+    },
 }
 
 impl fmt::Display for SurfaceError {
@@ -61,6 +76,11 @@ impl fmt::Display for SurfaceError {
                 f,
                 "sub-grid shift ({sx}, {sy}) is out of range: each component must be finite and in [0, 1)"
             ),
+            SurfaceError::Parameter {
+                name,
+                value,
+                allowed,
+            } => write!(f, "{name} = {value} is out of range: allowed {allowed}"),
         }
     }
 }
@@ -282,6 +302,33 @@ impl Grid {
         Ok(Grid {
             nx: 1 << n,
             ny: 1 << n,
+            lx,
+            ly,
+            shift: (0.0, 0.0),
+        })
+    }
+
+    /// An unshifted grid of nx × ny nodes (each in 2..=2^N_MAX) on an lx × ly cell (finite,
+    /// > 0), for height fields that are not one of the lattices.
+    pub fn periodic(nx: usize, ny: usize, lx: f64, ly: f64) -> Result<Self, SurfaceError> {
+        let max = 1usize << N_MAX;
+        if !(2..=max).contains(&nx) || !(2..=max).contains(&ny) {
+            return Err(SurfaceError::Parameter {
+                name: "grid",
+                value: format!("{nx} × {ny} nodes"),
+                allowed: "2..=8192 nodes along each axis",
+            });
+        }
+        if !(lx.is_finite() && lx > 0.0 && ly.is_finite() && ly > 0.0) {
+            return Err(SurfaceError::Parameter {
+                name: "cell",
+                value: format!("{lx} × {ly}"),
+                allowed: "finite sides > 0",
+            });
+        }
+        Ok(Grid {
+            nx,
+            ny,
             lx,
             ly,
             shift: (0.0, 0.0),
