@@ -317,7 +317,9 @@ fn closed_stdout_ends_quietly() {
     for sub in ["pipeline", "params"] {
         std::fs::create_dir(dir.path().join(sub)).unwrap();
         for e in std::fs::read_dir(root.join(sub)).unwrap().flatten() {
-            std::fs::copy(e.path(), dir.path().join(sub).join(e.file_name())).unwrap();
+            if e.path().is_file() {
+                std::fs::copy(e.path(), dir.path().join(sub).join(e.file_name())).unwrap();
+            }
         }
     }
     let (status, err) = with_closed_stdout(bin().args(["run", "-C"]).arg(dir.path()).args([
