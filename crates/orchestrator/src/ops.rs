@@ -170,6 +170,7 @@ pub fn graph(ws: &Workspace, plan: &Plan, selected: &[usize]) -> String {
             EntryState::Valid => ("palegreen", "cached"),
             EntryState::Missing => ("lightgrey", "missing"),
             EntryState::Invalid => ("salmon", "invalid"),
+            EntryState::Damaged => ("salmon", "damaged"),
         };
         let _ = writeln!(
             out,

@@ -1,25 +1,50 @@
 //! The results folder: cache layout, the index of last keys, and why a stage must run.
 
 use crate::plan::{Plan, PlannedStage};
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::BTreeMap;
+use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
-use store::ArtefactReader;
+use std::sync::{Arc, Mutex};
+use store::{ArtefactReader, Integrity};
 
 /// A project root: `results/` (cache, runs, lock) and side outputs live under it.
+///
+/// Every cache entry is verified before use ([`store::digest::check`]: complete mark, expected
+/// key, content digest). A verified file is remembered with its size, modification time and
+/// inode, so a second look in the same process (the runner decides, then opens inputs) costs a
+/// `stat`, not a re-read; any replacement or rewrite of the file changes that stamp and forces a
+/// full check again.
 #[derive(Clone, Debug)]
 pub struct Workspace {
     /// The project root.
     pub root: PathBuf,
+    verified: Arc<Mutex<HashMap<PathBuf, Stamp>>>,
+}
+
+/// What identifies one version of a file cheaply: size, modification time, inode.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Stamp(u64, Option<std::time::SystemTime>, u64);
+
+fn stamp(p: &Path) -> Option<Stamp> {
+    let m = std::fs::metadata(p).ok()?;
+    #[cfg(unix)]
+    let ino = std::os::unix::fs::MetadataExt::ino(&m);
+    #[cfg(not(unix))]
+    let ino = 0;
+    Some(Stamp(m.len(), m.modified().ok(), ino))
 }
 
 impl Workspace {
     /// A workspace rooted at `root`.
     pub fn new(root: impl Into<PathBuf>) -> Self {
-        Self { root: root.into() }
+        Self {
+            root: root.into(),
+            verified: Arc::default(),
+        }
     }
     /// `results/`.
     pub fn results(&self) -> PathBuf {
@@ -56,13 +81,49 @@ impl Workspace {
 
     /// The state of a stage's cache entry.
     pub fn entry_state(&self, s: &PlannedStage) -> EntryState {
+        EntryState::of(&self.integrity(s))
+    }
+
+    /// The full verdict on a stage's cache entry, with the reason when it is not valid.
+    pub fn integrity(&self, s: &PlannedStage) -> Integrity {
         let p = self.artefact_of(s);
-        if !p.exists() {
-            EntryState::Missing
-        } else if ArtefactReader::is_valid(&p) {
-            EntryState::Valid
-        } else {
-            EntryState::Invalid
+        let now = stamp(&p);
+        let memo = |m: &HashMap<PathBuf, Stamp>| now.is_some() && m.get(&p) == now.as_ref();
+        if self.verified.lock().map(|m| memo(&m)).unwrap_or(false) {
+            return Integrity::Valid;
+        }
+        let verdict = store::digest::check(&p, &s.key);
+        if let (true, Some(now), Ok(mut m)) = (verdict.is_valid(), now, self.verified.lock()) {
+            m.insert(p, now);
+        }
+        verdict
+    }
+
+    /// Remembers that the entry of `s` was just written by this process (its digest computed
+    /// at publication), so that consumers in this run need not re-read it.
+    pub fn mark_verified(&self, s: &PlannedStage) {
+        let p = self.artefact_of(s);
+        if let (Some(now), Ok(mut m)) = (stamp(&p), self.verified.lock()) {
+            m.insert(p, now);
+        }
+    }
+
+    /// Opens a stage's cache entry for reading, verified (key and content); an entry that is
+    /// not valid is an error naming the stage and its file.
+    pub fn open_entry(&self, s: &PlannedStage) -> Result<ArtefactReader> {
+        let path = self.artefact_of(s);
+        match self.integrity(s) {
+            Integrity::Valid => ArtefactReader::open_complete(&path),
+            Integrity::Missing => bail!(
+                "the artefact of stage `{}` (`{}`) is missing",
+                s.name,
+                path.display()
+            ),
+            bad => bail!(
+                "the artefact of stage `{}` cannot be used: {}",
+                s.name,
+                bad.detail()
+            ),
         }
     }
 
@@ -102,12 +163,35 @@ impl Workspace {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EntryState {
-    /// Published, complete, readable.
+    /// Published, complete, readable, holding the expected key, content matching its digest.
     Valid,
     /// No file.
     Missing,
     /// A file that is truncated, unreadable or lacks the complete mark.
     Invalid,
+    /// A complete, readable file whose key or content digest does not match.
+    Damaged,
+}
+
+impl EntryState {
+    /// The state of a verdict.
+    pub fn of(i: &Integrity) -> Self {
+        match i {
+            Integrity::Valid => Self::Valid,
+            Integrity::Missing => Self::Missing,
+            Integrity::Invalid(_) => Self::Invalid,
+            Integrity::Damaged(_) => Self::Damaged,
+        }
+    }
+    /// How `status` shows it.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Valid => "cached",
+            Self::Missing => "missing",
+            Self::Invalid => "INVALID",
+            Self::Damaged => "DAMAGED",
+        }
+    }
 }
 
 /// The last key computed for each stage of a (pipeline, params) pair, to explain why a stage
@@ -171,27 +255,29 @@ impl Index {
             },
         );
     }
-    /// Why `s` must run given its cache state (which is not valid) or a `--force`.
+    /// Why `s` must run given its cache entry's verdict (which is not valid) or a `--force`.
     pub fn reasons(
         &self,
         plan: &Plan,
         s: &PlannedStage,
-        state: EntryState,
+        verdict: &Integrity,
         forced: bool,
     ) -> Vec<Reason> {
         let mut out = Vec::new();
         if forced {
             out.push(Reason::Forced);
         }
-        if state == EntryState::Valid {
-            return out;
-        }
+        let present = match verdict {
+            Integrity::Valid => return out,
+            Integrity::Missing => None,
+            Integrity::Invalid(why) => Some(Reason::OutputInvalid(why.clone())),
+            Integrity::Damaged(why) => Some(Reason::OutputDamaged(why.clone())),
+        };
         match self.stages.get(&Self::slot(plan, &s.name)) {
+            // a bad file under the expected key is reported whatever else changed
+            _ if present.is_some() => out.extend(present),
             None => out.push(Reason::New),
-            Some(last) if last.key == s.key => out.push(match state {
-                EntryState::Invalid => Reason::OutputInvalid,
-                _ => Reason::OutputMissing,
-            }),
+            Some(last) if last.key == s.key => out.push(Reason::OutputMissing),
             Some(last) => {
                 if last.kind != s.kind {
                     out.push(Reason::KindChanged {
@@ -274,8 +360,11 @@ pub enum Reason {
     InputChanged(Vec<String>),
     /// Same key as last time, but the artefact is gone (deleted, or gc'd).
     OutputMissing,
-    /// Same key, but the artefact is truncated, unreadable or unfinished.
-    OutputInvalid,
+    /// The artefact is truncated, unreadable or unfinished (why, naming the file).
+    OutputInvalid(String),
+    /// The artefact's key or content digest does not match: edited, damaged or another stage's
+    /// file (why, naming the file).
+    OutputDamaged(String),
 }
 
 impl Reason {
@@ -289,7 +378,8 @@ impl Reason {
             Self::KindChanged { .. } => "kind_changed",
             Self::InputChanged(_) => "input_changed",
             Self::OutputMissing => "output_missing",
-            Self::OutputInvalid => "output_invalid",
+            Self::OutputInvalid(_) => "output_invalid",
+            Self::OutputDamaged(_) => "output_damaged",
         }
     }
 }
@@ -306,10 +396,11 @@ impl fmt::Display for Reason {
             Self::KindChanged { from, to } => write!(f, "kind changed: {from} → {to}"),
             Self::InputChanged(d) => write!(f, "input changed: {}", d.join(", ")),
             Self::OutputMissing => write!(f, "cached artefact missing (deleted or collected)"),
-            Self::OutputInvalid => write!(
+            Self::OutputInvalid(why) => write!(
                 f,
-                "cached artefact invalid (truncated, unreadable or unfinished)"
+                "cached artefact invalid (truncated, unreadable or unfinished): {why}"
             ),
+            Self::OutputDamaged(why) => write!(f, "cached artefact damaged: {why}"),
         }
     }
 }

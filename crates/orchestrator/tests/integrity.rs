@@ -1,0 +1,167 @@
+//! A cache that cannot lie (issue 18): damaged, foreign and unreadable entries are recomputed
+//! with a warning naming the file; a stage is done only when its declared outputs are in place;
+//! a failure to save the index does not hide the run's summary. Checked on the runner's events
+//! and on the values of the artefacts, never on time.
+
+mod common;
+
+use anyhow::Result;
+use common::*;
+use orchestrator::{
+    EntryState, Inputs, ParamSpec, Params, Registry, StageContext, StageKind, StageReport,
+};
+use store::ArtefactWriter;
+
+/// Overwrites 8 bytes in the middle of the `data` dataset (10 000 × 1.0) of an `add` artefact.
+fn flip_data(path: &std::path::Path) {
+    let mut bytes = std::fs::read(path).unwrap();
+    let run: Vec<u8> = std::iter::repeat_n(1.0f64.to_le_bytes(), 64)
+        .flatten()
+        .collect();
+    let at = bytes
+        .windows(run.len())
+        .position(|w| w == run)
+        .expect("the data in the file")
+        + 8 * 32;
+    bytes[at..at + 8].copy_from_slice(&9.0f64.to_le_bytes());
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn cache_contents_are_never_verified_a_value_edited_in_place_is_recomputed() {
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let reg = registry(&add);
+    p.run(&reg, &quiet());
+    let before = values(&p, &reg);
+    let plan = p.plan(&reg);
+    let c = plan.stage("c").unwrap();
+    flip_data(&p.ws().artefact_of(c));
+    assert_eq!(p.ws().entry_state(c), EntryState::Damaged);
+    let status = orchestrator::ops::status(&p.ws(), &plan);
+    assert_eq!(
+        status.iter().find(|s| s.name == "c").unwrap().state.label(),
+        "DAMAGED"
+    );
+    let s = p.run(&reg, &quiet());
+    assert!(s.ok());
+    assert_eq!(ran(&s), ["c"], "only the damaged entry is recomputed");
+    assert_eq!(reasons(&s, "c"), ["output_damaged"]);
+    let why = s.decisions.iter().find(|d| d.name == "c").unwrap().reasons[0].to_string();
+    assert!(why.contains(&c.key), "the warning names the file: {why}");
+    assert_eq!(values(&p, &reg), before);
+    assert_eq!(p.ws().entry_state(c), EntryState::Valid);
+}
+
+#[test]
+fn cache_contents_are_never_verified_a_foreign_artefact_is_recomputed() {
+    // one stage's valid artefact copied over another's name (issue 18.1, second case)
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let reg = registry(&add);
+    p.run(&reg, &quiet());
+    let before = values(&p, &reg);
+    let plan = p.plan(&reg);
+    let (a, b) = (plan.stage("a").unwrap(), plan.stage("b").unwrap());
+    std::fs::copy(p.ws().artefact_of(a), p.ws().artefact_of(b)).unwrap();
+    assert_eq!(p.ws().entry_state(b), EntryState::Damaged);
+    let s = p.run(&reg, &quiet());
+    assert_eq!(ran(&s), ["b"]);
+    assert_eq!(values(&p, &reg), before, "c and d were not fed a's value");
+}
+
+#[test]
+fn a_stage_with_a_declared_output_that_cannot_be_written_fails_the_run() {
+    // issue 18.5: the artefact is cached, figures/d.txt is gone and cannot be written (a
+    // folder is in the way: unlike a read-only folder, that holds for root too)
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let reg = registry(&add);
+    p.run(&reg, &quiet());
+    let out = p.path("figures/d.txt");
+    std::fs::remove_file(&out).unwrap();
+    std::fs::create_dir(&out).unwrap();
+    let s = p.run(&reg, &quiet());
+    assert!(!s.ok(), "a run with a declared output missing must fail");
+    let (name, _, err) = &s.failed[0];
+    assert_eq!(name, "d");
+    assert!(err.contains("figures/d.txt"), "{err}");
+    assert!(started(&s).is_empty(), "nothing is recomputed for it");
+    // once the way is clear, it is rewritten from the artefact, without recomputing
+    std::fs::remove_dir(&out).unwrap();
+    let s = p.run(&reg, &quiet());
+    assert!(s.ok());
+    assert!(started(&s).is_empty());
+    assert_eq!(s.restored, ["d"]);
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "3\n");
+}
+
+#[test]
+fn disk_full_summary_an_index_that_cannot_be_saved_does_not_hide_the_summary() {
+    // issue 18.13: the index write fails (a folder in its place); the run still returns its
+    // summary, with the failure as a warning
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let reg = registry(&add);
+    std::fs::create_dir_all(p.path("results/cache/index.json/x")).unwrap();
+    let s = p.run(&reg, &quiet());
+    assert_eq!(ran(&s).len(), 5);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("cannot write the cache index")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+/// A `source` that writes nothing, so its consumer's read fails.
+struct Hollow;
+
+impl StageKind for Hollow {
+    fn name(&self) -> &str {
+        "source"
+    }
+    fn code_version(&self) -> u64 {
+        1
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![]
+    }
+    fn run(
+        &self,
+        _ctx: &mut StageContext,
+        _p: &Params,
+        _inputs: &Inputs,
+        _out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        Ok(StageReport::default())
+    }
+}
+
+#[test]
+fn a_read_error_in_a_consumer_names_the_producer_stage_and_its_file() {
+    // issue 18.4
+    let p = Project::new(
+        r#"
+[stages.src]
+kind = "source"
+[stages.use]
+kind = "needs_source"
+inputs = { surface = "src" }
+"#,
+        "",
+    );
+    let mut reg = Registry::new();
+    reg.register(Hollow);
+    reg.register(NeedsSource);
+    let s = p.run(&reg, &quiet());
+    let (name, _, err) = &s.failed[0];
+    assert_eq!(name, "use");
+    let plan = p.plan(&reg);
+    let src = plan.stage("src").unwrap();
+    assert!(
+        err.contains("stage `src`") && err.contains(&src.key),
+        "the error names the producer and its file: {err}"
+    );
+}
