@@ -257,7 +257,12 @@ pub fn run(cmd: Command) -> Result<()> {
                     },
                     s.side_outputs
                         .iter()
-                        .map(|(f, ok)| format!("  {f}{}", if *ok { "" } else { " (missing)" }))
+                        .zip(&s.side_output_origin)
+                        .map(|((f, ok), note)| match (ok, note) {
+                            (false, _) => format!("  {f} (missing)"),
+                            (true, Some(n)) => format!("  {f} ({n})"),
+                            (true, None) => format!("  {f}"),
+                        })
                         .collect::<String>()
                 );
             }

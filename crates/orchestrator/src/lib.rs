@@ -32,7 +32,8 @@ pub mod workspace;
 pub use config::{ConfigError, ConfigErrors, Origin, ParamsFile, PipelineFile};
 pub use events::{Event, EventLog, What};
 pub use kind::{
-    InputSpec, Inputs, Params, ProgressSink, Registry, StageContext, StageKind, StageReport,
+    CodeIdentity, InputSpec, Inputs, Params, ProgressSink, Registry, StageContext, StageKind,
+    StageReport,
 };
 pub use plan::{Plan, PlannedStage};
 pub use progress::ProgressMode;
@@ -40,4 +41,4 @@ pub use runner::{
     Action, Decision, RunOptions, RunSummary, decide, restore_side_outputs, run, run_stage,
 };
 pub use schema::{ParamIssue, ParamSpec, ParamType};
-pub use workspace::{EntryState, Index, Reason, Workspace};
+pub use workspace::{EntryState, Index, Manifest, Reason, Workspace};

@@ -421,6 +421,7 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
     if index_dirty {
         save_index(&index, ws, &mut summary.warnings);
     }
+    record_outputs(ws, plan, &summary);
     summary.wall_s = started.elapsed().as_secs_f64();
     log.push(
         "",
@@ -452,6 +453,36 @@ fn save_index(index: &Index, ws: &Workspace, warnings: &mut Vec<String>) -> bool
             }
             false
         }
+    }
+}
+
+/// Updates the output manifest for the stages whose outputs are in place (ran or cached, not
+/// failed); a failure to save it is a warning of the run.
+fn record_outputs(ws: &Workspace, plan: &Plan, summary: &RunSummary) {
+    let done: Vec<&PlannedStage> = summary
+        .ran
+        .iter()
+        .chain(&summary.cached)
+        .filter(|n| !summary.failed.iter().any(|(f, _, _)| f == *n))
+        .filter_map(|n| plan.stage(n))
+        .filter(|s| !s.side_outputs.is_empty())
+        .collect();
+    if done.is_empty() {
+        return;
+    }
+    let mut m = crate::workspace::Manifest::load(ws);
+    let before = m.outputs.clone();
+    let commit = crate::workspace::git_commit(&ws.root);
+    for s in done {
+        m.record(ws, plan, s, commit.as_deref());
+    }
+    let changed = m.outputs.iter().any(|(k, e)| {
+        before.get(k).is_none_or(|b| {
+            (&b.key, &b.blake3, &b.params, &b.commit) != (&e.key, &e.blake3, &e.params, &e.commit)
+        })
+    });
+    if changed && let Err(e) = m.save(ws) {
+        eprintln!("warning: {e:#}");
     }
 }
 

@@ -4,8 +4,8 @@ use crate::plan::{Plan, PlannedStage};
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-use std::collections::BTreeMap;
 use std::collections::HashMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -211,6 +211,9 @@ pub struct IndexEntry {
     pub kind: String,
     /// Code version.
     pub code_version: u64,
+    /// Code identity (part → hash); empty in indexes written before it existed.
+    #[serde(default)]
+    pub code: BTreeMap<String, String>,
     /// Canonical parameters.
     pub params: Value,
     /// Input name → keys.
@@ -248,6 +251,7 @@ impl Index {
                 key: s.key.clone(),
                 kind: s.kind.clone(),
                 code_version: s.code_version,
+                code: s.code.clone(),
                 params: s.params.to_value(),
                 input_keys: s.input_keys.clone(),
                 input_stages: s.inputs.clone(),
@@ -289,6 +293,16 @@ impl Index {
                         from: last.code_version,
                         to: s.code_version,
                     });
+                }
+                if last.kind == s.kind && last.code != s.code {
+                    let parts: BTreeSet<&String> = last.code.keys().chain(s.code.keys()).collect();
+                    out.push(Reason::CodeChanged(
+                        parts
+                            .into_iter()
+                            .filter(|p| last.code.get(*p) != s.code.get(*p))
+                            .cloned()
+                            .collect(),
+                    ));
                 }
                 let diffs = param_diffs(&last.params, &s.params.to_value());
                 if !diffs.is_empty() {
@@ -349,6 +363,8 @@ pub enum Reason {
         /// Current version.
         to: u64,
     },
+    /// The source of code the kind depends on changed (the parts: `crate contact`, ...).
+    CodeChanged(Vec<String>),
     /// The stage's kind was changed in the pipeline file.
     KindChanged {
         /// Last kind.
@@ -375,6 +391,7 @@ impl Reason {
             Self::Forced => "forced",
             Self::ParamsChanged(_) => "params_changed",
             Self::CodeVersionChanged { .. } => "code_version_changed",
+            Self::CodeChanged(_) => "code_changed",
             Self::KindChanged { .. } => "kind_changed",
             Self::InputChanged(_) => "input_changed",
             Self::OutputMissing => "output_missing",
@@ -393,6 +410,7 @@ impl fmt::Display for Reason {
             Self::CodeVersionChanged { from, to } => {
                 write!(f, "code version changed: {from} → {to}")
             }
+            Self::CodeChanged(parts) => write!(f, "code changed ({})", parts.join(", ")),
             Self::KindChanged { from, to } => write!(f, "kind changed: {from} → {to}"),
             Self::InputChanged(d) => write!(f, "input changed: {}", d.join(", ")),
             Self::OutputMissing => write!(f, "cached artefact missing (deleted or collected)"),
@@ -408,4 +426,105 @@ impl fmt::Display for Reason {
 /// Size of a file, 0 if unreadable.
 pub fn file_size(p: &Path) -> u64 {
     std::fs::metadata(p).map(|m| m.len()).unwrap_or(0)
+}
+
+/// Which stage, key and params file wrote each published output (figures, tables), so that
+/// `status` can tell this plan's outputs from another params file's. Stored as
+/// `results/manifest.json`, written atomically after every run.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Output path (relative to the project root) → where it came from.
+    pub outputs: BTreeMap<String, ManifestEntry>,
+}
+
+/// One output's origin.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ManifestEntry {
+    /// Stage name.
+    pub stage: String,
+    /// Stage key.
+    pub key: String,
+    /// Pipeline file.
+    pub pipeline: String,
+    /// Params file.
+    pub params: String,
+    /// BLAKE3 of the output's bytes when written.
+    pub blake3: String,
+    /// The source commit (`git rev-parse HEAD` in the project root), if known.
+    pub commit: Option<String>,
+    /// When (UTC).
+    pub updated_utc: String,
+}
+
+impl Manifest {
+    /// `results/manifest.json`.
+    pub fn path(ws: &Workspace) -> PathBuf {
+        ws.results().join("manifest.json")
+    }
+    /// Reads it; missing or unreadable is empty.
+    pub fn load(ws: &Workspace) -> Self {
+        std::fs::read(Self::path(ws))
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .unwrap_or_default()
+    }
+    /// Writes it atomically.
+    pub fn save(&self, ws: &Workspace) -> Result<()> {
+        let bytes = serde_json::to_vec_pretty(self)?;
+        store::fsutil::write_atomic(&Self::path(ws), &bytes)
+            .context("cannot write the output manifest")
+    }
+    /// Records the outputs of `s` as they are on disk now.
+    pub fn record(&mut self, ws: &Workspace, plan: &Plan, s: &PlannedStage, commit: Option<&str>) {
+        for rel in &s.side_outputs {
+            let Ok(blake3) = store::canonical::hash_file(&ws.side_output_path(rel)) else {
+                continue;
+            };
+            self.outputs.insert(
+                rel.clone(),
+                ManifestEntry {
+                    stage: s.name.clone(),
+                    key: s.key.clone(),
+                    pipeline: plan.pipeline.clone(),
+                    params: plan.params.clone(),
+                    blake3,
+                    commit: commit.map(str::to_string),
+                    updated_utc: store::fsutil::utc_now_iso8601(),
+                },
+            );
+        }
+    }
+    /// How output `rel` of stage `s` relates to this plan: `None` when the manifest says this
+    /// stage's key wrote the bytes now on disk; otherwise a short note.
+    pub fn origin_note(&self, ws: &Workspace, s: &PlannedStage, rel: &str) -> Option<String> {
+        let Some(e) = self.outputs.get(rel) else {
+            return Some("no manifest entry".into());
+        };
+        if e.key != s.key {
+            return Some(format!("written by {} with {}", e.pipeline, e.params));
+        }
+        match store::canonical::hash_file(&ws.side_output_path(rel)) {
+            Ok(h) if h == e.blake3 => None,
+            Ok(_) => Some("edited since written".into()),
+            Err(_) => None, // missing: shown as missing
+        }
+    }
+}
+
+/// The commit of the project root's git checkout, if any (`git rev-parse HEAD`).
+pub fn git_commit(root: &Path) -> Option<String> {
+    let dir = if root.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        root
+    };
+    let out = std::process::Command::new("git")
+        .arg("-C")
+        .arg(dir)
+        .args(["rev-parse", "HEAD"])
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()?;
+    let s = String::from_utf8(out.stdout).ok()?.trim().to_string();
+    (out.status.success() && !s.is_empty()).then_some(s)
 }

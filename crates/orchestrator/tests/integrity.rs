@@ -165,3 +165,38 @@ inputs = { surface = "src" }
         "the error names the producer and its file: {err}"
     );
 }
+
+#[test]
+fn outputs_carry_no_provenance_status_tells_another_params_files_outputs() {
+    // issue 18.11: run with x.toml, then with y.toml (another value of a): figures/d.txt is
+    // y's, and status under x says so
+    let p = Project::new(PIPELINE, "");
+    p.write("params/y.toml", "va = 10.0\n");
+    let add = Add::new();
+    let reg = registry(&add);
+    p.run(&reg, &quiet());
+    let plan_x = p.plan(&reg);
+    let d_of = |st: &[orchestrator::ops::StageStatus]| {
+        st.iter()
+            .find(|s| s.name == "d")
+            .unwrap()
+            .side_output_origin[0]
+            .clone()
+    };
+    assert_eq!(d_of(&orchestrator::ops::status(&p.ws(), &plan_x)), None);
+    let plan_y = orchestrator::Plan::load(
+        &reg,
+        &p.path("pipeline/p.toml"),
+        Some(&p.path("params/y.toml")),
+    )
+    .unwrap();
+    assert!(orchestrator::run(&p.ws(), &plan_y, &quiet()).unwrap().ok());
+    let note = d_of(&orchestrator::ops::status(&p.ws(), &plan_x)).expect("not x's output");
+    assert!(note.contains("y.toml"), "{note}");
+    assert_eq!(d_of(&orchestrator::ops::status(&p.ws(), &plan_y)), None);
+    let m = orchestrator::Manifest::load(&p.ws());
+    assert_eq!(
+        m.outputs["figures/d.txt"].key,
+        plan_y.stage("d").unwrap().key
+    );
+}
