@@ -422,6 +422,7 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
         save_index(&index, ws, &mut summary.warnings);
     }
     record_outputs(ws, plan, &summary);
+    ws.save_verified();
     summary.wall_s = started.elapsed().as_secs_f64();
     log.push(
         "",

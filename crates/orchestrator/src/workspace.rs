@@ -14,28 +14,53 @@ use store::{ArtefactReader, Integrity};
 /// A project root: `results/` (cache, runs, lock) and side outputs live under it.
 ///
 /// Every cache entry is verified before use ([`store::digest::check`]: complete mark, expected
-/// key, content digest). A verified file is remembered with its size, modification time and
-/// inode, so a second look in the same process (the runner decides, then opens inputs) costs a
-/// `stat`, not a re-read; any replacement or rewrite of the file changes that stamp and forces a
-/// full check again.
+/// key, content digest). The content digest costs a read of the whole file, so a verified file
+/// is remembered by its stamp: device, inode, size, modification and status-change times (ns).
+/// Any write to the file or replacement of it changes the stamp (the status-change time cannot
+/// be set back without privileges), and the next look re-reads it in full. The stamps live in
+/// memory for the process and in `results/cache/verified.json` across runs (written by `run`);
+/// with a matching stamp only the complete mark and the stored key are read. Deleting that
+/// file forces a full verification (e.g. to look for silent media corruption, which changes no
+/// stamp).
 #[derive(Clone, Debug)]
 pub struct Workspace {
     /// The project root.
     pub root: PathBuf,
-    verified: Arc<Mutex<HashMap<PathBuf, Stamp>>>,
+    verified: Arc<Mutex<Memo>>,
 }
 
-/// What identifies one version of a file cheaply: size, modification time, inode.
-#[derive(Clone, Debug, PartialEq, Eq)]
-struct Stamp(u64, Option<std::time::SystemTime>, u64);
+/// Verified stamps: this process's, and those read from (and to be written to) disk.
+#[derive(Debug, Default)]
+struct Memo {
+    session: HashMap<PathBuf, Stamp>,
+    disk: Option<BTreeMap<String, Stamp>>,
+    dirty: bool,
+}
+
+/// A stamp must be this much older than its verification to be trusted across runs (ns).
+const RACY_NS: i64 = 2_000_000_000;
+
+/// What identifies one version of a file cheaply (see [`Workspace`]).
+type Stamp = [i64; 5];
 
 fn stamp(p: &Path) -> Option<Stamp> {
     let m = std::fs::metadata(p).ok()?;
     #[cfg(unix)]
-    let ino = std::os::unix::fs::MetadataExt::ino(&m);
+    {
+        use std::os::unix::fs::MetadataExt;
+        Some([
+            m.dev() as i64,
+            m.ino() as i64,
+            m.size() as i64,
+            m.mtime() * 1_000_000_000 + m.mtime_nsec(),
+            m.ctime() * 1_000_000_000 + m.ctime_nsec(),
+        ])
+    }
     #[cfg(not(unix))]
-    let ino = 0;
-    Some(Stamp(m.len(), m.modified().ok(), ino))
+    {
+        let _ = m;
+        None // no status-change time: always verify in full
+    }
 }
 
 impl Workspace {
@@ -84,27 +109,109 @@ impl Workspace {
         EntryState::of(&self.integrity(s))
     }
 
+    /// `results/cache/verified.json` (stamps of verified entries).
+    pub fn verified_path(&self) -> PathBuf {
+        self.cache_dir().join("verified.json")
+    }
+
+    fn memo_key(&self, s: &PlannedStage) -> String {
+        format!("{}/{}.h5", s.kind, s.key)
+    }
+
+    /// Whether the entry's stamp is a verified one: in this process (`Some(true)`), on disk
+    /// (`Some(false)`), or not at all.
+    fn known(&self, s: &PlannedStage, p: &Path, now: &Stamp) -> Option<bool> {
+        let mut m = self.verified.lock().ok()?;
+        if m.session.get(p) == Some(now) {
+            return Some(true);
+        }
+        if m.disk.is_none() {
+            m.disk = Some(
+                std::fs::read(self.verified_path())
+                    .ok()
+                    .and_then(|b| serde_json::from_slice(&b).ok())
+                    .unwrap_or_default(),
+            );
+        }
+        let disk = m.disk.as_ref()?;
+        (disk.get(&self.memo_key(s)) == Some(now)).then_some(false)
+    }
+
+    fn remember(&self, s: &PlannedStage, p: PathBuf, now: Stamp) {
+        // file times are coarse (a clock tick of a few ms): a file changed within the same tick
+        // after its verification would keep its stamp. As git does with "racily clean"
+        // entries, a stamp younger than RACY_NS is trusted for this process only.
+        let wall = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos() as i64);
+        let settled = wall - now[3].max(now[4]) > RACY_NS;
+        if let Ok(mut m) = self.verified.lock() {
+            m.session.insert(p, now);
+            if !settled {
+                return;
+            }
+            let key = self.memo_key(s);
+            let disk = m.disk.get_or_insert_with(BTreeMap::new);
+            if disk.get(&key) != Some(&now) {
+                disk.insert(key, now);
+                m.dirty = true;
+            }
+        }
+    }
+
     /// The full verdict on a stage's cache entry, with the reason when it is not valid.
     pub fn integrity(&self, s: &PlannedStage) -> Integrity {
         let p = self.artefact_of(s);
-        let now = stamp(&p);
-        let memo = |m: &HashMap<PathBuf, Stamp>| now.is_some() && m.get(&p) == now.as_ref();
-        if self.verified.lock().map(|m| memo(&m)).unwrap_or(false) {
-            return Integrity::Valid;
+        let Some(now) = stamp(&p) else {
+            return store::digest::check(&p, &s.key);
+        };
+        match self.known(s, &p, &now) {
+            Some(true) => return Integrity::Valid,
+            Some(false) => {
+                // content verified before, file untouched since: mark and key suffice
+                let cheap = ArtefactReader::open_complete(&p).and_then(|r| r.verify_key(&s.key));
+                if cheap.is_ok() {
+                    self.remember(s, p, now);
+                    return Integrity::Valid;
+                }
+            }
+            None => {}
         }
         let verdict = store::digest::check(&p, &s.key);
-        if let (true, Some(now), Ok(mut m)) = (verdict.is_valid(), now, self.verified.lock()) {
-            m.insert(p, now);
+        if verdict.is_valid() {
+            self.remember(s, p, now);
         }
         verdict
     }
 
     /// Remembers that the entry of `s` was just written by this process (its digest computed
-    /// at publication), so that consumers in this run need not re-read it.
+    /// at publication), so that consumers need not re-read it.
     pub fn mark_verified(&self, s: &PlannedStage) {
         let p = self.artefact_of(s);
-        if let (Some(now), Ok(mut m)) = (stamp(&p), self.verified.lock()) {
-            m.insert(p, now);
+        if let Some(now) = stamp(&p) {
+            self.remember(s, p, now);
+        }
+    }
+
+    /// Writes the verified stamps to `results/cache/verified.json` if any is new. Failure is
+    /// harmless (the next run verifies in full), so it is ignored.
+    pub fn save_verified(&self) {
+        let Ok(mut m) = self.verified.lock() else {
+            return;
+        };
+        if !m.dirty {
+            return;
+        }
+        let Some(disk) = &m.disk else { return };
+        // keep only entries whose file still exists
+        let live: BTreeMap<&String, &Stamp> = disk
+            .iter()
+            .filter(|(k, _)| self.cache_dir().join(k).is_file())
+            .collect();
+        if let Ok(bytes) = serde_json::to_vec(&live)
+            && store::fsutil::write_atomic(&self.verified_path(), &bytes).is_ok()
+        {
+            m.dirty = false;
         }
     }
 

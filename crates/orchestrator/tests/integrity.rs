@@ -200,3 +200,51 @@ fn outputs_carry_no_provenance_status_tells_another_params_files_outputs() {
         plan_y.stage("d").unwrap().key
     );
 }
+
+#[test]
+fn code_identity_in_the_key_a_changed_part_reruns_its_kind_and_dry_run_names_it() {
+    // issue 18.2, the engine's half: the registry's code identity enters the key, and the
+    // reason names the changed part
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let mut reg = registry(&add);
+    let code = |h: &str| {
+        [
+            ("crate contact".to_string(), h.to_string()),
+            ("crate surface".to_string(), "s".repeat(64)),
+        ]
+        .into()
+    };
+    reg.set_code_identity("add", code(&"a".repeat(64)));
+    p.run(&reg, &quiet());
+    reg.set_code_identity("add", code(&"b".repeat(64)));
+    let dry = orchestrator::RunOptions {
+        dry_run: true,
+        ..quiet()
+    };
+    let s = p.run(&reg, &dry);
+    assert_eq!(reasons(&s, "a"), ["code_changed"]);
+    let why = s.decisions[0].reasons[0].to_string();
+    assert_eq!(why, "code changed (crate contact)");
+    let s = p.run(&reg, &quiet());
+    assert_eq!(ran(&s), ["a", "b", "c", "d", "e"]);
+}
+
+#[test]
+fn verified_stamps_persist_across_runs_and_an_edit_still_forces_a_full_check() {
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let reg = registry(&add);
+    p.run(&reg, &quiet());
+    // stamps younger than 2 s are not trusted across runs (coarse file times)
+    std::thread::sleep(std::time::Duration::from_millis(2100));
+    assert!(started(&p.run(&reg, &quiet())).is_empty());
+    let memo = std::fs::read_to_string(p.ws().verified_path()).unwrap();
+    let plan = p.plan(&reg);
+    let c = plan.stage("c").unwrap();
+    assert!(memo.contains(&c.key), "{memo}");
+    flip_data(&p.ws().artefact_of(c));
+    let s = p.run(&reg, &quiet());
+    assert_eq!(ran(&s), ["c"]);
+    assert_eq!(reasons(&s, "c"), ["output_damaged"]);
+}

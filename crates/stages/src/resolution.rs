@@ -119,8 +119,19 @@ impl StageKind for ResolutionKind {
         _params: &Params,
         inputs: &BTreeMap<String, Vec<Params>>,
     ) -> Result<(), String> {
+        let levels = inputs.get("levels").map(Vec::as_slice).unwrap_or(&[]);
+        let models: std::collections::BTreeSet<&str> = levels
+            .iter()
+            .filter_map(|p| p.str("lattice").ok())
+            .collect();
+        if models.len() > 1 {
+            return Err(format!(
+                "its `levels` mix models ({}); give the critical stages of one model",
+                models.into_iter().collect::<Vec<_>>().join(", ")
+            ));
+        }
         let mut all: Vec<u32> = Vec::new();
-        for p in inputs.get("levels").map(Vec::as_slice).unwrap_or(&[]) {
+        for p in levels {
             all.extend(crate::critical::ns(p).map_err(|e| e.to_string())?);
         }
         all.sort_unstable();
