@@ -215,13 +215,16 @@ pub fn parse_overrides(text: &str) -> BTreeMap<String, (String, String)> {
         .collect()
 }
 
+/// Module name → (part → hash).
+pub type Identities = BTreeMap<String, BTreeMap<String, String>>;
+
 /// The identity of every module of the stages crate: module name → (part → hash). `stages_dir`
 /// is the stages crate's folder; its siblings are the workspace crates. Overrides are applied;
 /// the second value lists the overrides that matched nothing (stale).
 pub fn module_identities(
     stages_dir: &Path,
     overrides: &BTreeMap<String, (String, String)>,
-) -> io::Result<(BTreeMap<String, BTreeMap<String, String>>, Vec<String>)> {
+) -> io::Result<(Identities, Vec<String>)> {
     let crates_dir = stages_dir.parent().unwrap_or(Path::new(".."));
     let crates = workspace_crates(crates_dir)?;
     let stages_deps: Vec<String> = crates
