@@ -238,9 +238,10 @@ impl StageContext {
 /// [`Registry`].
 ///
 /// Contract: `run` is a pure function of the parameters and the inputs' content (no clocks, no
-/// randomness without a seed parameter, no reading of files other than its inputs). When its
-/// results change for the same parameters, bump [`code_version`](Self::code_version): every
-/// cached artefact of the kind (and everything downstream) is then recomputed.
+/// randomness without a seed parameter, no reading of files other than its inputs). An edit of
+/// the sources a kind depends on changes its code identity (see [`CodeIdentity`]) and so its
+/// keys; bump [`code_version`](Self::code_version) for what that identity cannot see (e.g. a
+/// new version of an external crate that changes results).
 pub trait StageKind: Send + Sync {
     /// The kind's name as written in pipeline files (`surface`, `sweep`, ...).
     fn name(&self) -> &str;
