@@ -268,6 +268,17 @@ pub trait StageKind: Send + Sync {
     ) -> Result<(), String> {
         Ok(())
     }
+    /// A lower bound of the stage's peak memory in bytes, from its parameters and its inputs'
+    /// (as in [`check_inputs`](Self::check_inputs)); `None`: unknown. A stage whose bound
+    /// exceeds the memory available when it would start fails at once, naming the estimate,
+    /// instead of being killed midway. A lower bound, so that nothing that fits is refused.
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        _inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        None
+    }
     /// The inputs this kind takes (may depend on the parameters).
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         Vec::new()

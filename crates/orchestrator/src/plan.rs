@@ -36,6 +36,8 @@ pub struct PlannedStage {
     pub side_outputs: Vec<String>,
     /// Relative cost (for the ETA).
     pub cost: f64,
+    /// Lower bound of its peak memory, bytes, if its kind estimates one.
+    pub memory: Option<u64>,
     /// Documentation.
     pub doc: String,
     /// Where it is declared.
@@ -347,17 +349,7 @@ impl Plan {
             let Some((imp, p)) = resolved.get(name.as_str()) else {
                 continue;
             };
-            let given: Option<BTreeMap<String, Vec<Params>>> = edges[name.as_str()]
-                .iter()
-                .map(|(iname, names)| {
-                    let ps: Option<Vec<Params>> = names
-                        .iter()
-                        .map(|n| resolved.get(n.as_str()).map(|(_, q)| q.clone()))
-                        .collect();
-                    ps.map(|ps| (iname.clone(), ps))
-                })
-                .collect();
-            if let Some(given) = given
+            if let Some(given) = input_params(&edges[name.as_str()], &resolved)
                 && let Err(e) = imp.check_inputs(p, &given)
             {
                 errs.push(ConfigError::at(
@@ -440,6 +432,8 @@ impl Plan {
                 code,
                 side_outputs: imp.side_outputs(&params),
                 cost: imp.cost(&params).max(1e-6),
+                memory: input_params(&edges[name.as_str()], &resolved)
+                    .and_then(|given| imp.memory_estimate(&params, &given)),
                 inputs,
                 input_keys,
                 key,
@@ -596,6 +590,23 @@ impl Plan {
             .cloned()
             .collect()
     }
+}
+
+/// The validated parameters of the stages wired to each input (`None` if one is unresolved).
+fn input_params(
+    edges: &BTreeMap<String, Vec<String>>,
+    resolved: &BTreeMap<&str, (Arc<dyn StageKind>, Params)>,
+) -> Option<BTreeMap<String, Vec<Params>>> {
+    edges
+        .iter()
+        .map(|(iname, names)| {
+            let ps: Option<Vec<Params>> = names
+                .iter()
+                .map(|n| resolved.get(n.as_str()).map(|(_, q)| q.clone()))
+                .collect();
+            ps.map(|ps| (iname.clone(), ps))
+        })
+        .collect()
 }
 
 /// Side-output paths must be relative, plain and inside the project.

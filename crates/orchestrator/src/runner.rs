@@ -625,6 +625,9 @@ fn execute(
     sink: Option<Arc<dyn ProgressSink>>,
     alone: bool,
 ) -> Result<Executed> {
+    if let (Some(need), Some(avail)) = (s.memory, crate::memory::available_bytes()) {
+        crate::memory::check_fits(need, avail).map_err(|e| anyhow!(e))?;
+    }
     let own_peak = alone && crate::memory::reset_peak();
     // open inputs
     let mut map = BTreeMap::new();

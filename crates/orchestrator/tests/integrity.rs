@@ -248,3 +248,56 @@ fn verified_stamps_persist_across_runs_and_an_edit_still_forces_a_full_check() {
     assert_eq!(ran(&s), ["c"]);
     assert_eq!(reasons(&s, "c"), ["output_damaged"]);
 }
+
+/// An `add` that claims an impossible amount of memory.
+struct Greedy;
+
+impl StageKind for Greedy {
+    fn name(&self) -> &str {
+        "source"
+    }
+    fn code_version(&self) -> u64 {
+        1
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![]
+    }
+    fn memory_estimate(
+        &self,
+        _p: &Params,
+        _i: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        Some(u64::MAX / 2)
+    }
+    fn run(
+        &self,
+        _ctx: &mut StageContext,
+        _p: &Params,
+        _inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        out.set_attr("value", 1.0)?;
+        Ok(StageReport::default())
+    }
+}
+
+#[test]
+fn no_memory_pre_flight_a_stage_that_cannot_fit_fails_before_it_starts() {
+    // issue 18.8: the stage fails with its estimate, the run reports it (no abort)
+    if orchestrator::memory::available_bytes().is_none() {
+        return; // no /proc/meminfo nor cgroup: nothing to compare with
+    }
+    let p = Project::new(
+        "[stages.big]\nkind = \"source\"\n[stages.use]\nkind = \"needs_source\"\ninputs = { surface = \"big\" }\n",
+        "",
+    );
+    let mut reg = Registry::new();
+    reg.register(Greedy);
+    reg.register(NeedsSource);
+    let s = p.run(&reg, &quiet());
+    assert_eq!(s.failed.len(), 1);
+    let (name, _, err) = &s.failed[0];
+    assert_eq!(name, "big");
+    assert!(err.contains("MiB") && err.contains("available"), "{err}");
+    assert_eq!(s.skipped.len(), 1);
+}
