@@ -170,6 +170,16 @@ pub fn run(cmd: Command) -> Result<()> {
                     .unwrap_or_default()
             );
             let _ = to_run;
+            // the summary first: a warning such as a full disk comes after the counts and
+            // the failed stages, never instead of them
+            let warnings: String = summary
+                .warnings
+                .iter()
+                .map(|w| format!("\nwarning: {w}"))
+                .collect();
+            if summary.ok() && !warnings.is_empty() {
+                eprintln!("{}", warnings.trim_start());
+            }
             if !summary.ok() {
                 let mut msg = String::new();
                 for (name, key, err) in &summary.failed {
@@ -181,7 +191,7 @@ pub fn run(cmd: Command) -> Result<()> {
                     ));
                 }
                 bail!(
-                    "{} stage(s) failed, {} skipped; the other results are kept:{msg}",
+                    "{} stage(s) failed, {} skipped; the other results are kept:{msg}{warnings}",
                     summary.failed.len(),
                     summary.skipped.len()
                 );
@@ -230,14 +240,10 @@ pub fn run(cmd: Command) -> Result<()> {
             let w = st.iter().map(|s| s.name.len()).max().unwrap_or(5).max(5);
             let (mut cached, mut bytes) = (0, 0);
             for s in &st {
-                let state = match s.state {
-                    EntryState::Valid => {
-                        cached += 1;
-                        "cached"
-                    }
-                    EntryState::Missing => "missing",
-                    EntryState::Invalid => "INVALID",
-                };
+                if s.state == EntryState::Valid {
+                    cached += 1;
+                }
+                let state = s.state.label();
                 bytes += s.bytes;
                 println!(
                     "  {state:<8} {:<w$} {:<10} {}  {:>10}  {}{}",
@@ -256,7 +262,12 @@ pub fn run(cmd: Command) -> Result<()> {
                     },
                     s.side_outputs
                         .iter()
-                        .map(|(f, ok)| format!("  {f}{}", if *ok { "" } else { " (missing)" }))
+                        .zip(&s.side_output_origin)
+                        .map(|((f, ok), note)| match (ok, note) {
+                            (false, _) => format!("  {f} (missing)"),
+                            (true, Some(n)) => format!("  {f} ({n})"),
+                            (true, None) => format!("  {f}"),
+                        })
                         .collect::<String>()
                 );
             }

@@ -7,6 +7,7 @@
 use anyhow::{Context, Result, bail};
 use stages::orchestrator::Workspace;
 use stages::tradeoff;
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `saddleflow tradeoff`.
@@ -25,6 +26,10 @@ pub struct Args {
     /// Also replace the trade table in this Markdown file (between its markers).
     #[arg(long)]
     readme: Option<PathBuf>,
+    /// Let `--readme` replace the table even when presets it lists have no numbers in the
+    /// cache now (the new table would have fewer presets).
+    #[arg(long)]
+    allow_fewer_presets: bool,
 }
 
 const BEGIN: &str = "<!-- tradeoff:begin (written by `saddleflow tradeoff`) -->";
@@ -57,6 +62,13 @@ pub fn run(a: Args) -> Result<()> {
                 .into_owned()
         })
         .collect();
+    if let Some(readme) = &a.readme {
+        let text = std::fs::read_to_string(readme)
+            .with_context(|| format!("cannot read `{}`", readme.display()))?;
+        let found: BTreeSet<String> = entries.iter().map(|e| e.preset.clone()).collect();
+        check_no_shrink(&text, &found, a.allow_fewer_presets)
+            .with_context(|| format!("`{}`", readme.display()))?;
+    }
     let rows = tradeoff::sorted(tradeoff::assess(&entries, &presets), &presets);
     let table = tradeoff::table(&rows)?;
     tables::write_csv(&table, Path::new("results/tables/tradeoff.csv"))?;
@@ -82,4 +94,66 @@ pub fn run(a: Args) -> Result<()> {
     }
     println!("{md}");
     Ok(())
+}
+
+/// The presets of the table between the markers: the second cell of each Markdown row (header
+/// and rule excluded), without a " (reference)" suffix.
+fn presets_in_block(text: &str) -> BTreeSet<String> {
+    let (Some(b), Some(e)) = (text.find(BEGIN), text.find(END)) else {
+        return BTreeSet::new();
+    };
+    if e < b {
+        return BTreeSet::new();
+    }
+    text[b + BEGIN.len()..e]
+        .lines()
+        .filter(|l| l.trim_start().starts_with('|'))
+        .skip(2)
+        .filter_map(|l| l.split('|').nth(2))
+        .map(|c| c.trim().trim_end_matches("(reference)").trim().to_string())
+        .filter(|c| !c.is_empty())
+        .collect()
+}
+
+/// Refuses to replace a table listing presets that have no numbers now, unless allowed: a
+/// missing cache must not silently shrink a measured table.
+fn check_no_shrink(text: &str, found: &BTreeSet<String>, allow: bool) -> Result<()> {
+    let dropped: Vec<String> = presets_in_block(text).difference(found).cloned().collect();
+    if dropped.is_empty() || allow {
+        return Ok(());
+    }
+    bail!(
+        "the trade table lists preset(s) {} that have no headline numbers in the cache now; replacing it would drop them. Run those presets first (`just tradeoff`), or pass --allow-fewer-presets",
+        dropped.join(", ")
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn readme(presets: &[&str]) -> String {
+        let mut s = format!("intro\n{BEGIN}\n| quantity | preset | value |\n|---|---|---|\n");
+        for p in presets {
+            s.push_str(&format!("| L_c square | {p} | 0.1 |\n"));
+        }
+        s + END + "\nrest\n"
+    }
+
+    #[test]
+    fn tradeoff_readme_drops_presets_it_cannot_find_is_refused() {
+        let text = readme(&["smoke", "draft", "paper (reference)"]);
+        assert_eq!(
+            presets_in_block(&text),
+            ["draft", "paper", "smoke"].map(String::from).into()
+        );
+        let only_smoke: BTreeSet<String> = ["smoke".to_string()].into();
+        let err = check_no_shrink(&text, &only_smoke, false).unwrap_err();
+        assert!(format!("{err}").contains("draft, paper"), "{err}");
+        check_no_shrink(&text, &only_smoke, true).unwrap();
+        let all: BTreeSet<String> = ["smoke", "draft", "paper", "reference"]
+            .map(String::from)
+            .into();
+        check_no_shrink(&text, &all, false).unwrap();
+    }
 }

@@ -238,9 +238,10 @@ impl StageContext {
 /// [`Registry`].
 ///
 /// Contract: `run` is a pure function of the parameters and the inputs' content (no clocks, no
-/// randomness without a seed parameter, no reading of files other than its inputs). When its
-/// results change for the same parameters, bump [`code_version`](Self::code_version): every
-/// cached artefact of the kind (and everything downstream) is then recomputed.
+/// randomness without a seed parameter, no reading of files other than its inputs). An edit of
+/// the sources a kind depends on changes its code identity (see [`CodeIdentity`]) and so its
+/// keys; bump [`code_version`](Self::code_version) for what that identity cannot see (e.g. a
+/// new version of an external crate that changes results).
 pub trait StageKind: Send + Sync {
     /// The kind's name as written in pipeline files (`surface`, `sweep`, ...).
     fn name(&self) -> &str;
@@ -255,6 +256,28 @@ pub trait StageKind: Send + Sync {
     /// Checks across parameters (after types and ranges passed).
     fn check(&self, _params: &Params) -> Result<(), ParamIssue> {
         Ok(())
+    }
+    /// Checks across stages, at plan time: `inputs` gives, by input name, the validated
+    /// parameters of the stages wired to it. A constraint that depends on what the inputs will
+    /// hold (e.g. "at least two grids in total") belongs here, so a bad configuration fails
+    /// before anything is computed. The message says what is wrong and what is allowed.
+    fn check_inputs(
+        &self,
+        _params: &Params,
+        _inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Result<(), String> {
+        Ok(())
+    }
+    /// A lower bound of the stage's peak memory in bytes, from its parameters and its inputs'
+    /// (as in [`check_inputs`](Self::check_inputs)); `None`: unknown. A stage whose bound
+    /// exceeds the memory available when it would start fails at once, naming the estimate,
+    /// instead of being killed midway. A lower bound, so that nothing that fits is refused.
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        _inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        None
     }
     /// The inputs this kind takes (may depend on the parameters).
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
@@ -280,10 +303,17 @@ pub trait StageKind: Send + Sync {
     ) -> Result<StageReport>;
 }
 
+/// The automatic identity of the code a kind runs: one hash per source part that can change
+/// its output (e.g. `crate contact`, `stages/src/sweep.rs`), computed at build time by the
+/// caller. It enters every key of the kind, so an edit of any part reruns exactly the stages
+/// whose kind depends on it.
+pub type CodeIdentity = BTreeMap<String, String>;
+
 /// The stage kinds available to a pipeline, by name.
 #[derive(Clone, Default)]
 pub struct Registry {
     kinds: BTreeMap<String, Arc<dyn StageKind>>,
+    code: BTreeMap<String, CodeIdentity>,
 }
 
 impl Registry {
@@ -304,6 +334,15 @@ impl Registry {
     /// The kind called `name`.
     pub fn get(&self, name: &str) -> Option<&Arc<dyn StageKind>> {
         self.kinds.get(name)
+    }
+    /// Sets the code identity of kind `name` (see [`CodeIdentity`]).
+    pub fn set_code_identity(&mut self, name: &str, code: CodeIdentity) -> &mut Self {
+        self.code.insert(name.to_string(), code);
+        self
+    }
+    /// The code identity of kind `name` (empty if none was set: only `code_version` counts).
+    pub fn code_identity(&self, name: &str) -> CodeIdentity {
+        self.code.get(name).cloned().unwrap_or_default()
     }
     /// All kind names, sorted.
     pub fn names(&self) -> Vec<&str> {

@@ -6,10 +6,15 @@
 //!   `params/*.toml` sets the settings (fidelity). Errors name file, line, key and what is
 //!   allowed.
 //! - A [`Plan`] validates everything (kinds, parameters, inputs, cycles) and computes each
-//!   stage's **key**: BLAKE3 over the kind, its code version, the canonical parameters with every
-//!   default filled in, and the input keys ([`plan::stage_key`]).
-//! - The **cache** ([`Workspace`]) holds `results/cache/<kind>/<key>.h5`; a truncated, unreadable
-//!   or unfinished entry counts as missing. `results/cache/index.json` remembers the last key of
+//!   stage's **key**: BLAKE3 over the kind, its code version, its code identity (hashes of the
+//!   sources it depends on, set on the [`Registry`] by the caller), the canonical parameters with
+//!   every default filled in, and the input keys ([`plan::stage_key`]). Constraints across
+//!   stages ([`StageKind::check_inputs`]) are checked here too, before anything runs.
+//! - The **cache** ([`Workspace`]) holds `results/cache/<kind>/<key>.h5`; every read verifies
+//!   the complete mark, the stored key and the content digest, and a truncated, unreadable,
+//!   unfinished, damaged or foreign entry counts as missing (recomputed, with a warning naming
+//!   the file). `results/manifest.json` records which stage, key and params file wrote each
+//!   published output. `results/cache/index.json` remembers the last key of
 //!   each stage to explain *why* a stage runs ([`Reason`]).
 //! - The **runner** ([`run`]) runs stages in topological order, independent ones in parallel,
 //!   publishes atomically, keeps independent results when a stage fails, logs events
@@ -36,7 +41,8 @@ pub mod workspace;
 pub use config::{ConfigError, ConfigErrors, Origin, ParamsFile, PipelineFile};
 pub use events::{Event, EventLog, What};
 pub use kind::{
-    InputSpec, Inputs, Params, ProgressSink, Registry, StageContext, StageKind, StageReport,
+    CodeIdentity, InputSpec, Inputs, Params, ProgressSink, Registry, StageContext, StageKind,
+    StageReport,
 };
 pub use plan::{Plan, PlannedStage};
 pub use progress::ProgressMode;
@@ -45,4 +51,4 @@ pub use runner::{
     run_stage,
 };
 pub use schema::{ParamIssue, ParamSpec, ParamType};
-pub use workspace::{EntryState, Index, Reason, Workspace};
+pub use workspace::{EntryState, Index, Manifest, Reason, Workspace};

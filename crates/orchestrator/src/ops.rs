@@ -26,10 +26,16 @@ pub struct StageStatus {
     pub scenes: Vec<String>,
     /// Declared side outputs and whether each exists.
     pub side_outputs: Vec<(String, bool)>,
+    /// Per declared side output: a note when the file on disk is not this stage's (another
+    /// params file wrote it, it was edited, or the manifest has no entry); `None` when current.
+    pub side_output_origin: Vec<Option<String>>,
+    /// The kind's code identity (part → hash).
+    pub code: std::collections::BTreeMap<String, String>,
 }
 
 /// Per-stage state of a plan's cache entries, in topological order.
 pub fn status(ws: &Workspace, plan: &Plan) -> Vec<StageStatus> {
+    let manifest = crate::workspace::Manifest::load(ws);
     let scene_sets: Vec<(String, BTreeSet<usize>)> = plan
         .scenes
         .keys()
@@ -66,6 +72,12 @@ pub fn status(ws: &Workspace, plan: &Plan) -> Vec<StageStatus> {
                     .iter()
                     .map(|f| (f.clone(), ws.side_output_path(f).is_file()))
                     .collect(),
+                side_output_origin: s
+                    .side_outputs
+                    .iter()
+                    .map(|f| manifest.origin_note(ws, s, f))
+                    .collect(),
+                code: s.code.clone(),
             }
         })
         .collect()
@@ -170,6 +182,7 @@ pub fn graph(ws: &Workspace, plan: &Plan, selected: &[usize]) -> String {
             EntryState::Valid => ("palegreen", "cached"),
             EntryState::Missing => ("lightgrey", "missing"),
             EntryState::Invalid => ("salmon", "invalid"),
+            EntryState::Damaged => ("salmon", "damaged"),
         };
         let _ = writeln!(
             out,

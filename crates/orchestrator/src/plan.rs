@@ -1,7 +1,7 @@
 //! From declarative files to a validated, keyed DAG of stages.
 
 use crate::config::{ConfigError, ConfigErrors, Located, Origin, ParamsFile, PipelineFile};
-use crate::kind::{Params, Registry, StageKind};
+use crate::kind::{CodeIdentity, Params, Registry, StageKind};
 use crate::schema::validate_params;
 use crate::util::did_you_mean;
 use anyhow::{Result, anyhow, bail};
@@ -11,7 +11,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// Version of the key derivation itself (bump if the hashed document changes shape).
-pub const KEY_SCHEME: u64 = 1;
+pub const KEY_SCHEME: u64 = 2;
 
 /// A stage with everything resolved: validated parameters, inputs, key.
 #[derive(Clone)]
@@ -22,6 +22,8 @@ pub struct PlannedStage {
     pub kind: String,
     /// The kind's code version.
     pub code_version: u64,
+    /// The kind's code identity (part → hash), empty if the registry sets none.
+    pub code: CodeIdentity,
     /// Canonical parameters (defaults filled in).
     pub params: Params,
     /// Input name → stage names.
@@ -34,6 +36,8 @@ pub struct PlannedStage {
     pub side_outputs: Vec<String>,
     /// Relative cost (for the ETA).
     pub cost: f64,
+    /// Lower bound of its peak memory, bytes, if its kind estimates one.
+    pub memory: Option<u64>,
     /// Documentation.
     pub doc: String,
     /// Where it is declared.
@@ -68,11 +72,13 @@ pub struct Plan {
     by_name: HashMap<String, usize>,
 }
 
-/// The hashed document of a stage key: kind, code version, canonical parameters with every
-/// default, input keys by input name. No names, paths, times or map order.
+/// The hashed document of a stage key: kind, code version, code identity, canonical
+/// parameters with every default, input keys by input name. No names, paths, times or map
+/// order.
 pub fn stage_key(
     kind: &str,
     code_version: u64,
+    code: &CodeIdentity,
     params: &Params,
     input_keys: &BTreeMap<String, Vec<String>>,
 ) -> Result<String> {
@@ -80,6 +86,7 @@ pub fn stage_key(
         "scheme": KEY_SCHEME,
         "kind": kind,
         "code_version": code_version,
+        "code": code,
         "params": params.to_value(),
         "inputs": input_keys,
     }))?)
@@ -337,6 +344,21 @@ impl Plan {
             edges.insert(name, ins);
         }
 
+        // 2b. constraints across stages (the inputs' parameters), before anything runs
+        for (name, decl) in &pipeline.stages {
+            let Some((imp, p)) = resolved.get(name.as_str()) else {
+                continue;
+            };
+            if let Some(given) = input_params(&edges[name.as_str()], &resolved)
+                && let Err(e) = imp.check_inputs(p, &given)
+            {
+                errs.push(ConfigError::at(
+                    &decl.origin,
+                    format!("stage `{name}` (kind `{}`): {e}", imp.name()),
+                ));
+            }
+        }
+
         // 3. scenes
         let mut scenes = BTreeMap::new();
         let mut scene_docs = BTreeMap::new();
@@ -395,8 +417,9 @@ impl Plan {
                     )
                 })
                 .collect();
-            let key =
-                stage_key(imp.name(), imp.code_version(), &params, &input_keys).map_err(|e| {
+            let code = registry.code_identity(imp.name());
+            let key = stage_key(imp.name(), imp.code_version(), &code, &params, &input_keys)
+                .map_err(|e| {
                     ConfigErrors(vec![ConfigError::at(
                         &decl.origin,
                         format!("stage `{name}`: {e}"),
@@ -406,8 +429,11 @@ impl Plan {
             stages.push(PlannedStage {
                 kind: imp.name().to_string(),
                 code_version: imp.code_version(),
+                code,
                 side_outputs: imp.side_outputs(&params),
                 cost: imp.cost(&params).max(1e-6),
+                memory: input_params(&edges[name.as_str()], &resolved)
+                    .and_then(|given| imp.memory_estimate(&params, &given)),
                 inputs,
                 input_keys,
                 key,
@@ -564,6 +590,23 @@ impl Plan {
             .cloned()
             .collect()
     }
+}
+
+/// The validated parameters of the stages wired to each input (`None` if one is unresolved).
+fn input_params(
+    edges: &BTreeMap<String, Vec<String>>,
+    resolved: &BTreeMap<&str, (Arc<dyn StageKind>, Params)>,
+) -> Option<BTreeMap<String, Vec<Params>>> {
+    edges
+        .iter()
+        .map(|(iname, names)| {
+            let ps: Option<Vec<Params>> = names
+                .iter()
+                .map(|n| resolved.get(n.as_str()).map(|(_, q)| q.clone()))
+                .collect();
+            ps.map(|ps| (iname.clone(), ps))
+        })
+        .collect()
 }
 
 /// Side-output paths must be relative, plain and inside the project.

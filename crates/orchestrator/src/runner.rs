@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::mpsc;
 use std::time::Instant;
-use store::{ArtefactReader, ArtefactWriter, Provenance, SideOutput};
+use store::{ArtefactWriter, Provenance, SideOutput};
 
 /// Options of [`run`].
 #[derive(Clone, Debug)]
@@ -113,6 +113,8 @@ pub struct RunSummary {
     pub wall_s: f64,
     /// The event log file, if written.
     pub log: Option<PathBuf>,
+    /// Problems that did not fail a stage (e.g. the cache index could not be saved).
+    pub warnings: Vec<String>,
 }
 
 impl RunSummary {
@@ -151,8 +153,8 @@ pub fn decide(
         .map(|&i| {
             let s = &plan.stages[i];
             let forced = force.iter().any(|f| f == &s.name);
-            let state = ws.entry_state(s);
-            let reasons = index.reasons(plan, s, state, forced);
+            let verdict = ws.integrity(s);
+            let reasons = index.reasons(plan, s, &verdict, forced);
             Decision {
                 index: i,
                 name: s.name.clone(),
@@ -230,6 +232,13 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
         return Ok(summary);
     }
 
+    for d in &decisions {
+        for r in &d.reasons {
+            if let Reason::OutputDamaged(why) | Reason::OutputInvalid(why) = r {
+                progress_warn_bad_entry(&d.name, why);
+            }
+        }
+    }
     let mut index = Index::load(ws);
     let mut index_dirty = false;
     let to_run: Vec<&Decision> = decisions
@@ -265,15 +274,26 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
                     summary.restored.push(s.name.clone());
                 }
                 Ok(_) => {}
-                Err(e) => progress.log(&format!(
-                    "warning: cannot restore side outputs of {}: {e:#}",
-                    s.name
-                )),
+                Err(e) => {
+                    // a stage is done only when its declared outputs are in place
+                    let msg = format!(
+                        "its declared outputs are not in place and cannot be rewritten from the cached artefact `{}`: {e:#}",
+                        ws.artefact_of(s).display()
+                    );
+                    progress.log(&format!("FAILED {}: {msg}", s.name));
+                    log.push(
+                        &s.name,
+                        &s.kind,
+                        &s.key,
+                        What::Failed { error: msg.clone() },
+                    );
+                    summary.failed.push((s.name.clone(), s.key.clone(), msg));
+                }
             }
         }
     }
     if index_dirty {
-        index.save(ws)?;
+        save_index(&index, ws, &mut summary.warnings);
         index_dirty = false;
     }
 
@@ -370,10 +390,7 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
                     // the index only explains reruns; saving it at most once a second keeps
                     // two fsyncs per stage off the critical path
                     if last_index_save.elapsed().as_secs_f64() >= 1.0 {
-                        match index.save(ws) {
-                            Ok(()) => index_dirty = false,
-                            Err(e) => progress.log(&format!("warning: {e:#}")),
-                        }
+                        index_dirty = !save_index(&index, ws, &mut summary.warnings);
                         last_index_save = Instant::now();
                     }
                     for (j, deps) in waiting_on.iter_mut() {
@@ -428,8 +445,10 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
     drop(tx);
     progress.finish();
     if index_dirty {
-        index.save(ws)?;
+        save_index(&index, ws, &mut summary.warnings);
     }
+    record_outputs(ws, plan, &summary);
+    ws.save_verified();
     summary.wall_s = started.elapsed().as_secs_f64();
     log.push(
         "",
@@ -446,6 +465,56 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
     summary.events = log.events();
     summary.decisions = decisions;
     Ok(summary)
+}
+
+/// Saves the index; a failure (disk full, read-only folder) is a warning of the run, not its
+/// end: the index only explains reruns, and the run's summary must still be reported. Returns
+/// whether it was saved. The same failure is reported once.
+fn save_index(index: &Index, ws: &Workspace, warnings: &mut Vec<String>) -> bool {
+    match index.save(ws) {
+        Ok(()) => true,
+        Err(e) => {
+            let w = format!("{e:#} (it only explains reruns; the results are not affected)");
+            if !warnings.contains(&w) {
+                warnings.push(w);
+            }
+            false
+        }
+    }
+}
+
+/// Updates the output manifest for the stages whose outputs are in place (ran or cached, not
+/// failed); a failure to save it is a warning of the run.
+fn record_outputs(ws: &Workspace, plan: &Plan, summary: &RunSummary) {
+    let done: Vec<&PlannedStage> = summary
+        .ran
+        .iter()
+        .chain(&summary.cached)
+        .filter(|n| !summary.failed.iter().any(|(f, _, _)| f == *n))
+        .filter_map(|n| plan.stage(n))
+        .filter(|s| !s.side_outputs.is_empty())
+        .collect();
+    if done.is_empty() {
+        return;
+    }
+    let mut m = crate::workspace::Manifest::load(ws);
+    let before = m.outputs.clone();
+    let commit = crate::workspace::git_commit(&ws.root);
+    for s in done {
+        m.record(ws, plan, s, commit.as_deref());
+    }
+    let changed = m.outputs.iter().any(|(k, e)| {
+        before.get(k).is_none_or(|b| {
+            (&b.key, &b.blake3, &b.params, &b.commit) != (&e.key, &e.blake3, &e.params, &e.commit)
+        })
+    });
+    if changed && let Err(e) = m.save(ws) {
+        eprintln!("warning: {e:#}");
+    }
+}
+
+fn progress_warn_bad_entry(stage: &str, why: &str) {
+    eprintln!("warning: {why}; stage `{stage}` is recomputed");
 }
 
 /// Runs one stage, selected by (a prefix of) its key, as its own process would: inputs must be
@@ -473,11 +542,22 @@ pub fn run_stage(
     if state == EntryState::Valid && !force {
         log.push(&s.name, &s.kind, &s.key, What::Cached);
         summary.cached.push(s.name.clone());
-        if let Ok(files) = restore_side_outputs(ws, s)
-            && !files.is_empty()
-        {
-            log.push(&s.name, &s.kind, &s.key, What::Restored { files });
-            summary.restored.push(s.name.clone());
+        match restore_side_outputs(ws, s) {
+            Ok(files) if !files.is_empty() => {
+                log.push(&s.name, &s.kind, &s.key, What::Restored { files });
+                summary.restored.push(s.name.clone());
+            }
+            Ok(_) => {}
+            Err(e) => {
+                let msg = format!("its declared outputs cannot be rewritten: {e:#}");
+                log.push(
+                    &s.name,
+                    &s.kind,
+                    &s.key,
+                    What::Failed { error: msg.clone() },
+                );
+                summary.failed.push((s.name.clone(), s.key.clone(), msg));
+            }
         }
         summary.events = log.events();
         return Ok(summary);
@@ -594,6 +674,9 @@ fn execute(
     sink: Option<Arc<dyn ProgressSink>>,
     alone: bool,
 ) -> Result<Executed> {
+    if let (Some(need), Some(avail)) = (s.memory, crate::memory::available_bytes()) {
+        crate::memory::check_fits(need, avail).map_err(|e| anyhow!(e))?;
+    }
     let own_peak = alone && crate::memory::reset_peak();
     // open inputs
     let mut map = BTreeMap::new();
@@ -603,8 +686,8 @@ fn execute(
             let up = plan
                 .stage(n)
                 .ok_or_else(|| anyhow!("input `{iname}`: unknown stage `{n}`"))?;
-            let path = ws.artefact_of(up);
-            let r = ArtefactReader::open_complete(&path)
+            let r = ws
+                .open_entry(up)
                 .with_context(|| format!("input `{iname}` (stage `{n}`, key {})", up.key))?;
             readers.push(r);
         }
@@ -625,7 +708,8 @@ fn execute(
     let report = std::panic::catch_unwind(AssertUnwindSafe(|| {
         s.imp.run(&mut ctx, &s.params, &inputs, &mut out)
     }))
-    .map_err(|p| anyhow!("stage panicked: {}", panic_message(&*p)))??;
+    .map_err(|p| anyhow!("stage panicked: {}", panic_message(&*p)))?
+    .map_err(|e| name_producer(ws, plan, s, e))?;
     let wall_s = t0.elapsed().as_secs_f64();
     drop(inputs);
 
@@ -670,6 +754,7 @@ fn execute(
     prov.side_outputs = records;
     out.write_provenance(&prov)?;
     let path = out.publish()?;
+    ws.mark_verified(s);
     for (rel, bytes) in &ctx.side_outputs {
         store::fsutil::write_atomic(&ws.side_output_path(rel), bytes)
             .with_context(|| format!("cannot publish side output `{rel}`"))?;
@@ -681,10 +766,30 @@ fn execute(
     })
 }
 
+/// A stage's error that mentions one of its input files gains the producing stage's name and
+/// file, so a read error (`has no dataset ...`) points at what to recompute.
+fn name_producer(ws: &Workspace, plan: &Plan, s: &PlannedStage, e: anyhow::Error) -> anyhow::Error {
+    let text = format!("{e:#}");
+    let producers: Vec<String> = s
+        .inputs
+        .values()
+        .flatten()
+        .filter_map(|n| plan.stage(n))
+        .map(|up| (up, ws.artefact_of(up)))
+        .filter(|(_, p)| text.contains(&*p.to_string_lossy()))
+        .map(|(up, p)| format!("stage `{}` ({} `{}`)", up.name, up.kind, p.display()))
+        .collect();
+    if producers.is_empty() {
+        e
+    } else {
+        e.context(format!("reading the artefact of {}", producers.join(", ")))
+    }
+}
+
 /// Rewrites side outputs of a cached stage that are missing or differ from the cached bytes.
 /// Returns the files rewritten.
 pub fn restore_side_outputs(ws: &Workspace, s: &PlannedStage) -> Result<Vec<String>> {
-    let r = ArtefactReader::open_complete(ws.artefact_of(s))?;
+    let r = ws.open_entry(s)?;
     let prov = r.provenance()?;
     let mut restored = Vec::new();
     for (i, rec) in prov.side_outputs.iter().enumerate() {
@@ -697,7 +802,8 @@ pub fn restore_side_outputs(ws: &Workspace, s: &PlannedStage) -> Result<Vec<Stri
         if store::hash_bytes(&bytes) != rec.blake3 {
             bail!("the cached copy of `{}` is corrupt", rec.path);
         }
-        store::fsutil::write_atomic(&target, &bytes)?;
+        store::fsutil::write_atomic(&target, &bytes)
+            .with_context(|| format!("cannot write `{}`", rec.path))?;
         restored.push(rec.path.clone());
     }
     Ok(restored)

@@ -84,6 +84,15 @@ pub(crate) fn ns_spec(max_len: usize, doc: &str) -> ParamSpec {
 }
 
 impl StageKind for CriticalKind {
+    /// Lower bound: heights, displacement, pressure and gap on the finest grid.
+    fn memory_estimate(
+        &self,
+        params: &Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        let n = ns(params).ok()?.into_iter().max()?;
+        Some(4 * crate::surface::field_bytes(n as i64))
+    }
     fn name(&self) -> &str {
         "critical"
     }

@@ -18,6 +18,7 @@
 //! | `exponents` | ζ, υ, χ, β per model from the ladders (fit and grid-spread errors), the identity β = 3ζ + υ − χ | `ladder` (one per model) | `model/<lattice>/*` |
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 
+pub mod code_identity;
 pub mod critical;
 pub mod exponents;
 pub mod extremes;
@@ -61,5 +62,12 @@ pub fn registry() -> Registry {
     r.register(exponents::ExponentsKind);
     r.register(extremes::ExtremesKind);
     r.register(mock::MockKind);
+    // every kind lives in the module of its name
+    let names: Vec<String> = r.names().iter().map(|s| s.to_string()).collect();
+    for name in names {
+        if let Some(code) = code_identity::of(&name) {
+            r.set_code_identity(&name, code);
+        }
+    }
     r
 }

@@ -36,6 +36,7 @@ use orchestrator::{
     StageReport,
 };
 use serde_json::json;
+use std::collections::BTreeMap;
 use store::{ArtefactReader, ArtefactWriter};
 use surface::Lattice;
 use tables::Table;
@@ -112,6 +113,42 @@ impl StageKind for ResolutionKind {
         parse_order(params, "load_order")
             .map(|_| ())
             .map_err(|e| ParamIssue::new("load_order", e.to_string()))
+    }
+    fn check_inputs(
+        &self,
+        _params: &Params,
+        inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Result<(), String> {
+        let levels = inputs.get("levels").map(Vec::as_slice).unwrap_or(&[]);
+        let models: std::collections::BTreeSet<&str> = levels
+            .iter()
+            .filter_map(|p| p.str("lattice").ok())
+            .collect();
+        if models.len() > 1 {
+            return Err(format!(
+                "its `levels` mix models ({}); give the critical stages of one model",
+                models.into_iter().collect::<Vec<_>>().join(", ")
+            ));
+        }
+        let mut all: Vec<u32> = Vec::new();
+        for p in levels {
+            all.extend(crate::critical::ns(p).map_err(|e| e.to_string())?);
+        }
+        all.sort_unstable();
+        let n_all = all.len();
+        all.dedup();
+        if all.len() != n_all {
+            return Err(format!(
+                "its `levels` give a grid twice (n = {all:?} with repeats); give each n once"
+            ));
+        }
+        if all.len() < 2 {
+            return Err(format!(
+                "its `levels` give {} grid(s) in total (n = {all:?}); at least two distinct n are needed to extrapolate (e.g. `critical_ns` with two or more entries)",
+                all.len()
+            ));
+        }
+        Ok(())
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![

@@ -84,7 +84,20 @@ pub fn lattice_from_name(name: &str) -> Result<Lattice> {
         .ok_or_else(|| anyhow!("unknown lattice `{name}`; allowed: square, triangular, hexagonal"))
 }
 
+/// Bytes of one `f64` field on a 2^n × 2^n grid.
+pub(crate) fn field_bytes(n: i64) -> u64 {
+    8u64 << (2 * n.clamp(0, 30) as u32)
+}
+
 impl StageKind for SurfaceKind {
+    /// Lower bound: the height field itself.
+    fn memory_estimate(
+        &self,
+        params: &Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        params.i64("n").ok().map(field_bytes)
+    }
     fn name(&self) -> &str {
         "surface"
     }

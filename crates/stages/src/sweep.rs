@@ -591,6 +591,16 @@ struct PlannedStep {
 }
 
 impl StageKind for SweepKind {
+    /// Lower bound: heights, displacement, pressure and gap on the surface's grid (the solver
+    /// holds more: FFT buffers, minimiser state).
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        let n = inputs.get("surface")?.first()?.i64("n").ok()?;
+        Some(4 * crate::surface::field_bytes(n))
+    }
     fn name(&self) -> &str {
         "sweep"
     }

@@ -15,7 +15,6 @@ use figures::scenes::tradeoff::{TradeoffCurve, TradeoffData};
 use orchestrator::{Plan, Registry, Workspace};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use store::ArtefactReader;
 use tables::Table;
 
 /// One headline number as one preset produced it.
@@ -80,7 +79,7 @@ pub fn collect(
         let plan = Plan::load(registry, pipeline, Some(p))
             .with_context(|| format!("{} with {}", pipeline.display(), p.display()))?;
         for s in &plan.stages {
-            let Ok(r) = ArtefactReader::open_complete(ws.artefact_of(s)) else {
+            let Ok(r) = ws.open_entry(s) else {
                 continue;
             };
             let list = headline::read(&r)
@@ -115,7 +114,8 @@ fn cost(plan: &Plan, ws: &Workspace, name: &str) -> Result<(f64, f64)> {
         let s = plan
             .stage(&n)
             .with_context(|| format!("unknown stage `{n}`"))?;
-        let prov = ArtefactReader::open_complete(ws.artefact_of(s))
+        let prov = ws
+            .open_entry(s)
             .and_then(|r| r.provenance())
             .with_context(|| format!("upstream stage `{n}` is not in the cache"))?;
         wall += prov.wall_s;

@@ -179,8 +179,9 @@ fn stored_averages_corrections_and_extrapolations_follow_from_the_raw_data() {
 
 #[test]
 fn resolution_needs_two_grids_of_one_model() {
+    // both are refused when the plan is built, before anything runs (issue 18.12)
     let dir = tempfile::tempdir().unwrap();
-    let (_, _, failed) = run(
+    let err = common::run_all(
         dir.path(),
         r#"
 [stages.one]
@@ -191,12 +192,13 @@ params = { lattice = "square", ns = [4], saddle_loads = [] }
 kind = "resolution"
 inputs = { levels = "one" }
 "#,
-    );
-    assert_eq!(failed.len(), 1, "{failed:?}");
-    assert!(failed[0].contains("at least two levels"), "{failed:?}");
+    )
+    .map(|_| ())
+    .unwrap_err();
+    assert!(err.contains("at least two distinct n"), "{err}");
 
     let dir = tempfile::tempdir().unwrap();
-    let (_, _, failed) = run(
+    let err = common::run_all(
         dir.path(),
         r#"
 [stages.sq]
@@ -211,9 +213,10 @@ params = { lattice = "hexagonal", ns = [5], saddle_loads = [], fields = false }
 kind = "resolution"
 inputs = { levels = ["sq", "hex"] }
 "#,
-    );
-    assert_eq!(failed.len(), 1, "{failed:?}");
-    assert!(failed[0].contains("mix models"), "{failed:?}");
+    )
+    .map(|_| ())
+    .unwrap_err();
+    assert!(err.contains("mix models"), "{err}");
 }
 
 #[test]

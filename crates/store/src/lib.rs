@@ -5,6 +5,9 @@
 //!   temporary file.
 //! - [`ArtefactReader`] opens any HDF5 file; [`ArtefactReader::is_valid`] tells a published,
 //!   complete artefact from a missing, truncated, unreadable or unfinished one, silently.
+//! - [`digest`]: a BLAKE3 digest over every dataset and attribute, stored at publication;
+//!   [`digest::check`] tells a valid cache entry (complete, expected key, matching content) from
+//!   a missing, invalid or damaged one.
 //! - [`Provenance`] is written on every pipeline artefact and read back.
 //! - [`canonical`] renders JSON canonically and hashes it with BLAKE3 (cache keys).
 //! - [`fsutil`] publishes plain files (figures, CSV) atomically too.
@@ -24,6 +27,7 @@
 
 pub mod artefact;
 pub mod canonical;
+pub mod digest;
 pub use fsutil;
 pub mod provenance;
 
@@ -31,4 +35,5 @@ pub use artefact::{
     ArtefactReader, ArtefactWriter, AttrValue, COMPLETE_ATTR, fields, silence_hdf5,
 };
 pub use canonical::{canonical_json, hash_bytes, hash_json, is_key};
+pub use digest::{CONTENT_ATTR, Integrity, content_digest};
 pub use provenance::{PROVENANCE_GROUP, Provenance, SADDLEFLOW_VERSION, SideOutput};

@@ -197,3 +197,122 @@ fn no_file_stays_open_after_publish_or_read() {
     assert!(ArtefactReader::is_valid(&path));
     assert_eq!(open_fds_to(&path), 0, "is_valid left the file open");
 }
+
+/// Overwrites the first occurrence of `from` in the file with `to` (same length).
+fn patch(path: &std::path::Path, from: &[u8], to: &[u8]) {
+    let mut bytes = std::fs::read(path).unwrap();
+    let at = bytes
+        .windows(from.len())
+        .position(|w| w == from)
+        .expect("pattern in file");
+    bytes[at..at + to.len()].copy_from_slice(to);
+    std::fs::write(path, bytes).unwrap();
+}
+
+fn key_of(path: &std::path::Path) -> String {
+    ArtefactReader::open(path)
+        .unwrap()
+        .provenance()
+        .unwrap()
+        .key
+}
+
+#[test]
+fn cache_contents_are_never_verified_a_value_overwritten_in_place_is_damaged() {
+    // issue 18.1: 8 bytes of a contact area overwritten; the file still opens as HDF5 and is
+    // marked complete, so only the content digest can tell.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.h5");
+    let mut w = ArtefactWriter::create(&path).unwrap();
+    w.write_f64_1d("points/contact_area", &[0.1, 0.4678, 0.7])
+        .unwrap();
+    w.write_provenance(&prov()).unwrap();
+    w.publish().unwrap();
+    let key = key_of(&path);
+    assert_eq!(store::digest::check(&path, &key), store::Integrity::Valid);
+    patch(&path, &0.4678f64.to_le_bytes(), &0.9f64.to_le_bytes());
+    let r = ArtefactReader::open_complete(&path).unwrap();
+    assert_eq!(r.read_f64_1d("points/contact_area").unwrap()[1], 0.9);
+    let verdict = store::digest::check(&path, &key);
+    assert!(
+        matches!(&verdict, store::Integrity::Damaged(m) if m.contains("damaged") && m.contains("a.h5")),
+        "{verdict:?}"
+    );
+    assert!(ArtefactReader::open_verified(&path, &key).is_err());
+}
+
+#[test]
+fn cache_contents_are_never_verified_an_attribute_edit_is_damaged() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = sample(&dir.path().join("a.h5"), &prov());
+    let key = key_of(&path);
+    assert!(store::digest::check(&path, &key).is_valid());
+    patch(&path, b"square", b"squaRe");
+    assert!(matches!(
+        store::digest::check(&path, &key),
+        store::Integrity::Damaged(_)
+    ));
+}
+
+#[test]
+fn cache_contents_are_never_verified_a_foreign_artefact_is_damaged() {
+    // issue 18.1: another stage's valid artefact copied under this key's name
+    let dir = tempfile::tempdir().unwrap();
+    let mine = sample(&dir.path().join("mine.h5"), &prov());
+    let mut other = prov();
+    other.key = "ef".repeat(32);
+    let theirs = sample(&dir.path().join("theirs.h5"), &other);
+    let key = key_of(&mine);
+    std::fs::copy(&theirs, &mine).unwrap();
+    let verdict = store::digest::check(&mine, &key);
+    assert!(
+        matches!(&verdict, store::Integrity::Damaged(m) if m.contains("foreign")),
+        "{verdict:?}"
+    );
+}
+
+#[test]
+fn truncated_and_missing_entries_are_invalid_or_missing_not_damaged() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = sample(&dir.path().join("a.h5"), &prov());
+    let key = key_of(&path);
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+    assert!(matches!(
+        store::digest::check(&path, &key),
+        store::Integrity::Invalid(_)
+    ));
+    assert_eq!(
+        store::digest::check(&dir.path().join("none.h5"), &key),
+        store::Integrity::Missing
+    );
+}
+
+#[test]
+fn the_digest_does_not_depend_on_write_order() {
+    // fixed order: names sorted, so the same content written in another order hashes alike
+    let dir = tempfile::tempdir().unwrap();
+    let digest = |order: bool, name: &str| {
+        let path = dir.path().join(name);
+        let mut w = ArtefactWriter::create(&path).unwrap();
+        if order {
+            w.set_attr("a", 1.0).unwrap();
+            w.set_attr("b", "x").unwrap();
+            w.write_f64_1d("g/x", &[1.0]).unwrap();
+            w.write_i64_1d("g/y", &[2]).unwrap();
+        } else {
+            w.write_i64_1d("g/y", &[2]).unwrap();
+            w.set_attr("b", "x").unwrap();
+            w.write_f64_1d("g/x", &[1.0]).unwrap();
+            w.set_attr("a", 1.0).unwrap();
+        }
+        let p = w.publish().unwrap();
+        ArtefactReader::open(&p)
+            .unwrap()
+            .attr_str(store::CONTENT_ATTR)
+            .unwrap()
+    };
+    let (a, b) = (digest(true, "a.h5"), digest(false, "b.h5"));
+    assert_eq!(a, b);
+    assert!(store::is_key(&a));
+}

@@ -1,0 +1,298 @@
+//! Code identity of the stage kinds: which sources can change a kind's output, and their hashes.
+//! Used by `build.rs` (at build time) and by `tests/code_identity.rs` (on a copy of the tree);
+//! std and `blake3` only.
+//!
+//! A kind lives in the module `crates/stages/src/<kind>.rs`. Its identity has one part per
+//! source it depends on:
+//! - `stages/src/<m>.rs` for the module itself and every module of the stages crate it reaches
+//!   through `crate::m` or `super::m` paths (including `use crate::{a, b::c}` lists),
+//!   transitively;
+//! - `crate <c>` for every workspace crate those modules name as `c::` (the `[dependencies]`
+//!   of the stages crate that are workspace crates), and for their own workspace
+//!   `[dependencies]`, transitively. A crate's hash covers every file of the crate but its
+//!   `tests/`, `benches/`, `examples/` and hidden files (so `src/`, `assets/`, `Cargo.toml`,
+//!   `build.rs`).
+//!
+//! Engine crates ([`ENGINE`]: the pipeline engine and its file utilities) are left out: they
+//! move and verify bytes but compute none; a change of the artefact format they write is a
+//! change of the key scheme instead. The scan is textual, so it errs on the side of more
+//! dependencies (a name in a comment counts); external crates' versions are covered by the
+//! kinds' explicit `code_version` (Cargo.lock is not hashed).
+//!
+//! Overrides: a line `PART NOW WAS` in `crates/stages/code-identity-overrides.txt` says that
+//! the part whose hash is now NOW computes what it did at WAS (a refactoring, a comment): the
+//! identity keeps WAS. Any further edit of that part changes its hash away from NOW, and the
+//! override stops applying (a stale override is reported by the build).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::io;
+use std::path::{Path, PathBuf};
+
+/// Crates that never change a stage's output (see the module docs).
+pub const ENGINE: &[&str] = &["orchestrator", "fsutil"];
+
+/// A workspace crate: its folder and workspace dependencies.
+#[derive(Debug, Clone)]
+pub struct CrateInfo {
+    pub dir: PathBuf,
+    pub deps: Vec<String>,
+}
+
+fn put(h: &mut blake3::Hasher, bytes: &[u8]) {
+    h.update(&(bytes.len() as u64).to_le_bytes());
+    h.update(bytes);
+}
+
+fn files_under(dir: &Path, top: bool, out: &mut Vec<PathBuf>) -> io::Result<()> {
+    for e in std::fs::read_dir(dir)? {
+        let e = e?;
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.')
+            || (top && matches!(name.as_str(), "tests" | "benches" | "examples" | "target"))
+        {
+            continue;
+        }
+        let p = e.path();
+        if e.file_type()?.is_dir() {
+            files_under(&p, false, out)?;
+        } else {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// The files of a crate that its hash covers, sorted.
+pub fn crate_files(dir: &Path) -> io::Result<Vec<PathBuf>> {
+    let mut v = Vec::new();
+    files_under(dir, true, &mut v)?;
+    v.sort();
+    Ok(v)
+}
+
+/// BLAKE3 over a crate's files (relative path and bytes of each, sorted by path).
+pub fn crate_hash(dir: &Path) -> io::Result<String> {
+    let mut h = blake3::Hasher::new();
+    for f in crate_files(dir)? {
+        let rel = f
+            .strip_prefix(dir)
+            .unwrap_or(&f)
+            .to_string_lossy()
+            .replace('\\', "/");
+        put(&mut h, rel.as_bytes());
+        put(&mut h, &std::fs::read(&f)?);
+    }
+    Ok(h.finalize().to_hex().to_string())
+}
+
+/// Package name and `[dependencies]` / `[build-dependencies]` keys of a Cargo.toml.
+fn manifest(text: &str) -> (Option<String>, Vec<String>) {
+    let (mut section, mut name, mut deps) = (String::new(), None, Vec::new());
+    for line in text.lines().map(str::trim) {
+        if line.starts_with('[') {
+            section = line.trim_matches(|c| c == '[' || c == ']').to_string();
+            continue;
+        }
+        let Some((k, v)) = line.split_once('=') else {
+            continue;
+        };
+        let k = k.trim();
+        if section == "package" && k == "name" {
+            name = Some(v.trim().trim_matches('"').replace('-', "_"));
+        } else if section == "dependencies" || section == "build-dependencies" {
+            let k = k.split('.').next().unwrap_or(k).trim();
+            deps.push(k.replace('-', "_"));
+        }
+    }
+    (name, deps)
+}
+
+/// The workspace crates under `crates_dir` (each folder with a Cargo.toml), by package name;
+/// dependencies are kept only when they are workspace crates.
+pub fn workspace_crates(crates_dir: &Path) -> io::Result<BTreeMap<String, CrateInfo>> {
+    let mut out = BTreeMap::new();
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(crates_dir)?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.join("Cargo.toml").is_file())
+        .collect();
+    dirs.sort();
+    for dir in dirs {
+        let (name, deps) = manifest(&std::fs::read_to_string(dir.join("Cargo.toml"))?);
+        if let Some(name) = name {
+            out.insert(name, CrateInfo { dir, deps });
+        }
+    }
+    let names: BTreeSet<String> = out.keys().cloned().collect();
+    for c in out.values_mut() {
+        c.deps.retain(|d| names.contains(d));
+    }
+    Ok(out)
+}
+
+fn is_ident(c: char) -> bool {
+    c.is_ascii_alphanumeric() || c == '_'
+}
+
+/// Identifiers that follow `crate::` or `super::` in `src` (a `{...}` list after it counts
+/// whole: every identifier in it).
+pub fn module_refs(src: &str) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    for prefix in ["crate::", "super::"] {
+        let mut rest = src;
+        while let Some(i) = rest.find(prefix) {
+            let after = &rest[i + prefix.len()..];
+            let before_ok = rest[..i].chars().last().is_none_or(|c| !is_ident(c));
+            if before_ok {
+                let segment = if after.starts_with('{') {
+                    let mut depth = 0usize;
+                    let end = after
+                        .char_indices()
+                        .find(|&(_, c)| {
+                            depth = match c {
+                                '{' => depth + 1,
+                                '}' => depth - 1,
+                                _ => depth,
+                            };
+                            depth == 0
+                        })
+                        .map_or(after.len(), |(j, _)| j);
+                    &after[..end]
+                } else {
+                    &after[..after.find(|c: char| !is_ident(c)).unwrap_or(after.len())]
+                };
+                out.extend(
+                    segment
+                        .split(|c: char| !is_ident(c))
+                        .filter(|w| !w.is_empty())
+                        .map(str::to_string),
+                );
+            }
+            rest = after;
+        }
+    }
+    out
+}
+
+/// Whether `src` names `krate` as a path root (`krate::`, not `other_krate::` or `x.krate::`).
+pub fn names_crate(src: &str, krate: &str) -> bool {
+    let pat = format!("{krate}::");
+    src.match_indices(&pat).any(|(i, _)| {
+        src[..i]
+            .chars()
+            .last()
+            .is_none_or(|c| !is_ident(c) && c != '.')
+    })
+}
+
+/// Transitive closure over workspace crate dependencies.
+fn crate_closure(
+    roots: &BTreeSet<String>,
+    crates: &BTreeMap<String, CrateInfo>,
+) -> BTreeSet<String> {
+    let mut seen = BTreeSet::new();
+    let mut todo: Vec<String> = roots.iter().cloned().collect();
+    while let Some(c) = todo.pop() {
+        if seen.insert(c.clone())
+            && let Some(info) = crates.get(&c)
+        {
+            todo.extend(info.deps.iter().cloned());
+        }
+    }
+    seen
+}
+
+/// Overrides: part → (now, was).
+pub fn parse_overrides(text: &str) -> BTreeMap<String, (String, String)> {
+    text.lines()
+        .map(|l| l.split('#').next().unwrap_or("").trim())
+        .filter_map(|l| {
+            let (part, hashes) = l.rsplit_once(char::is_whitespace)?;
+            let was = hashes.to_string();
+            let (part, now) = part.trim().rsplit_once(char::is_whitespace)?;
+            Some((part.trim().to_string(), (now.to_string(), was)))
+        })
+        .collect()
+}
+
+/// Module name → (part → hash).
+pub type Identities = BTreeMap<String, BTreeMap<String, String>>;
+
+/// The identity of every module of the stages crate: module name → (part → hash). `stages_dir`
+/// is the stages crate's folder; its siblings are the workspace crates. Overrides are applied;
+/// the second value lists the overrides that matched nothing (stale).
+pub fn module_identities(
+    stages_dir: &Path,
+    overrides: &BTreeMap<String, (String, String)>,
+) -> io::Result<(Identities, Vec<String>)> {
+    let crates_dir = stages_dir.parent().unwrap_or(Path::new(".."));
+    let crates = workspace_crates(crates_dir)?;
+    let stages_deps: Vec<String> = crates
+        .values()
+        .find(|c| c.dir.file_name() == stages_dir.file_name())
+        .map(|c| c.deps.clone())
+        .unwrap_or_default();
+    let mut sources: BTreeMap<String, String> = BTreeMap::new();
+    for e in std::fs::read_dir(stages_dir.join("src"))?.flatten() {
+        let p = e.path();
+        let stem = p
+            .file_stem()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        if p.extension().is_some_and(|x| x == "rs") && stem != "lib" {
+            sources.insert(stem, std::fs::read_to_string(&p)?);
+        }
+    }
+    let mut crate_hashes: BTreeMap<String, String> = BTreeMap::new();
+    let mut used: BTreeSet<String> = BTreeSet::new();
+    let mut apply = |part: String, hash: String| -> (String, String) {
+        match overrides.get(&part) {
+            Some((now, was)) if *now == hash => {
+                used.insert(part.clone());
+                (part, was.clone())
+            }
+            _ => (part, hash),
+        }
+    };
+    let mut out = BTreeMap::new();
+    for m in sources.keys() {
+        let mut mods = BTreeSet::new();
+        let mut todo = vec![m.clone()];
+        while let Some(x) = todo.pop() {
+            if sources.contains_key(&x) && mods.insert(x.clone()) {
+                todo.extend(module_refs(&sources[&x]));
+            }
+        }
+        let named: BTreeSet<String> = stages_deps
+            .iter()
+            .filter(|c| mods.iter().any(|x| names_crate(&sources[x], c)))
+            .cloned()
+            .collect();
+        let mut parts = BTreeMap::new();
+        for x in &mods {
+            let rel = format!("stages/src/{x}.rs");
+            let h = blake3::hash(sources[x].as_bytes()).to_hex().to_string();
+            let (k, v) = apply(rel, h);
+            parts.insert(k, v);
+        }
+        for c in crate_closure(&named, &crates) {
+            if ENGINE.contains(&c.as_str()) {
+                continue;
+            }
+            let Some(info) = crates.get(&c) else { continue };
+            if !crate_hashes.contains_key(&c) {
+                crate_hashes.insert(c.clone(), crate_hash(&info.dir)?);
+            }
+            let (k, v) = apply(format!("crate {c}"), crate_hashes[&c].clone());
+            parts.insert(k, v);
+        }
+        out.insert(m.clone(), parts);
+    }
+    let stale = overrides
+        .keys()
+        .filter(|k| !used.contains(*k))
+        .cloned()
+        .collect();
+    Ok((out, stale))
+}
