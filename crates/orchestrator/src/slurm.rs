@@ -23,8 +23,9 @@
 //! - **Resources**: cores from the options (default 1; the job's rayon pool is sized to it); memory
 //!   and time from the provenance of earlier artefacts of the same kind (and the same grid
 //!   exponent `n` when the stage has one): 1.5 × the largest peak memory + 256 MiB, 3 × the
-//!   longest wall time + 1 min; otherwise the stated defaults (2 GiB, 60 min). A profile's
-//!   `[resources.NAME]` (a stage or a kind) overrides any of the three.
+//!   longest wall time + 1 min; otherwise the stated defaults (2 GiB, 60 min); never less memory
+//!   than the kind's lower bound of the peak + 256 MiB. A profile's `[resources.NAME]` (a stage or
+//!   a kind) overrides any of the three.
 //! - **Interruption**: SIGINT or SIGTERM of the controller cancels the run's jobs (`scancel
 //!   --name`) and exits 130/143. A controller killed with SIGKILL cancels nothing: its jobs finish
 //!   and publish atomically; the next run adopts the live jobs whose comment names one of its
@@ -462,6 +463,10 @@ impl Slurm {
         if let Some((peak_mib, wall_s)) = earlier_costs(ws, s) {
             r.mem_mib = ((peak_mib * 1.5) as u64 + 256).max(256);
             r.time_min = ((wall_s * 3.0 + 60.0) / 60.0).ceil().max(1.0) as u64;
+        }
+        // the kind's lower bound of the peak (the job's own pre-flight refuses less)
+        if let Some(bytes) = s.memory {
+            r.mem_mib = r.mem_mib.max((bytes >> 20) + 256);
         }
         for o in [
             self.opts.overrides.get(&s.kind),
