@@ -83,7 +83,7 @@ impl<'a> Output<'a> {
 ///   the process ends quietly when the reader goes away. Every output file is published by an
 ///   atomic rename, so ending at any point leaves no partial file.
 /// - SIGINT, SIGTERM, SIGHUP: a watcher thread deletes this process's unpublished temporaries,
-///   prints `interrupted` on stderr and ends the process by the same signal (so callers see the
+///   cancels the jobs of a running SLURM controller, prints `interrupted` on stderr and ends the process by the same signal (so callers see the
 ///   usual status, 130 for Ctrl-C).
 ///
 /// Best effort: if a handler cannot be installed the default behaviour stays.
@@ -99,12 +99,19 @@ pub fn install_signal_handlers() {
     std::thread::spawn(move || {
         if let Some(sig) = signals.forever().next() {
             let removed = fsutil::remove_live_temps();
+            let cancelled = stages::orchestrator::slurm::cancel_active_runs();
             let name = signal_hook::low_level::signal_name(sig).unwrap_or("a signal");
-            let note = if removed > 0 {
+            let mut note = if removed > 0 {
                 format!("; {removed} unfinished file(s) deleted")
             } else {
                 String::new()
             };
+            if !cancelled.is_empty() {
+                note.push_str(&format!(
+                    "; SLURM jobs cancelled (scancel --name={})",
+                    cancelled.join(",")
+                ));
+            }
             // stderr may be closed too: never panic here
             let _ = std::io::Write::write_all(
                 &mut std::io::stderr(),

@@ -26,8 +26,9 @@
 //!   longest wall time + 1 min; otherwise the stated defaults (2 GiB, 60 min); never less memory
 //!   than the kind's lower bound of the peak + 256 MiB. A profile's `[resources.NAME]` (a stage or
 //!   a kind) overrides any of the three.
-//! - **Interruption**: SIGINT or SIGTERM of the controller cancels the run's jobs (`scancel
-//!   --name`) and exits 130/143. A controller killed with SIGKILL cancels nothing: its jobs finish
+//! - **Interruption**: SIGINT, SIGTERM or SIGHUP of the controller cancels the run's jobs
+//!   (`scancel --name`, through [`cancel_active_runs`], which the CLI's signal handler calls) and
+//!   ends it by the signal. A controller killed with SIGKILL cancels nothing: its jobs finish
 //!   and publish atomically; the next run adopts the live jobs whose comment names one of its
 //!   keys and this results folder instead of submitting them again, and finds what they published.
 //!
@@ -745,13 +746,35 @@ pub fn new_run_id() -> String {
     format!("{t}-{}", std::process::id())
 }
 
-/// A SLURM run's controller: the [`Slurm`] state, its status loop and the signal handler that
-/// cancels the run's jobs on SIGINT/SIGTERM.
+/// The controllers running in this process, for [`cancel_active_runs`].
+static ACTIVE: Mutex<Vec<std::sync::Weak<Slurm>>> = Mutex::new(Vec::new());
+
+/// Cancels the jobs of every SLURM run this process controls; returns their job names. For the
+/// program's signal handler (the `saddleflow` CLI calls it on SIGINT, SIGTERM and SIGHUP before
+/// ending by the signal): a controller installs no handler of its own, so that one handler
+/// decides how the process ends.
+pub fn cancel_active_runs() -> Vec<String> {
+    let active: Vec<Arc<Slurm>> = ACTIVE
+        .lock()
+        .map(|v| v.iter().filter_map(std::sync::Weak::upgrade).collect())
+        .unwrap_or_default();
+    active
+        .iter()
+        .map(|s| {
+            if let Err(e) = s.cancel_all() {
+                eprintln!("warning: {e:#}");
+            }
+            s.job_name.clone()
+        })
+        .collect()
+}
+
+/// A SLURM run's controller: the [`Slurm`] state and its status loop, registered for
+/// [`cancel_active_runs`] while it runs.
 pub struct Controller {
     /// The run's state.
     pub slurm: Arc<Slurm>,
     monitor: Option<std::thread::JoinHandle<()>>,
-    signals: signal_hook::iterator::Handle,
 }
 
 impl Controller {
@@ -791,38 +814,20 @@ impl Controller {
                 ),
             },
         );
-        let mut signals = signal_hook::iterator::Signals::new([
-            signal_hook::consts::SIGINT,
-            signal_hook::consts::SIGTERM,
-        ])
-        .context("cannot install the signal handler")?;
-        let handle = signals.handle();
-        let s = slurm.clone();
-        std::thread::spawn(move || {
-            if let Some(sig) = signals.forever().next() {
-                eprintln!(
-                    "interrupted: cancelling the run's SLURM jobs (scancel --name={})",
-                    s.job_name
-                );
-                if let Err(e) = s.cancel_all() {
-                    eprintln!("warning: {e:#}");
-                }
-                std::process::exit(128 + sig);
-            }
-        });
+        if let Ok(mut v) = ACTIVE.lock() {
+            v.push(Arc::downgrade(&slurm));
+        }
         let s = slurm.clone();
         let monitor = Some(std::thread::spawn(move || s.monitor()));
-        Ok(Self {
-            slurm,
-            monitor,
-            signals: handle,
-        })
+        Ok(Self { slurm, monitor })
     }
 
-    /// Ends the status loop and the signal handler (the run is over).
+    /// Ends the status loop (the run is over).
     pub fn stop(mut self) {
+        if let Ok(mut v) = ACTIVE.lock() {
+            v.retain(|w| !std::ptr::eq(w.as_ptr(), Arc::as_ptr(&self.slurm)));
+        }
         self.slurm.shutdown();
-        self.signals.close();
         if let Some(m) = self.monitor.take() {
             let _ = m.join();
         }
