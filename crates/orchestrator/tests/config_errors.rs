@@ -351,3 +351,9 @@ fn literal_dollar_and_nested_references() {
     assert_eq!(a.params.f64("value").unwrap(), 4.0);
     assert_eq!(a.side_outputs, ["figures/$x.txt"]);
 }
+
+#[test]
+fn duplicate_key_names_the_key() {
+    let m = err(SIMPLE, "n = 5\ntol = 1e-9\nn = 6\n");
+    assert_has(&m, &["params/x.toml:3:1", "duplicate key `n`"]);
+}

@@ -153,10 +153,17 @@ fn table_from_toml(src: &Source, t: &DeTable<'_>, errs: &mut Vec<ConfigError>) -
 fn parse_root(src: &Source) -> Result<Node, ConfigErrors> {
     let root = DeTable::parse(&src.text).map_err(|e| {
         let origin = e.span().map(|s| src.origin(s.start));
-        ConfigErrors(vec![ConfigError {
-            origin,
-            message: format!("invalid TOML: {}", e.message()),
-        }])
+        // the toml crate's "duplicate key" does not say which: its span covers the key
+        let key = e
+            .span()
+            .and_then(|s| src.text.get(s))
+            .map(str::trim)
+            .filter(|k| !k.is_empty() && e.message().starts_with("duplicate key"));
+        let message = match key {
+            Some(k) => format!("invalid TOML: duplicate key `{k}` (it is set earlier in the file)"),
+            None => format!("invalid TOML: {}", e.message()),
+        };
+        ConfigErrors(vec![ConfigError { origin, message }])
     })?;
     let mut errs = Vec::new();
     let node = Node {
