@@ -396,6 +396,8 @@ pub struct Slurm {
     stop: AtomicBool,
     /// Live jobs of earlier controllers, by stage key.
     adopted: Mutex<BTreeMap<String, JobState>>,
+    /// [`earlier_costs`] by (kind, grid exponent): read once per run, not once per stage.
+    costs: Mutex<BTreeMap<(String, String), Option<PeakAndWall>>>,
 }
 
 impl Slurm {
@@ -426,6 +428,7 @@ impl Slurm {
             changed: Condvar::new(),
             stop: AtomicBool::new(false),
             adopted: Mutex::new(BTreeMap::new()),
+            costs: Mutex::new(BTreeMap::new()),
         })
     }
 
@@ -461,7 +464,21 @@ impl Slurm {
     /// earlier artefacts of its kind, else the defaults.
     pub fn resources(&self, ws: &Workspace, s: &PlannedStage) -> Resources {
         let mut r = self.opts.defaults;
-        if let Some((peak_mib, wall_s)) = earlier_costs(ws, s) {
+        let group = (
+            s.kind.clone(),
+            s.params
+                .0
+                .get("n")
+                .map(|v| v.to_string())
+                .unwrap_or_default(),
+        );
+        let costs = *self
+            .costs
+            .lock()
+            .unwrap()
+            .entry(group)
+            .or_insert_with(|| earlier_costs(ws, s));
+        if let Some((peak_mib, wall_s)) = costs {
             r.mem_mib = ((peak_mib * 1.5) as u64 + 256).max(256);
             r.time_min = ((wall_s * 3.0 + 60.0) / 60.0).ceil().max(1.0) as u64;
         }
@@ -665,10 +682,19 @@ impl Slurm {
         id: &str,
     ) -> Result<Option<FailureClass>> {
         let artefact = ws.artefact_of(s);
+        // the file as last judged invalid (a damaged entry the job will replace): its content
+        // is verified again only once its size or time changes, not on every look
+        let mut judged: Option<(u64, Option<std::time::SystemTime>)> = None;
         loop {
-            if artefact.exists() && ws.entry_state(s) == EntryState::Valid {
-                self.board.lock().unwrap().awaited.remove(id);
-                return Ok(None);
+            let seen = std::fs::metadata(&artefact)
+                .ok()
+                .map(|m| (m.len(), m.modified().ok()));
+            if seen.is_some() && seen != judged {
+                if ws.entry_state(s) == EntryState::Valid {
+                    self.board.lock().unwrap().awaited.remove(id);
+                    return Ok(None);
+                }
+                judged = seen;
             }
             let b = self.board.lock().unwrap();
             if b.silent_rounds >= MAX_SILENT_ROUNDS {
@@ -695,12 +721,15 @@ impl Slurm {
     }
 }
 
+/// Peak memory (MiB) and wall time (s).
+type PeakAndWall = (f64, f64);
+
 /// The largest peak memory (MiB) and wall time (s) recorded by earlier artefacts of the stage's
 /// kind (with the same grid exponent `n` when the stage has one).
-fn earlier_costs(ws: &Workspace, s: &PlannedStage) -> Option<(f64, f64)> {
+fn earlier_costs(ws: &Workspace, s: &PlannedStage) -> Option<PeakAndWall> {
     let dir = ws.artefact_of(s).parent()?.to_path_buf();
     let n = s.params.0.get("n").cloned();
-    let mut best: Option<(f64, f64)> = None;
+    let mut best: Option<PeakAndWall> = None;
     for e in std::fs::read_dir(dir).ok()?.flatten() {
         let p = e.path();
         if p.extension().is_none_or(|x| x != "h5") {
