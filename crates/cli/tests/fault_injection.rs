@@ -13,25 +13,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn project_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
 
-fn project() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    for sub in ["pipeline", "params"] {
-        std::fs::create_dir_all(dir.path().join(sub)).unwrap();
-        for e in std::fs::read_dir(project_root().join(sub))
-            .unwrap()
-            .flatten()
-        {
-            if e.path().extension().is_some_and(|x| x == "toml") {
-                std::fs::copy(e.path(), dir.path().join(sub).join(e.file_name())).unwrap();
-            }
-        }
-    }
-    dir
-}
+use common::project;
 
 fn saddleflow(root: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_saddleflow"))

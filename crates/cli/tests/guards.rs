@@ -3,6 +3,8 @@
 //! tolerances and loads outside their physical range, a closed stdout, interruption, and the
 //! small messages. Each test is named after the defect it guards against.
 
+mod common;
+
 use ndarray::Array2;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -312,16 +314,7 @@ fn closed_stdout_ends_quietly() {
         "ended by SIGPIPE, as Unix filters do: {status:?}"
     );
     // a pipeline command: the plan of the smoke preset
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let dir = tempfile::tempdir().unwrap();
-    for sub in ["pipeline", "params"] {
-        std::fs::create_dir(dir.path().join(sub)).unwrap();
-        for e in std::fs::read_dir(root.join(sub)).unwrap().flatten() {
-            if e.path().is_file() {
-                std::fs::copy(e.path(), dir.path().join(sub).join(e.file_name())).unwrap();
-            }
-        }
-    }
+    let dir = common::project();
     let (status, err) = with_closed_stdout(bin().args(["run", "-C"]).arg(dir.path()).args([
         "--params",
         "params/smoke.toml",

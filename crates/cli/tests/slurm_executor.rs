@@ -41,18 +41,7 @@ fn cluster_up() -> bool {
     up
 }
 
-fn project_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn copy_tomls(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap().flatten() {
-        if e.path().extension().is_some_and(|x| x == "toml") {
-            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-        }
-    }
-}
+mod common;
 
 fn run(dir: &Path, args: &[&str]) -> Output {
     Command::new(bin())
@@ -146,17 +135,7 @@ fn smoke_pipeline_on_slurm_equals_local() {
     if !cluster_up() {
         return;
     }
-    let make = || {
-        let d = tempfile::tempdir().unwrap();
-        copy_tomls(&project_root().join("pipeline"), &d.path().join("pipeline"));
-        copy_tomls(&project_root().join("params"), &d.path().join("params"));
-        copy_tomls(
-            &project_root().join("params/cluster"),
-            &d.path().join("params/cluster"),
-        );
-        d
-    };
-    let (local, cluster) = (make(), make());
+    let (local, cluster) = (common::project(), common::project());
     let o = run(
         local.path(),
         &["run", "--params", "params/smoke.toml", "-j", "2"],

@@ -12,28 +12,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use tables::ColumnType;
 
-fn project_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap().flatten() {
-        let p = e.path();
-        if p.extension().is_some_and(|x| x == "toml") {
-            std::fs::copy(&p, to.join(e.file_name())).unwrap();
-        }
-    }
-}
-
-/// A temporary project with the real pipeline/ and params/.
-fn project() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    let root = project_root();
-    copy_dir(&root.join("pipeline"), &dir.path().join("pipeline"));
-    copy_dir(&root.join("params"), &dir.path().join("params"));
-    dir
-}
+use common::project;
 
 fn logs(root: &Path) -> BTreeSet<PathBuf> {
     std::fs::read_dir(root.join("results/runs"))
