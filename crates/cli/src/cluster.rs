@@ -94,13 +94,13 @@ fn in_range<T: PartialOrd + std::fmt::Display>(
 }
 
 impl ClusterArgs {
-    /// The executor and the number of stages in flight (`jobs` from the command line unless the
-    /// profile sets it and the command line kept its default of 1).
+    /// The executor and the number of stages in flight: `jobs` from the command line, else the
+    /// profile's, else 1.
     pub fn executor(
         &self,
         pipeline: &Path,
         params: &Path,
-        jobs: usize,
+        jobs: Option<usize>,
     ) -> Result<(Executor, usize)> {
         let (prof, overrides) = match &self.cluster_profile {
             Some(p) => {
@@ -110,11 +110,7 @@ impl ClusterArgs {
             None => (ProfileExecutor::default(), BTreeMap::new()),
         };
         let kind = self.executor.or(prof.kind).unwrap_or(ExecutorKind::Local);
-        let jobs = if jobs == 1 {
-            prof.jobs.unwrap_or(1)
-        } else {
-            jobs
-        };
+        let jobs = jobs.or(prof.jobs).unwrap_or(1);
         if kind == ExecutorKind::Local {
             let slurm_only = self.slurm_partition.is_some()
                 || self.slurm_account.is_some()

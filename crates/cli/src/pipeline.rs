@@ -41,9 +41,10 @@ pub enum Command {
         /// Recompute this stage even if cached. Repeatable.
         #[arg(long, value_name = "STAGE")]
         force: Vec<String>,
-        /// Stages run in parallel.
-        #[arg(long, short = 'j', default_value_t = 1)]
-        jobs: usize,
+        /// Stages run in parallel (with SLURM: jobs in flight) [default: 1, or the cluster
+        /// profile's `jobs`].
+        #[arg(long, short = 'j')]
+        jobs: Option<usize>,
         /// Wait for another run holding the results folder instead of failing.
         #[arg(long)]
         wait: bool,
