@@ -12,6 +12,7 @@
 //! most `tol_force`. FIRE keeps inertia only while the power f·v is positive, so from a warm start
 //! it relaxes into the nearest minimum: that is how metastable branches are followed.
 
+use crate::stop_monitor::StopMonitor;
 use crate::{
     ContactError, Interaction, Minimizer, Model, SolveStats, SolverOptions, State, StopReason,
 };
@@ -104,7 +105,7 @@ impl Minimizer for Fire {
             wall_s: 0.0,
             trace: Vec::new(),
         };
-        let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
+        let mut monitor = StopMonitor::new(STAGNATION, 1e12);
         // The last accepted state: a step that raises the energy beyond rounding is undone.
         let mut u_prev = u.clone();
         let mut sigma_prev = vec![0.0; n];
@@ -160,15 +161,8 @@ impl Minimizer for Fire {
             if contact == 0 && pressure <= 0.0 && min_gap > detach_gap {
                 return Err(ContactError::Detached { pressure, min_gap });
             }
-            if res < 0.99 * best {
-                best = res;
-                best_iter = stats.iterations;
-            } else if stats.iterations - best_iter > STAGNATION {
-                stats.reason = Some(StopReason::Stagnation);
-                break;
-            }
-            if res > 1e12 * best.max(opts.tol_force) {
-                stats.reason = Some(StopReason::ResidualGrowth);
+            if let Some(reason) = monitor.check(res, stats.iterations, opts.tol_force) {
+                stats.reason = Some(reason);
                 break;
             }
             if stats.iterations >= opts.max_iter {

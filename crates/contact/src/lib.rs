@@ -34,6 +34,7 @@ pub mod path;
 pub mod polonsky_keer;
 pub mod refinement;
 pub mod spectral;
+mod stop_monitor;
 
 pub use interaction::Interaction;
 pub use surface::{Grid, Lattice, Surface};

@@ -77,6 +77,7 @@
 //! a step is therefore capped where it would put more than [`CONTACT_GROWTH`] × max(contact,
 //! n/64) new nodes on the wall.
 
+use crate::stop_monitor::StopMonitor;
 use crate::{
     ContactError, Interaction, Minimizer, Model, SolveStats, SolverOptions, State, StopReason,
 };
@@ -601,7 +602,7 @@ impl Minimizer for NonlinearCg {
             wall_s: 0.0,
             trace: Vec::new(),
         };
-        let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
+        let mut monitor = StopMonitor::new(STAGNATION, 1e12);
         loop {
             let (mut res, contact, min_gap) =
                 gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local);
@@ -622,14 +623,8 @@ impl Minimizer for NonlinearCg {
             if contact == 0 && pressure <= 0.0 && min_gap > detach_gap {
                 return Err(ContactError::Detached { pressure, min_gap });
             }
-            if res < 0.99 * best {
-                (best, best_iter) = (res, stats.iterations);
-            } else if stats.iterations - best_iter > STAGNATION {
-                stats.reason = Some(StopReason::Stagnation);
-                break;
-            }
-            if res > 1e12 * best.max(opts.tol_force) {
-                stats.reason = Some(StopReason::ResidualGrowth);
+            if let Some(reason) = monitor.check(res, stats.iterations, opts.tol_force) {
+                stats.reason = Some(reason);
                 break;
             }
             if stats.iterations >= opts.max_iter {

@@ -50,6 +50,7 @@
 //! `tol_gap`. Force balance is exact by construction (u = G p, mean p = p̄, p ≥ 0).
 
 use crate::compliance::Compliance;
+use crate::stop_monitor::StopMonitor;
 use crate::{
     ContactError, Interaction, Minimizer, Model, SolveStats, SolverOptions, State, StopReason,
 };
@@ -671,7 +672,7 @@ fn relax<const TRACE: bool, K: Compliance>(
         wall_s: 0.0,
         trace: Vec::new(),
     };
-    let (mut best, mut best_iter) = (f64::INFINITY, 0usize);
+    let mut monitor = StopMonitor::new(STAGNATION, 1e8);
     // Consecutive re-open-only steps (no descent direction on the contact set).
     let mut reopen_only = 0usize;
     let mut shift = 0.0;
@@ -747,15 +748,8 @@ fn relax<const TRACE: bool, K: Compliance>(
                 since_refresh = 0;
                 continue;
             }
-            if viol < 0.99 * best {
-                best = viol;
-                best_iter = stats.iterations;
-            } else if stats.iterations - best_iter > STAGNATION {
-                stats.reason = Some(StopReason::Stagnation);
-                break;
-            }
-            if viol > 1e8 * best.max(opts.tol_gap) {
-                stats.reason = Some(StopReason::ResidualGrowth);
+            if let Some(reason) = monitor.check(viol, stats.iterations, opts.tol_gap) {
+                stats.reason = Some(reason);
                 break;
             }
         }
