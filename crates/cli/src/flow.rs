@@ -16,9 +16,9 @@
 
 use crate::guard::{self, Output};
 use anyhow::{Context, Result, bail};
+use formats::gapfile;
 use reynolds::{FlowOptions, solve};
 use serde_json::{Value, json};
-use stages::gapfile;
 use std::path::PathBuf;
 use store::{ArtefactReader, Provenance, fields};
 

@@ -3,8 +3,8 @@
 use crate::guard::{self, Output};
 use anyhow::{Context, Result, bail};
 use contact::{ContactError, Interaction, Lattice, Method, Model, SolverOptions, Surface};
+use formats::solution as io;
 use serde_json::json;
-use stages::io;
 use std::path::PathBuf;
 use store::Provenance;
 

@@ -6,7 +6,7 @@
 
 use anyhow::{Context, Result, bail};
 use stages::orchestrator::Workspace;
-use stages::tradeoff;
+use stages::scenes::tradeoff;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 

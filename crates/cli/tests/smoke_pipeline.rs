@@ -395,8 +395,6 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
             "fig2_adhesion",
             "fig2_adhesion_check",
             "fig2",
-            "fig2_log",
-            "fig2_tables",
             "fig2_resolution"
         ])
     );

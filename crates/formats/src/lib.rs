@@ -22,11 +22,16 @@
 //! than [`ReadOptions::max_nodes`] — checked from the header, the HDF5 metadata or the file size
 //! before the heights are allocated, with the memory they would need.
 //!
+//! Also the contact solutions and gap fields the CLI and the compute kinds exchange through
+//! artefacts and JSON ([`solution`], [`gapfile`]).
+//!
 //! Detrending ([`Detrend`]) is an explicit option; what was removed is reported in
 //! [`Reading::removed`], never done silently.
 
+pub mod gapfile;
 pub mod h5;
 pub mod npy;
+pub mod solution;
 pub mod text;
 
 use ndarray::Array2;

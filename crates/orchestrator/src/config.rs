@@ -27,7 +27,7 @@
 //! params = { interaction = "hardwall", steps = "$steps", tol = "$tol" }
 //!
 //! [stages.fig2]
-//! kind = "figure"
+//! kind = "fig2"
 //! inputs = { curves = ["sweep_hardwall", "sweep_adhesion"] }   # a list where the kind allows
 //! ```
 //!

@@ -2,13 +2,14 @@
 //! Used by `build.rs` (at build time) and by `tests/code_identity.rs` (on a copy of the tree);
 //! std and `blake3` only.
 //!
-//! A kind lives in the module `crates/stages/src/<kind>.rs`. Its identity has one part per
+//! A kind lives in the module `crates/<c>/src/<kind>.rs` of a kind crate ([`MODULE_CRATES`]:
+//! `kinds` for compute kinds, `scenes` for report scenes). Its identity has one part per
 //! source it depends on:
-//! - `stages/src/<m>.rs` for the module itself and every module of the stages crate it reaches
-//!   through `crate::m` or `super::m` paths (including `use crate::{a, b::c}` lists),
-//!   transitively;
+//! - `<c>/src/<m>.rs` for the module itself and every module of a kind crate it reaches
+//!   through `crate::m` or `super::m` paths in its own crate, or `kinds::m` from another
+//!   (including `use crate::{a, b::c}` lists), transitively;
 //! - `crate <c>` for every workspace crate those modules name as `c::` (the `[dependencies]`
-//!   of the stages crate that are workspace crates), and for their own workspace
+//!   of the kind crates that are workspace crates), and for their own workspace
 //!   `[dependencies]`, transitively. A crate's hash covers every file of the crate but its
 //!   `tests/`, `benches/`, `examples/` and hidden files (so `src/`, `assets/`, `Cargo.toml`,
 //!   `build.rs`).
@@ -134,6 +135,33 @@ fn is_ident(c: char) -> bool {
     c.is_ascii_alphanumeric() || c == '_'
 }
 
+/// The identifiers of the path segment at the start of `after` (the text after `root::`): one
+/// identifier, or every identifier of a `{...}` list.
+fn segment_idents(after: &str) -> Vec<String> {
+    let segment = if after.starts_with('{') {
+        let mut depth = 0usize;
+        let end = after
+            .char_indices()
+            .find(|&(_, c)| {
+                depth = match c {
+                    '{' => depth + 1,
+                    '}' => depth - 1,
+                    _ => depth,
+                };
+                depth == 0
+            })
+            .map_or(after.len(), |(j, _)| j);
+        &after[..end]
+    } else {
+        &after[..after.find(|c: char| !is_ident(c)).unwrap_or(after.len())]
+    };
+    segment
+        .split(|c: char| !is_ident(c))
+        .filter(|w| !w.is_empty())
+        .map(str::to_string)
+        .collect()
+}
+
 /// Identifiers that follow `crate::` or `super::` in `src` (a `{...}` list after it counts
 /// whole: every identifier in it).
 pub fn module_refs(src: &str) -> BTreeSet<String> {
@@ -144,29 +172,7 @@ pub fn module_refs(src: &str) -> BTreeSet<String> {
             let after = &rest[i + prefix.len()..];
             let before_ok = rest[..i].chars().last().is_none_or(|c| !is_ident(c));
             if before_ok {
-                let segment = if after.starts_with('{') {
-                    let mut depth = 0usize;
-                    let end = after
-                        .char_indices()
-                        .find(|&(_, c)| {
-                            depth = match c {
-                                '{' => depth + 1,
-                                '}' => depth - 1,
-                                _ => depth,
-                            };
-                            depth == 0
-                        })
-                        .map_or(after.len(), |(j, _)| j);
-                    &after[..end]
-                } else {
-                    &after[..after.find(|c: char| !is_ident(c)).unwrap_or(after.len())]
-                };
-                out.extend(
-                    segment
-                        .split(|c: char| !is_ident(c))
-                        .filter(|w| !w.is_empty())
-                        .map(str::to_string),
-                );
+                out.extend(segment_idents(after));
             }
             rest = after;
         }
@@ -183,6 +189,23 @@ pub fn names_crate(src: &str, krate: &str) -> bool {
             .last()
             .is_none_or(|c| !is_ident(c) && c != '.')
     })
+}
+
+/// Identifiers that follow `krate::` in `src` as a path root (a `{...}` list after it counts
+/// whole), like [`module_refs`] for `crate::`.
+pub fn crate_refs(src: &str, krate: &str) -> BTreeSet<String> {
+    let pat = format!("{krate}::");
+    let mut out = BTreeSet::new();
+    for (i, _) in src.match_indices(&pat) {
+        let before_ok = src[..i]
+            .chars()
+            .last()
+            .is_none_or(|c| !is_ident(c) && c != '.');
+        if before_ok {
+            out.extend(segment_idents(&src[i + pat.len()..]));
+        }
+    }
+    out
 }
 
 /// Transitive closure over workspace crate dependencies.
@@ -218,32 +241,72 @@ pub fn parse_overrides(text: &str) -> BTreeMap<String, (String, String)> {
 /// Module name → (part → hash).
 pub type Identities = BTreeMap<String, BTreeMap<String, String>>;
 
-/// The identity of every module of the stages crate: module name → (part → hash). `stages_dir`
-/// is the stages crate's folder; its siblings are the workspace crates. Overrides are applied;
-/// the second value lists the overrides that matched nothing (stale).
+/// Crates whose modules are stage kinds (a kind lives in `crates/<crate>/src/<kind>.rs`); their
+/// sources are followed module by module, every other workspace crate is hashed whole.
+pub const MODULE_CRATES: &[&str] = &["kinds", "scenes"];
+
+/// The identity of every module of the kind crates ([`MODULE_CRATES`]): module name → (part →
+/// hash). `stages_dir` is the stages crate's folder; its siblings are the workspace crates.
+/// A module reaches the modules of its own crate through `crate::m`/`super::m` and those of
+/// another kind crate through `kinds::m`. Overrides are applied; the second value lists the
+/// overrides that matched nothing (stale).
 pub fn module_identities(
     stages_dir: &Path,
     overrides: &BTreeMap<String, (String, String)>,
 ) -> io::Result<(Identities, Vec<String>)> {
     let crates_dir = stages_dir.parent().unwrap_or(Path::new(".."));
     let crates = workspace_crates(crates_dir)?;
-    let stages_deps: Vec<String> = crates
-        .values()
-        .find(|c| c.dir.file_name() == stages_dir.file_name())
-        .map(|c| c.deps.clone())
-        .unwrap_or_default();
-    let mut sources: BTreeMap<String, String> = BTreeMap::new();
-    for e in std::fs::read_dir(stages_dir.join("src"))?.flatten() {
-        let p = e.path();
-        let stem = p
-            .file_stem()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned();
-        if p.extension().is_some_and(|x| x == "rs") && stem != "lib" {
-            sources.insert(stem, std::fs::read_to_string(&p)?);
+    // module → (crate, source)
+    let mut sources: BTreeMap<String, (String, String)> = BTreeMap::new();
+    let mut deps_of: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for &mc in MODULE_CRATES {
+        let Some(info) = crates.get(mc) else { continue };
+        deps_of.insert(
+            mc.to_string(),
+            info.deps
+                .iter()
+                .filter(|d| !MODULE_CRATES.contains(&d.as_str()))
+                .cloned()
+                .collect(),
+        );
+        let mut entries: Vec<PathBuf> = std::fs::read_dir(info.dir.join("src"))?
+            .flatten()
+            .map(|e| e.path())
+            .collect();
+        entries.sort();
+        for p in entries {
+            let stem = p
+                .file_stem()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned();
+            if p.extension().is_some_and(|x| x == "rs") && stem != "lib" {
+                if let Some((other, _)) = sources.get(&stem) {
+                    return Err(io::Error::other(format!(
+                        "module `{stem}` exists in both crates `{other}` and `{mc}`: kind modules must have unique names"
+                    )));
+                }
+                sources.insert(stem, (mc.to_string(), std::fs::read_to_string(&p)?));
+            }
         }
     }
+    let reached = |m: &str| -> BTreeSet<String> {
+        let (krate, src) = &sources[m];
+        let mut out: BTreeSet<String> = module_refs(src)
+            .into_iter()
+            .filter(|x| sources.get(x).is_some_and(|(c, _)| c == krate))
+            .collect();
+        for &mc in MODULE_CRATES {
+            if mc != krate {
+                out.extend(
+                    crate_refs(src, mc)
+                        .into_iter()
+                        .filter(|x| sources.get(x).is_some_and(|(c, _)| c == mc)),
+                );
+            }
+        }
+        out
+    };
     let mut crate_hashes: BTreeMap<String, String> = BTreeMap::new();
     let mut used: BTreeSet<String> = BTreeSet::new();
     let mut apply = |part: String, hash: String| -> (String, String) {
@@ -261,18 +324,25 @@ pub fn module_identities(
         let mut todo = vec![m.clone()];
         while let Some(x) = todo.pop() {
             if sources.contains_key(&x) && mods.insert(x.clone()) {
-                todo.extend(module_refs(&sources[&x]));
+                todo.extend(reached(&x));
             }
         }
-        let named: BTreeSet<String> = stages_deps
+        let named: BTreeSet<String> = mods
             .iter()
-            .filter(|c| mods.iter().any(|x| names_crate(&sources[x], c)))
-            .cloned()
+            .flat_map(|x| {
+                let (krate, src) = &sources[x];
+                deps_of[krate]
+                    .iter()
+                    .filter(|c| names_crate(src, c))
+                    .cloned()
+                    .collect::<Vec<_>>()
+            })
             .collect();
         let mut parts = BTreeMap::new();
         for x in &mods {
-            let rel = format!("stages/src/{x}.rs");
-            let h = blake3::hash(sources[x].as_bytes()).to_hex().to_string();
+            let (krate, src) = &sources[x];
+            let rel = format!("{krate}/src/{x}.rs");
+            let h = blake3::hash(src.as_bytes()).to_hex().to_string();
             let (k, v) = apply(rel, h);
             parts.insert(k, v);
         }

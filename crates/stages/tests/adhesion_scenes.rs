@@ -5,8 +5,8 @@
 mod common;
 use common::{reader, try_run as run};
 
-use stages::fig3::thresholds;
-use stages::sweep::SweepData;
+use stages::kinds::sweep::SweepData;
+use stages::scenes::fig3::thresholds;
 
 /// Full contact under adhesion holds while the adhesive stress γ0/ρ can carry the largest
 /// tension of the full-contact state, p_fc − p̄ at the trough (exact on the grid: the square
@@ -105,17 +105,13 @@ fn figures_1_and_3_and_their_tables_on_tiny_grids() {
     p += &gamma_sweep("g_square5", "s_square5", "");
     p += "
 [stages.fig1]
-kind = \"figure\"
+kind = \"fig1\"
 inputs = { hexagonal = \"g_hexagonal\", square = \"g_square\", triangular = \"g_triangular\" }
-params = { scene = \"fig1\", output = \"out/fig1\" }
+params = { figure_dir = \"out\" }
 [stages.fig3]
-kind = \"figure\"
+kind = \"fig3\"
 inputs = { hexagonal = \"g_hexagonal\", square = [\"g_square\", \"g_square5\"], triangular = \"g_triangular\" }
-params = { scene = \"fig3\", output = \"out/fig3\" }
-[stages.tab3]
-kind = \"table\"
-inputs = { hexagonal = \"g_hexagonal\", square = [\"g_square\", \"g_square5\"], triangular = \"g_triangular\" }
-params = { scene = \"fig3\", output_dir = \"out/tables\" }
+params = { figure_dir = \"out\", table_dir = \"out/tables\" }
 ";
     let (plan, ws) = run(dir.path(), &p).unwrap();
     for f in [
@@ -193,9 +189,9 @@ fn figure_1_needs_the_fields_at_its_gamma() {
     }
     p += "
 [stages.fig1]
-kind = \"figure\"
+kind = \"fig1\"
 inputs = { hexagonal = \"g_hexagonal\", square = \"g_square\", triangular = \"g_triangular\" }
-params = { scene = \"fig1\", output = \"out/fig1\" }
+params = { figure_dir = \"out\" }
 ";
     let e = run(dir.path(), &p).unwrap_err();
     assert!(e.contains("fig1") && e.contains("fields_at"), "{e}");
@@ -208,9 +204,9 @@ params = { scene = \"fig1\", output = \"out/fig1\" }
     }
     p += "
 [stages.tab3]
-kind = \"table\"
+kind = \"fig3\"
 inputs = { hexagonal = \"g_hexagonal\", square = \"load\", triangular = \"g_triangular\" }
-params = { scene = \"fig3\", output_dir = \"out/tables\" }
+params = { figure_dir = \"out\", table_dir = \"out/tables\" }
 ";
     let e = run(dir.path(), &p).unwrap_err();
     assert!(

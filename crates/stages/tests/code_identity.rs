@@ -93,13 +93,13 @@ fn editing_a_stage_module_reruns_the_kinds_that_reach_it_and_no_others() {
     let dir = workspace_copy();
     let before = ids(dir.path(), "");
     append(
-        &dir.path().join("crates/stages/src/sweep.rs"),
+        &dir.path().join("crates/kinds/src/sweep.rs"),
         "\n// an edit\n",
     );
     let after = ids(dir.path(), "");
     let users: BTreeSet<String> = before
         .iter()
-        .filter(|(_, parts)| parts.contains_key("stages/src/sweep.rs"))
+        .filter(|(_, parts)| parts.contains_key("kinds/src/sweep.rs"))
         .map(|(m, _)| m.clone())
         .collect();
     assert!(
@@ -139,7 +139,8 @@ fn the_engine_is_no_part_of_a_kind_identity_and_every_kind_has_one() {
     for name in reg.names() {
         let code = reg.code_identity(name);
         assert!(
-            code.contains_key(&format!("stages/src/{name}.rs")),
+            code.contains_key(&format!("kinds/src/{name}.rs"))
+                || code.contains_key(&format!("scenes/src/{name}.rs")),
             "kind `{name}`: {code:?}"
         );
         assert!(

@@ -42,19 +42,12 @@ kind = "resolution"
 inputs = { levels = "critical_triangular" }
 
 [stages.fig4]
-kind = "figure"
+kind = "fig4"
 inputs = { hexagonal = "critical_hexagonal", square = "critical_square", triangular = "critical_triangular" }
-params = { scene = "fig4" }
 
 [stages.convergence]
-kind = "figure"
+kind = "convergence"
 inputs = { hexagonal = "resolution_hexagonal", square = "resolution_square", triangular = "resolution_triangular" }
-params = { scene = "convergence" }
-
-[stages.table]
-kind = "table"
-inputs = { hexagonal = "resolution_hexagonal", square = "resolution_square", triangular = "resolution_triangular" }
-params = { scene = "critical" }
 "#;
 
 fn close(a: f64, b: f64, tol: f64) -> bool {
@@ -140,7 +133,7 @@ fn stored_averages_corrections_and_extrapolations_follow_from_the_raw_data() {
         );
         assert!(got("a_p_corrected_error") > 0.0 && got("l_c_error") > 0.0);
         // headline numbers for the fidelity trade-off: the same values, the paper's a_p beside
-        let heads = stages::headline::read(&res).unwrap();
+        let heads = stages::kinds::headline::read(&res).unwrap();
         let head = |name: &str| heads.iter().find(|h| h.name == name).unwrap().clone();
         let h = head(&format!("a_p {model} (corrected)"));
         assert_eq!(

@@ -4,7 +4,7 @@
 mod common;
 use common::{reader, run};
 
-use stages::flow::FlowData;
+use stages::kinds::flow::FlowData;
 use stages::orchestrator::{Plan, ProgressMode, RunOptions, Workspace};
 
 /// A hard-wall loading path on the 16² square model, gaps stored at every point, past full

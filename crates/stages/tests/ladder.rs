@@ -7,7 +7,7 @@
 mod common;
 
 use common::{reader, run, run_all};
-use stages::ladder::LadderData;
+use stages::kinds::ladder::LadderData;
 use stages::orchestrator::Inputs;
 
 const CHAIN: &str = r#"
@@ -25,14 +25,8 @@ kind = "exponents"
 inputs = { ladder = ["lad"] }
 
 [stages.fig5]
-kind = "figure"
+kind = "fig5"
 inputs = { ladder = ["lad"], exponents = "ex" }
-params = { scene = "fig5" }
-
-[stages.tab]
-kind = "table"
-inputs = { exponents = "ex" }
-params = { scene = "exponents" }
 "#;
 
 #[test]
@@ -90,7 +84,8 @@ fn the_ladder_sits_at_its_reduced_loads_around_the_critical_stage() {
     // Figure 6's bottom-left panel reads the exponents artefact as its `ladder` input
     let ex = reader(&plan, &ws, "ex");
     let (points, _) =
-        stages::fig6::read_ladder(&Inputs::new([("ladder".to_string(), vec![ex])].into())).unwrap();
+        stages::scenes::fig6::read_ladder(&Inputs::new([("ladder".to_string(), vec![ex])].into()))
+            .unwrap();
     assert_eq!(points.len(), 1);
     let sq = d.levels.last().unwrap();
     let below: Vec<_> = sq.rungs.iter().filter(|r| r.l < 0.0).collect();

@@ -112,9 +112,7 @@ fn figure2_alone_plans_only_the_square_model_and_no_flow() {
                 "fig2_hardwall",
                 "fig2_adhesion",
                 "fig2_repulsion",
-                "fig2",
-                "fig2_log",
-                "fig2_tables"
+                "fig2"
             ]
             .into_iter()
             .collect(),
@@ -124,7 +122,7 @@ fn figure2_alone_plans_only_the_square_model_and_no_flow() {
         for &i in &selected {
             let s = &plan.stages[i];
             assert!(
-                ["surface", "sweep", "figure", "table"].contains(&s.kind.as_str()),
+                ["surface", "sweep", "fig2"].contains(&s.kind.as_str()),
                 "{} is a {} stage",
                 s.name,
                 s.kind

@@ -5,8 +5,8 @@
 mod common;
 use common::{reader, run};
 
+use stages::kinds::sweep::SweepData;
 use stages::orchestrator::Plan;
-use stages::sweep::SweepData;
 
 const SURFACE: &str = "[stages.sq]\nkind = \"surface\"\nparams = { lattice = \"square\", n = 4 }\n";
 
@@ -82,13 +82,9 @@ fn non_converged_points_are_flagged_warned_and_left_out_of_the_figure() {
     let p = format!(
         "{SURFACE}{}{}{}
 [stages.fig]
-kind = \"figure\"
+kind = \"fig2\"
 inputs = {{ hardwall = \"hw\", adhesion = \"adh\", repulsion = \"rep\" }}
-params = {{ scene = \"fig2\", output = \"out/f\" }}
-[stages.tab]
-kind = \"table\"
-inputs = {{ hardwall = \"hw\", adhesion = \"adh\", repulsion = \"rep\" }}
-params = {{ scene = \"fig2\", output_dir = \"out/tables\" }}
+params = {{ figure_dir = \"out\", table_dir = \"out/tables\" }}
 ",
         sweep("hw", "hardwall", ""),
         sweep("adh", "adhesion", ""),
@@ -123,7 +119,7 @@ params = {{ scene = \"fig2\", output_dir = \"out/tables\" }}
             .iter()
             .any(|w| w.contains("left out"))
     );
-    assert!(dir.path().join("out/f.png").is_file() && dir.path().join("out/f.svg").is_file());
+    assert!(dir.path().join("out/fig2.png").is_file() && dir.path().join("out/fig2.svg").is_file());
     // the table keeps them, flagged
     let t = tables::read_csv(&dir.path().join("out/tables/fig2.csv"), &[]).unwrap();
     let (i, c) = (t.str("interaction").unwrap(), t.bool("converged").unwrap());

@@ -391,16 +391,23 @@ impl FloatFormat {
     }
 }
 
-/// Writes `table` as CSV with a header to `path`, atomically: the data go to a temporary file
-/// in the same folder (created if missing), which is flushed, synced and renamed over `path`.
-pub fn write_csv(table: &Table, path: &Path) -> Result<()> {
+/// The CSV encoding of `table` with a header (nulls empty): the one encoding of every CSV the
+/// project writes.
+pub fn csv_bytes(table: &Table) -> Result<Vec<u8>> {
     let mut df = table.to_dataframe()?;
     let mut bytes = Vec::new();
     CsvWriter::new(&mut bytes)
         .include_header(true)
         .with_null_value("".into())
         .finish(&mut df)
-        .with_context(|| format!("encoding CSV for {}", path.display()))?;
+        .context("encoding CSV")?;
+    Ok(bytes)
+}
+
+/// Writes `table` as CSV with a header to `path`, atomically: the data go to a temporary file
+/// in the same folder (created if missing), which is flushed, synced and renamed over `path`.
+pub fn write_csv(table: &Table, path: &Path) -> Result<()> {
+    let bytes = csv_bytes(table).with_context(|| format!("for {}", path.display()))?;
     write_atomic(path, &bytes)
 }
 

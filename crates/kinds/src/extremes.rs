@@ -339,7 +339,7 @@ impl StageKind for ExtremesKind {
         out.write_strings("cases/check", t.str("check")?)?;
         out.set_attr("lattice", lattice.name())?;
         out.set_attr("l_c", l_c)?;
-        ctx.emit_file(TABLE, crate::table::csv_bytes(&t)?);
+        ctx.emit_file(TABLE, tables::csv_bytes(&t)?);
         let failed: Vec<String> = cases
             .iter()
             .filter(|c| !c.passed)

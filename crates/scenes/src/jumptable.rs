@@ -9,7 +9,7 @@
 //! branch): converging positions have shrinking changes. Pull-offs (a
 //! branch that ended because the surfaces separated) are rows with event `pull-off`.
 
-use crate::sweep::SweepData;
+use kinds::sweep::SweepData;
 use std::collections::BTreeMap;
 use tables::Table;
 
@@ -240,7 +240,7 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sweep::{JumpRow, Loop};
+    use kinds::sweep::{JumpRow, Loop};
 
     fn jump(branch: &str, event: &str, x: (f64, f64), area: (f64, f64)) -> JumpRow {
         JumpRow {

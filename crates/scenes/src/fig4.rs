@@ -10,11 +10,14 @@
 //! Inputs `hexagonal`, `square`, `triangular`: `critical` stages stored with `fields = true`
 //! (their `gap` dataset is the state just below L_c of the first shift).
 
-use crate::surface::lattice_from_name;
+use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Result, bail};
 use figures::scenes::maps::{ModelMap, ThreeMaps};
 use figures::style::Model;
+use kinds::surface::lattice_from_name;
 use orchestrator::{InputSpec, Inputs};
+use orchestrator::{Params, StageContext};
+use store::ArtefactWriter;
 use store::fields;
 use surface::{CriticalKind, Grid, Lattice, Surface};
 
@@ -149,6 +152,39 @@ pub fn data(inputs: &Inputs) -> Result<ThreeMaps> {
         colorbar_label: "$g$ / $h$_0".into(),
         shared_range: false,
     })
+}
+
+/// The `fig4` scene: gap maps just below the percolation threshold for the three models,
+/// contact white, bright = large gap, arranged as Figure 1 (inputs `hexagonal`, `square`,
+/// `triangular`: `critical` stages stored with fields).
+pub struct Fig4;
+
+impl Scene for Fig4 {
+    fn name(&self) -> &'static str {
+        "fig4"
+    }
+    fn doc(&self) -> &'static str {
+        "Figure 4: gap maps just below the percolation threshold, three models"
+    }
+    fn code_version(&self) -> u64 {
+        1
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        inputs()
+    }
+    fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
+        vec![OutputSpec::figure("figure", "fig4")]
+    }
+    fn render(
+        &self,
+        _ctx: &mut StageContext,
+        _params: &Params,
+        inputs: &Inputs,
+        _out: &mut ArtefactWriter,
+    ) -> Result<Outputs> {
+        let fig = figures::scenes::maps::figure(&data(inputs)?, figures::Colormap::Viridis)?;
+        Ok(Outputs::new().figure("figure", fig))
+    }
 }
 
 #[cfg(test)]

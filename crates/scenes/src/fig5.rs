@@ -28,15 +28,18 @@
 //! - `ladder_measurements.csv`: per model, grid and rung: `model`, `n`, `l`, `saddle_gap`,
 //!   `half_width`, `half_width_error`, `half_length`, `half_length_error`, `flux`.
 
-use crate::exponents::{self, CONJECTURED, ModelExponents, NAMES, PAPER};
-use crate::ladder::LadderData;
+use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
 use critical::ladder::Window;
 use critical::scaling::{axis_gap, contact_lines};
 use figures::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
 use figures::style::Model;
+use kinds::exponents::{self, CONJECTURED, ModelExponents, NAMES, PAPER};
+use kinds::ladder::LadderData;
 use orchestrator::{InputSpec, Inputs};
+use orchestrator::{Params, StageContext};
 use store::ArtefactReader;
+use store::ArtefactWriter;
 use tables::Table;
 
 /// Inputs of the `fig5` scene.
@@ -362,6 +365,52 @@ pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
         .with_f64("half_length", a)
         .with_f64("half_length_error", ae)
         .with_f64("flux", q))
+}
+
+/// The `fig5` scene: Figure 5 (near-critical contact lines and axis gaps collapsed by the
+/// scaling; inputs `ladder`, one per model, and `exponents`) and the tables `exponents.csv` and
+/// `ladder_measurements.csv` (see the module docs). Attributes `contact_lines`, `profiles`.
+pub struct Fig5;
+
+impl Scene for Fig5 {
+    fn name(&self) -> &'static str {
+        "fig5"
+    }
+    fn doc(&self) -> &'static str {
+        "Figure 5: near-critical scaling collapse (figure), exponents and ladder measurements (tables)"
+    }
+    fn code_version(&self) -> u64 {
+        1
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        inputs()
+    }
+    fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
+        vec![
+            OutputSpec::figure("figure", "fig5"),
+            OutputSpec::table("exponents", "exponents.csv"),
+            OutputSpec::table("measurements", "ladder_measurements.csv"),
+        ]
+    }
+    fn render(
+        &self,
+        ctx: &mut StageContext,
+        _params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<Outputs> {
+        let (data, warnings) = fig5_data(inputs)?;
+        for w in warnings {
+            ctx.warn(w);
+        }
+        out.set_attr("contact_lines", data.contact_lines.len() as i64)?;
+        out.set_attr("profiles", data.profiles.len() as i64)?;
+        let r = inputs.one("exponents")?;
+        Ok(Outputs::new()
+            .figure("figure", figures::scenes::fig5::figure(&data)?)
+            .table("exponents", exponent_table(r)?)
+            .table("measurements", measurement_table(r)?))
+    }
 }
 
 #[cfg(test)]

@@ -40,8 +40,8 @@
 //! and its termination, listed in the stage's warnings, and the figure leaves it out. A point
 //! whose contact solve did not converge is flagged likewise (`contact_converged = 0`).
 
-use crate::gapfile;
 use anyhow::{Context, Result, anyhow, bail};
+use formats::gapfile;
 use orchestrator::{
     InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
 };

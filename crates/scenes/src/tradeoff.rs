@@ -1,4 +1,4 @@
-//! Speed against accuracy across fidelity presets: every headline number ([`crate::headline`])
+//! Speed against accuracy across fidelity presets: every headline number ([`kinds::headline`])
 //! of every cached stage, for each params file (cheapest first), with its error against the
 //! finest preset's value and the cost of producing it (wall time and peak memory of the stage
 //! and everything upstream, from the provenance records). Backs `saddleflow tradeoff`, which
@@ -9,9 +9,9 @@
 //! preset "reaches the paper's error bar" when its error against the reference is within the
 //! paper's error bar for that quantity.
 
-use crate::headline::{self, Headline};
 use anyhow::{Context, Result, bail};
 use figures::scenes::tradeoff::{TradeoffCurve, TradeoffData};
+use kinds::headline::{self, Headline};
 use orchestrator::{Plan, Registry, Workspace};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

@@ -904,7 +904,7 @@ impl StageKind for SweepKind {
                             "{} branch, step {step}: load {} E*h0/λ, {}",
                             ps.branch.name(),
                             ps.load,
-                            crate::io::interaction_json(&ps.interaction)
+                            formats::solution::interaction_json(&ps.interaction)
                         )
                     });
                 }

@@ -19,12 +19,15 @@
 //!   `ladder` artefacts may each hold some of the models; the fit is taken from the first one
 //!   that carries `beta` and `beta_prefactor`.
 
-use crate::flow::FlowData;
+use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Result, bail};
 use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit};
 use figures::style::Model;
-use orchestrator::{InputSpec, Inputs, Params, StageContext};
+use kinds::flow::FlowData;
+use orchestrator::{InputSpec, Inputs};
+use orchestrator::{ParamSpec, ParamType, Params, StageContext};
 use serde_json::{Value, json};
+use store::ArtefactWriter;
 
 /// The `flow` input (all the table kind takes).
 pub fn flow_input() -> InputSpec {
@@ -395,6 +398,73 @@ pub fn tables(inputs: &Inputs) -> Result<Vec<tables::Table>> {
         .with_f64("contact_area_flowing", s_af)
         .with_f64("contact_area_blocked", s_ab);
     Ok(vec![points, stops])
+}
+
+/// The `fig6` scene: flux (effective conductivity) against load for the three models, hard
+/// wall solid and adhesion dashed with the point where its flow stops marked; the
+/// near-critical current density; the near-critical flux ladder when a `ladder` input provides
+/// it; and the tables `fig6.csv`, `fig6_stops.csv` ([`tables`]). Attributes `points_plotted`,
+/// `curves`.
+pub struct Fig6;
+
+impl Scene for Fig6 {
+    fn name(&self) -> &'static str {
+        "fig6"
+    }
+    fn doc(&self) -> &'static str {
+        "Figure 6: flux against load, near-critical current density and flux ladder (figure, points and stops tables)"
+    }
+    fn code_version(&self) -> u64 {
+        1
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::new("load_unit", ParamType::one_of(&["absolute", "p_fc"]))
+                .default("absolute")
+                .doc("load axis in E* h0/λ or in units of each model's p_fc"),
+            ParamSpec::new("flux_log", ParamType::Bool)
+                .default(true)
+                .doc("logarithmic flux axis"),
+            ParamSpec::new("map_half_width", ParamType::non_negative())
+                .default(0.3)
+                .doc("half width (λ) of the current map's window around its largest |j| (0: the whole cell)"),
+            ParamSpec::new("map_arrows", ParamType::int_range(0, 60))
+                .default(12)
+                .doc("arrows per side of the current map (0: none)"),
+        ]
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        inputs()
+    }
+    fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
+        vec![
+            OutputSpec::figure("figure", "fig6"),
+            OutputSpec::table("points", TABLE_FILES[0]),
+            OutputSpec::table("stops", TABLE_FILES[1]),
+        ]
+    }
+    fn render(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<Outputs> {
+        let (data, stats) = data(ctx, inputs, params)?;
+        let plotted: usize = data.flow.iter().map(|c| c.load.len()).sum();
+        out.set_attr("points_plotted", plotted as i64)?;
+        out.set_attr("curves", stats.clone())?;
+        let mut t = tables(inputs)?.into_iter();
+        let (points, stops) = (t.next(), t.next());
+        let (Some(points), Some(stops)) = (points, stops) else {
+            anyhow::bail!("Figure 6's tables: expected points and stops");
+        };
+        Ok(Outputs::new()
+            .figure("figure", figures::scenes::fig6::figure(&data)?)
+            .table("points", points)
+            .table("stops", stops)
+            .with_stats(stats))
+    }
 }
 
 #[cfg(test)]

@@ -20,11 +20,14 @@
 //! contact) it is one instability and the ratio is exactly 1.
 
 use crate::jumptable::GridSweep;
-use crate::sweep::{Point, SweepData};
+use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Result, bail};
 use figures::scenes::fig3::{Fig3Data, GammaBranch, ModelGammaPath};
 use figures::style::Model;
+use kinds::sweep::{Point, SweepData};
 use orchestrator::{InputSpec, Inputs};
+use orchestrator::{Params, StageContext};
+use store::ArtefactWriter;
 
 /// The models of Figure 3, in the order of its inputs (and of Figure 1's panels).
 pub const MODELS: [&str; 3] = ["hexagonal", "square", "triangular"];
@@ -40,8 +43,8 @@ pub fn paper_ratio(model: &str) -> Option<f64> {
 
 /// Headline numbers: γ_p, γ_fc and γ_fc/γ_p of each model on its finest grid (error: half
 /// the bracket; for the ratio, half the spread of its bounds).
-pub fn headlines(models: &[(String, Vec<GridSweep>)]) -> Vec<crate::headline::Headline> {
-    use crate::headline::Headline;
+pub fn headlines(models: &[(String, Vec<GridSweep>)]) -> Vec<kinds::headline::Headline> {
+    use kinds::headline::Headline;
     let mut out = Vec::new();
     for (m, grids) in models {
         let Some(finest) = grids.last() else { continue };
@@ -221,7 +224,7 @@ pub fn data(models: &[(String, Vec<GridSweep>)]) -> (Fig3Data, usize) {
     for (m, sweeps) in models {
         let d = &sweeps.last().expect("read() checks for one sweep").data;
         let mut branch = |name: &str| {
-            let b = crate::figure::converged_branch(d, name, &|p| p.strength);
+            let b = crate::fig2::converged_branch(d, name, &|p| p.strength);
             left_out += b.left_out;
             GammaBranch {
                 gamma0: b.x,
@@ -359,6 +362,58 @@ pub fn points_table(models: &[(String, Vec<GridSweep>)]) -> tables::Table {
         .with_i64("iterations", it)
         .with_f64("force_residual", fr)
         .with_bool("jump", jump)
+}
+
+/// The `fig3` scene: the figure (finest grid per model, jumps marked, γ_p and γ_fc on the
+/// axis) and the tables `fig3.csv` (every point, [`points_table`]), `fig3_thresholds.csv` (γ_p,
+/// γ_fc, γ_fc/γ_p, break-up and trough opening per model and grid, [`thresholds_table`]) and
+/// `fig3_jumps.csv` (every jump, matched across grids, [`crate::jumptable::table`]); headline
+/// numbers [`headlines`]. Attribute `points_left_out`.
+pub struct Fig3;
+
+impl Scene for Fig3 {
+    fn name(&self) -> &'static str {
+        "fig3"
+    }
+    fn doc(&self) -> &'static str {
+        "Figure 3: contact area against γ0 at zero load, three models (figure, points, thresholds and jumps tables, γ headlines)"
+    }
+    fn code_version(&self) -> u64 {
+        1
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        inputs()
+    }
+    fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
+        vec![
+            OutputSpec::figure("figure", "fig3"),
+            OutputSpec::table("points", "fig3.csv"),
+            OutputSpec::table("thresholds", "fig3_thresholds.csv"),
+            OutputSpec::table("jumps", "fig3_jumps.csv"),
+        ]
+    }
+    fn render(
+        &self,
+        ctx: &mut StageContext,
+        _params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<Outputs> {
+        let models = read(inputs)?;
+        kinds::headline::write(out, &headlines(&models))?;
+        let (data, left_out) = data(&models);
+        if left_out > 0 {
+            ctx.warn(format!(
+                "{left_out} non-converged points of the finest sweeps are left out of the figure"
+            ));
+        }
+        out.set_attr("points_left_out", left_out as i64)?;
+        Ok(Outputs::new()
+            .figure("figure", figures::scenes::fig3::figure(&data)?)
+            .table("points", points_table(&models))
+            .table("thresholds", thresholds_table(&models))
+            .table("jumps", crate::jumptable::table(&models)))
+    }
 }
 
 #[cfg(test)]

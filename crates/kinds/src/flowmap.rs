@@ -27,9 +27,9 @@
 //! - `bisection/*`: every probe's `load`, `flows` (u8), `contact_area`, `iterations`,
 //!   `converged` (u8).
 
-use crate::gapfile;
 use anyhow::{Result, anyhow, bail};
 use contact::{Interaction, Method, Solution, SolverOptions};
+use formats::gapfile;
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
     StageReport,

@@ -1,0 +1,47 @@
+//! kinds: the compute stage kinds of the saddleflow pipeline, each an adapter from typed
+//! parameters and input artefacts to the physics crates and back to an artefact.
+//!
+//! | kind | what | inputs | output |
+//! |---|---|---|---|
+//! | `surface` | one of the three models on a 2^n × 2^n grid, statistics, critical points | – | `height`, `lx`, `ly`, `critical/*` |
+//! | `sweep` | quasi-static loading/unloading path (or γ path at fixed load): area, gap, energy, solver statistics per point, detected jumps, pull-off | `surface` | `points/*`, `jumps/*`, `ended/*`, optional `fields/*` |
+//! | `flow` | Reynolds flow at every stored gap of a load path: flux, conductivity, percolation, where flow stops; optional current densities | `sweep` | `points/*`, `stops/*`, `currents/*` |
+//! | `flowmap` | current density at a near-critical hard-wall state l = (L − L_c)/L_c < 0 (L_c by bisection on the grid) | `surface` | `gap`, `pressure`, `current_x`, `current_y`, `bisection/*` |
+//! | `critical` | percolation threshold of the hard-wall contact on one or more grids (coarse to fine), averaged over sub-grid shifts: L_c brackets (x, y, any), a_p raw and corrected, sub-grid L_c and ζ from the saddle gap, the finest grid's near-critical fields | – | `level/<n>/*`, `gap`, `above/*` |
+//! | `resolution` | one model's `critical` levels extrapolated to zero grid spacing | `levels` (`critical`) | per quantity `v`, `sem`, `h` and the fit |
+//! | `ladder` | hard-wall solves at reduced loads l around L_c (±0.002 … ±0.02 and 0), warm-started, coarse to fine: a window of gap and pressure around one saddle and the flux per rung | `critical` | `level/<n>/*` |
+//! | `exponents` | ζ, υ, χ, β per model from the ladders (fit and grid-spread errors), the identity β = 3ζ + υ − χ | `ladder` (one per model) | `model/<lattice>/*` |
+//! | `extremes` | the solvers at extreme loads and grids, with wall time and peak memory | – | table side output |
+//! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
+//!
+//! Each kind lives in the module of its name and implements [`orchestrator::StageKind`]; the
+//! readers of a kind's artefact live in its module too (the scenes read through them).
+//! [`headline`] is the shared record of headline numbers that kinds publish.
+
+pub mod critical;
+pub mod exponents;
+pub mod extremes;
+pub mod flow;
+pub mod flowmap;
+pub mod headline;
+pub mod ladder;
+pub mod mock;
+pub mod resolution;
+pub mod surface;
+pub mod sweep;
+
+use orchestrator::Registry;
+
+/// Registers every compute kind.
+pub fn register(r: &mut Registry) {
+    r.register(surface::SurfaceKind);
+    r.register(sweep::SweepKind);
+    r.register(flow::FlowKind);
+    r.register(flowmap::FlowMapKind);
+    r.register(critical::CriticalKind);
+    r.register(resolution::ResolutionKind);
+    r.register(ladder::LadderKind);
+    r.register(exponents::ExponentsKind);
+    r.register(extremes::ExtremesKind);
+    r.register(mock::MockKind);
+}
