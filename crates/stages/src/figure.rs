@@ -161,6 +161,22 @@ fn load_loop(d: &SweepData) -> (LoadLoop, usize) {
 }
 
 impl StageKind for FigureKind {
+    /// Lower bound: the fields a scene reads whole (fig1: a displacement, fig4: a gap, fig6:
+    /// the gap and two current components) on the finest upstream grid; the other scenes read
+    /// per-point data only (kB): 0.
+    fn memory_estimate(
+        &self,
+        params: &Params,
+        inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        let fields = match params.str("scene").ok()? {
+            "fig1" | "fig4" => 1,
+            "fig6" => 3,
+            _ => return Some(0),
+        };
+        let n = orchestrator::upstream_max(inputs, &["n", "ns"])?;
+        Some(fields * crate::surface::field_bytes(n))
+    }
     fn name(&self) -> &str {
         "figure"
     }

@@ -225,6 +225,14 @@ fn fig2_tables(inputs: &Inputs) -> Result<Vec<Table>> {
 }
 
 impl StageKind for TableKind {
+    /// Lower bound 0: tables of per-point data (kB), no grid-sized allocation.
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        Some(0)
+    }
     fn name(&self) -> &str {
         "table"
     }
