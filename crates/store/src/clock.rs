@@ -30,13 +30,13 @@ struct Counter {
     ns: AtomicU64,
 }
 
-const ZERO: Counter = Counter {
-    calls: AtomicU64::new(0),
-    bytes: AtomicU64::new(0),
-    ns: AtomicU64::new(0),
-};
-
-static COUNTERS: [Counter; 3] = [ZERO, ZERO, ZERO];
+static COUNTERS: [Counter; 3] = [const {
+    Counter {
+        calls: AtomicU64::new(0),
+        bytes: AtomicU64::new(0),
+        ns: AtomicU64::new(0),
+    }
+}; 3];
 
 /// Calls, bytes and seconds of one purpose.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
