@@ -73,7 +73,8 @@ fn stamp(p: &Path) -> Option<Stamp> {
 }
 
 /// Whether a stamp's times have a sub-second part (a file system with whole-second times has
-/// both nanosecond parts zero; on a nanosecond one both are zero once in about a billion).
+/// both nanosecond parts zero; on a finer one both are zero only by a rare coincidence, which
+/// costs one re-read).
 fn fine_times(st: &Stamp) -> bool {
     st[3] % 1_000_000_000 != 0 || st[4] % 1_000_000_000 != 0
 }
