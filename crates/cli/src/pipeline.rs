@@ -171,6 +171,7 @@ pub fn run(cmd: Command) -> Result<()> {
                     .unwrap_or_default()
             );
             let _ = to_run;
+            eprintln!("{}", hashing_line(&summary));
             // the summary first: a warning such as a full disk comes after the counts and
             // the failed stages, never instead of them
             let warnings: String = summary
@@ -410,4 +411,30 @@ fn print_decisions(plan: &Plan, decisions: &[orchestrator::Decision]) {
         plan.pipeline,
         plan.params
     );
+}
+
+/// One line on the cost of verification: hashing time (summed over threads) against the
+/// summed compute time of the stages that ran.
+fn hashing_line(summary: &orchestrator::RunSummary) -> String {
+    let h = &summary.hashing;
+    let share = if summary.stage_s > 0.0 {
+        format!(
+            " = {:.2} % of {} stage time",
+            100.0 * h.seconds() / summary.stage_s,
+            human_duration(summary.stage_s)
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "hashing: {:.3} s{share} ({:.1} MB; {} digests at publication {:.3} s, {} verifications {:.3} s, {} output files {:.3} s)",
+        h.seconds(),
+        h.bytes() as f64 / 1e6,
+        h.publish.calls,
+        h.publish.seconds,
+        h.verify.calls,
+        h.verify.seconds,
+        h.file.calls,
+        h.file.seconds,
+    )
 }

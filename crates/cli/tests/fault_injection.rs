@@ -155,6 +155,16 @@ fn fault_injection_byte_flips_foreign_artefacts_and_truncation() {
     let files = cache_files(root);
     assert!(files.len() > 20, "{files:?}");
 
+    // every artefact was stamped verified at its publication: the first rerun re-reads none
+    // (the flips below show that a stamp does not hide a change)
+    let o = run(root);
+    ok(&o);
+    assert!(
+        text(&o).contains(" 0 verifications "),
+        "the first no-op rerun re-hashed artefacts:\n{}",
+        text(&o)
+    );
+
     // 16-byte flips at random places of 8 random cache files
     let mut rng = Lcg(18);
     for round in 0..8 {

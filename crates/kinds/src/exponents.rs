@@ -301,6 +301,14 @@ pub fn identity(z: &Exponent, u: &Exponent, c: &Exponent) -> (f64, f64) {
 }
 
 impl StageKind for ExponentsKind {
+    /// Lower bound 0: fits over the ladders' per-rung numbers (kB), no grid-sized allocation.
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        Some(0)
+    }
     fn name(&self) -> &str {
         "exponents"
     }

@@ -96,6 +96,16 @@ fn lattice_of(params: &Params) -> Result<Lattice> {
 }
 
 impl StageKind for ExtremesKind {
+    /// Lower bound: heights, displacement, pressure and gap on the largest grid (its doc's
+    /// 7 GB at n = 13 is about 13 such fields: FFT buffers and minimiser state).
+    fn memory_estimate(
+        &self,
+        params: &Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        let n = params.i64("n_largest").ok()?.max(params.i64("n").ok()?);
+        Some(4 * crate::surface::field_bytes(n))
+    }
     fn name(&self) -> &str {
         "extremes"
     }

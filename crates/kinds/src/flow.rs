@@ -143,6 +143,16 @@ fn wanted_branch(params: &Params, branch: &str) -> bool {
 }
 
 impl StageKind for FlowKind {
+    /// Lower bound: the gap, the pressure and the two face conductances on the grid of the
+    /// sweep's surface (the solver holds more: multigrid levels, Krylov vectors).
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        let n = orchestrator::upstream_max(inputs, &["n"])?;
+        Some(4 * crate::surface::field_bytes(n))
+    }
     fn name(&self) -> &str {
         "flow"
     }

@@ -63,6 +63,16 @@ struct Probe {
 }
 
 impl StageKind for FlowMapKind {
+    /// Lower bound: heights, displacement, pressure and gap of the contact solve on the
+    /// surface's grid (the flow solve after it reuses as much).
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        let n = orchestrator::upstream_max(inputs, &["n"])?;
+        Some(4 * crate::surface::field_bytes(n))
+    }
     fn name(&self) -> &str {
         "flowmap"
     }

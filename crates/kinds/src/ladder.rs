@@ -50,6 +50,15 @@ pub const CODE_VERSION: u64 = 2;
 pub const DEFAULT_LS: [f64; 9] = [-0.02, -0.01, -0.005, -0.002, 0.0, 0.002, 0.005, 0.01, 0.02];
 
 impl StageKind for LadderKind {
+    /// Lower bound: heights, displacement, pressure and gap on the finest grid of the ladder.
+    fn memory_estimate(
+        &self,
+        params: &Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        let n = crate::critical::ns(params).ok()?.into_iter().max()?;
+        Some(4 * crate::surface::field_bytes(n as i64))
+    }
     fn name(&self) -> &str {
         "ladder"
     }

@@ -13,6 +13,14 @@ use store::ArtefactWriter;
 pub struct MockKind;
 
 impl StageKind for MockKind {
+    /// Lower bound 0: a test kind holding a number, no grid-sized allocation.
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        Some(0)
+    }
     fn name(&self) -> &str {
         "mock"
     }

@@ -87,6 +87,14 @@ const AREA_QUANTITIES: [&str; 6] = [
 const LOAD_QUANTITIES: [&str; 4] = ["l_c", "l_c_x", "l_c_y", "p_fc_over_l_c"];
 
 impl StageKind for ResolutionKind {
+    /// Lower bound 0: fits over per-level numbers (bytes), no grid-sized allocation.
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        Some(0)
+    }
     fn name(&self) -> &str {
         "resolution"
     }

@@ -85,7 +85,7 @@ pub fn lattice_from_name(name: &str) -> Result<Lattice> {
 }
 
 /// Bytes of one `f64` field on a 2^n × 2^n grid.
-pub(crate) fn field_bytes(n: i64) -> u64 {
+pub fn field_bytes(n: i64) -> u64 {
     8u64 << (2 * n.clamp(0, 30) as u32)
 }
 

@@ -125,7 +125,32 @@ pub enum What {
         skipped: usize,
         /// Wall time, seconds.
         wall_s: f64,
+        /// Summed compute time of the stages that ran, seconds.
+        stage_s: f64,
+        /// Hashing done by the run's process.
+        hashing: Hashing,
     },
+}
+
+/// Time spent hashing during a run (summed over threads), by purpose.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Hashing {
+    /// Seconds, all purposes.
+    pub seconds: f64,
+    /// Bytes fed to BLAKE3, all purposes.
+    pub bytes: u64,
+    /// Content digests at publication: seconds, count.
+    pub publish_s: f64,
+    /// (count)
+    pub publish_n: u64,
+    /// Content digests recomputed to verify cache entries: seconds, count.
+    pub verify_s: f64,
+    /// (count)
+    pub verify_n: u64,
+    /// Side-output files hashed: seconds, count.
+    pub files_s: f64,
+    /// (count)
+    pub files_n: u64,
 }
 
 /// One event.

@@ -269,9 +269,12 @@ pub trait StageKind: Send + Sync {
         Ok(())
     }
     /// A lower bound of the stage's peak memory in bytes, from its parameters and its inputs'
-    /// (as in [`check_inputs`](Self::check_inputs)); `None`: unknown. A stage whose bound
-    /// exceeds the memory available when it would start fails at once, naming the estimate,
-    /// instead of being killed midway. A lower bound, so that nothing that fits is refused.
+    /// (as in [`check_inputs`](Self::check_inputs), each input's parameters also holding its
+    /// own inputs' under [`UPSTREAM`], recursively: see [`upstream_max`]); `None`: unknown. A
+    /// stage whose bound exceeds the memory available when it would start fails at once,
+    /// naming the estimate, instead of being killed midway; so does one for which that many
+    /// bytes cannot be reserved (an address-space limit). A lower bound, so that nothing that
+    /// fits is refused.
     fn memory_estimate(
         &self,
         _params: &Params,
@@ -301,6 +304,42 @@ pub trait StageKind: Send + Sync {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport>;
+}
+
+/// The key under which [`StageKind::memory_estimate`] finds an input's own inputs' parameters
+/// (an object: input name → array of parameter objects, each again with this key if it has
+/// inputs).
+pub const UPSTREAM: &str = "_inputs";
+
+/// The largest integer under any of `keys` (an integer, or the largest of an array of them)
+/// in the parameters of `inputs` and of everything upstream of them (through [`UPSTREAM`]).
+/// E.g. the finest grid exponent a stage's inputs derive from.
+pub fn upstream_max(inputs: &BTreeMap<String, Vec<Params>>, keys: &[&str]) -> Option<i64> {
+    fn walk(v: &Value, keys: &[&str], best: &mut Option<i64>) {
+        let Some(o) = v.as_object() else { return };
+        for k in keys {
+            let vals: Vec<i64> = match o.get(*k) {
+                Some(Value::Array(a)) => a.iter().filter_map(Value::as_i64).collect(),
+                Some(x) => x.as_i64().into_iter().collect(),
+                None => Vec::new(),
+            };
+            for x in vals {
+                *best = Some(best.map_or(x, |b| b.max(x)));
+            }
+        }
+        if let Some(up) = o.get(UPSTREAM).and_then(Value::as_object) {
+            for list in up.values() {
+                for p in list.as_array().into_iter().flatten() {
+                    walk(p, keys, best);
+                }
+            }
+        }
+    }
+    let mut best = None;
+    for p in inputs.values().flatten() {
+        walk(&p.to_value(), keys, &mut best);
+    }
+    best
 }
 
 /// The automatic identity of the code a kind runs: one hash per source part that can change
@@ -347,5 +386,28 @@ impl Registry {
     /// All kind names, sorted.
     pub fn names(&self) -> Vec<&str> {
         self.kinds.keys().map(String::as_str).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn p(v: Value) -> Params {
+        Params(v.as_object().unwrap().clone())
+    }
+
+    #[test]
+    fn upstream_max_finds_the_grid_of_an_input_of_an_input() {
+        // flow ← sweep ← surface(n = 7); a second input with ns = [4, 9]
+        let sweep = p(json!({"interaction": "hardwall", "_inputs": {"surface": [{"n": 7}]}}));
+        let crit = p(json!({"ns": [4, 9]}));
+        let mut inputs = BTreeMap::new();
+        inputs.insert("sweep".to_string(), vec![sweep.clone()]);
+        assert_eq!(upstream_max(&inputs, &["n", "ns"]), Some(7));
+        inputs.insert("critical".to_string(), vec![crit]);
+        assert_eq!(upstream_max(&inputs, &["n", "ns"]), Some(9));
+        assert_eq!(upstream_max(&inputs, &["m"]), None);
     }
 }

@@ -9,18 +9,68 @@ pub fn reset_peak() -> bool {
     std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
-/// Peak resident set size of the process in MiB (`VmHWM`), if known.
-pub fn peak_mib() -> Option<f64> {
+/// A `kB` line of `/proc/self/status` in MiB.
+fn status_mib(field: &str) -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = status.lines().find(|l| l.starts_with(field))?;
     let kib: f64 = line
-        .trim_start_matches("VmHWM:")
+        .trim_start_matches(field)
         .trim()
         .trim_end_matches("kB")
         .trim()
         .parse()
         .ok()?;
     Some(kib / 1024.0)
+}
+
+/// Peak resident set size of the process in MiB (`VmHWM`), if known.
+pub fn peak_mib() -> Option<f64> {
+    status_mib("VmHWM:")
+}
+
+/// Resident set size of the process now in MiB (`VmRSS`), if known.
+pub fn rss_mib() -> Option<f64> {
+    status_mib("VmRSS:")
+}
+
+/// The process's address-space limit (soft `RLIMIT_AS`, `ulimit -v`) in bytes, from
+/// `/proc/self/limits`; `None` when unlimited or unknown.
+pub fn address_space_limit() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    line.trim_start_matches("Max address space")
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// Tries to reserve `need` bytes (`Vec::try_reserve_exact`) and gives them back at once. Under
+/// an address-space limit (`RLIMIT_AS`) this fails as the stage's own allocation would, but
+/// here as an error instead of an abort: the message names the estimate and the limit. The
+/// pages are never touched, so where memory is overcommitted (no such limit; a cgroup limit)
+/// it passes and costs nothing; there [`check_fits`] is the guard.
+pub fn probe(need: u64) -> Result<(), String> {
+    let mut v: Vec<u8> = Vec::new();
+    let Ok(n) = usize::try_from(need) else {
+        return Err(format!(
+            "needs at least {need} bytes, more than this machine can address"
+        ));
+    };
+    if v.try_reserve_exact(n).is_ok() {
+        return Ok(());
+    }
+    let mib = |b: f64| b / (1u64 << 20) as f64;
+    let limit = address_space_limit().map_or("unknown".to_string(), |l| {
+        format!("{:.0} MiB", mib(l as f64))
+    });
+    let used = status_mib("VmSize:").map_or(String::new(), |m| format!(", {m:.0} MiB in use"));
+    Err(format!(
+        "needs at least {:.0} MiB (its kind's lower estimate of the peak), which cannot be allocated: the process's address-space limit (RLIMIT_AS, `ulimit -v`) is {limit}{used}; raise the limit or use a smaller grid",
+        mib(need as f64)
+    ))
 }
 
 /// Memory available to this process now, bytes: `MemAvailable` of `/proc/meminfo`, lowered to
@@ -76,6 +126,17 @@ mod tests {
         if let Some(a) = super::available_bytes() {
             assert!(a > 0);
         }
+    }
+
+    #[test]
+    fn a_probe_passes_for_little_and_fails_for_the_impossible() {
+        assert!(super::probe(1 << 20).is_ok());
+        // 2^62 bytes exceed every address space: the reservation fails without aborting
+        let e = super::probe(1 << 62).unwrap_err();
+        assert!(
+            e.contains("4398046511104 MiB") && e.contains("RLIMIT_AS"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -404,6 +404,9 @@ impl Plan {
         // 5. keys, inputs first
         let mut stages: Vec<PlannedStage> = Vec::with_capacity(order.len());
         let mut by_name: HashMap<String, usize> = HashMap::new();
+        // each stage's parameters with those of everything upstream under `_inputs`, for
+        // memory estimates (a flow stage's grid is its sweep's surface's)
+        let mut deep: HashMap<String, Params> = HashMap::new();
         for name in order {
             let decl = &pipeline.stages[&name];
             let (imp, params) = resolved[name.as_str()].clone();
@@ -425,6 +428,24 @@ impl Plan {
                         format!("stage `{name}`: {e}"),
                     )])
                 })?;
+            if let Some(given) = deep_inputs(&edges[name.as_str()], &deep) {
+                let mut d = params.clone();
+                d.0.insert(
+                    crate::kind::UPSTREAM.into(),
+                    Value::Object(
+                        given
+                            .into_iter()
+                            .map(|(k, v)| {
+                                (
+                                    k,
+                                    Value::Array(v.into_iter().map(|p| p.to_value()).collect()),
+                                )
+                            })
+                            .collect(),
+                    ),
+                );
+                deep.insert(name.clone(), d);
+            }
             by_name.insert(name.clone(), stages.len());
             stages.push(PlannedStage {
                 kind: imp.name().to_string(),
@@ -432,7 +453,7 @@ impl Plan {
                 code,
                 side_outputs: imp.side_outputs(&params),
                 cost: imp.cost(&params).max(1e-6),
-                memory: input_params(&edges[name.as_str()], &resolved)
+                memory: deep_inputs(&edges[name.as_str()], &deep)
                     .and_then(|given| imp.memory_estimate(&params, &given)),
                 inputs,
                 input_keys,
@@ -604,6 +625,21 @@ fn input_params(
                 .iter()
                 .map(|n| resolved.get(n.as_str()).map(|(_, q)| q.clone()))
                 .collect();
+            ps.map(|ps| (iname.clone(), ps))
+        })
+        .collect()
+}
+
+/// The parameters of the stages wired to each input, each with its own upstream under
+/// [`crate::kind::UPSTREAM`] (`None` if one is unknown).
+fn deep_inputs(
+    edges: &BTreeMap<String, Vec<String>>,
+    deep: &HashMap<String, Params>,
+) -> Option<BTreeMap<String, Vec<Params>>> {
+    edges
+        .iter()
+        .map(|(iname, names)| {
+            let ps: Option<Vec<Params>> = names.iter().map(|n| deep.get(n).cloned()).collect();
             ps.map(|ps| (iname.clone(), ps))
         })
         .collect()

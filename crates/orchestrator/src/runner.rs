@@ -115,6 +115,13 @@ pub struct RunSummary {
     pub log: Option<PathBuf>,
     /// Problems that did not fail a stage (e.g. the cache index could not be saved).
     pub warnings: Vec<String>,
+    /// Hashing done by this process during the run: content digests at publication and for
+    /// verification, side-output files (summed over threads; SLURM jobs hash in their own
+    /// processes and are not counted).
+    pub hashing: store::HashStats,
+    /// Summed compute time of the stages that ran here, seconds (what `hashing` is compared
+    /// with).
+    pub stage_s: f64,
 }
 
 impl RunSummary {
@@ -184,6 +191,7 @@ fn planned_event(d: &Decision) -> What {
 
 /// Runs the selected part of `plan` in `ws`.
 pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
+    let hash0 = store::HashStats::now();
     let selected = plan.select(&opts.only)?;
     let jobs = opts.jobs.max(1);
     let _locks = if opts.dry_run {
@@ -374,6 +382,7 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
                             }
                         ),
                     );
+                    summary.stage_s += x.wall_s;
                     log.push(
                         &s.name,
                         &s.kind,
@@ -450,6 +459,8 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
     record_outputs(ws, plan, &summary);
     ws.save_verified();
     summary.wall_s = started.elapsed().as_secs_f64();
+    summary.hashing = store::HashStats::now().since(&hash0);
+    let h = &summary.hashing;
     log.push(
         "",
         "",
@@ -460,6 +471,17 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
             failed: summary.failed.len(),
             skipped: summary.skipped.len(),
             wall_s: log.elapsed(),
+            stage_s: summary.stage_s,
+            hashing: crate::events::Hashing {
+                seconds: h.seconds(),
+                bytes: h.bytes(),
+                publish_s: h.publish.seconds,
+                publish_n: h.publish.calls,
+                verify_s: h.verify.seconds,
+                verify_n: h.verify.calls,
+                files_s: h.file.seconds,
+                files_n: h.file.calls,
+            },
         },
     );
     summary.events = log.events();
@@ -677,7 +699,13 @@ fn execute(
     if let (Some(need), Some(avail)) = (s.memory, crate::memory::available_bytes()) {
         crate::memory::check_fits(need, avail).map_err(|e| anyhow!(e))?;
     }
+    // an allocation failure inside the stage aborts the process (stable Rust); one that can be
+    // foreseen fails here, as this stage's failure
+    if let Some(need) = s.memory {
+        crate::memory::probe(need).map_err(|e| anyhow!(e))?;
+    }
     let own_peak = alone && crate::memory::reset_peak();
+    let rss_start = crate::memory::rss_mib();
     // open inputs
     let mut map = BTreeMap::new();
     for (iname, names) in &s.inputs {
@@ -749,6 +777,15 @@ fn execute(
             "peak_rss_scope".into(),
             serde_json::json!(if own_peak { "stage" } else { "process" }),
         );
+        if let Some(start) = rss_start {
+            obj.insert("rss_start_mib".into(), serde_json::json!(start));
+        }
+        if let Some(need) = s.memory {
+            obj.insert(
+                "memory_estimate_mib".into(),
+                serde_json::json!(need as f64 / (1u64 << 20) as f64),
+            );
+        }
     }
     prov.warnings = warnings.clone();
     prov.side_outputs = records;

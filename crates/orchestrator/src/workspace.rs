@@ -19,9 +19,18 @@ use store::{ArtefactReader, Integrity};
 /// Any write to the file or replacement of it changes the stamp (the status-change time cannot
 /// be set back without privileges), and the next look re-reads it in full. The stamps live in
 /// memory for the process and in `results/cache/verified.json` across runs (written by `run`);
-/// with a matching stamp only the complete mark and the stored key are read. Deleting that
-/// file forces a full verification (e.g. to look for silent media corruption, which changes no
-/// stamp).
+/// with a matching stamp the entry is valid without being opened: a no-op rerun costs one
+/// `stat` per entry. Deleting that file forces a full verification (e.g. to look for silent
+/// media corruption, which changes no stamp).
+///
+/// An artefact this process publishes is stamped at once ([`Workspace::mark_verified`]): its
+/// writer computed the digest from the values it wrote, and the stamp is taken after the
+/// rename. So the first rerun after a run re-reads nothing. What a stamp cannot see is a write
+/// by another process within the same file-system clock tick (a few ms) after the rename; cache
+/// writers hold the results lock, so only a process ignoring it could do that. On a file system
+/// with whole-second times (both nanosecond parts zero) that window is a second, and such a
+/// stamp is trusted for this process only until it is [`RACY_NS`] old, as git does with its
+/// "racily clean" entries.
 #[derive(Clone, Debug)]
 pub struct Workspace {
     /// The project root.
@@ -61,6 +70,13 @@ fn stamp(p: &Path) -> Option<Stamp> {
         let _ = m;
         None // no status-change time: always verify in full
     }
+}
+
+/// Whether a stamp's times have a sub-second part (a file system with whole-second times has
+/// both nanosecond parts zero; on a finer one both are zero only by a rare coincidence, which
+/// costs one re-read).
+fn fine_times(st: &Stamp) -> bool {
+    st[3] % 1_000_000_000 != 0 || st[4] % 1_000_000_000 != 0
 }
 
 impl Workspace {
@@ -137,14 +153,17 @@ impl Workspace {
         (disk.get(&self.memo_key(s)) == Some(now)).then_some(false)
     }
 
-    fn remember(&self, s: &PlannedStage, p: PathBuf, now: Stamp) {
+    /// `published`: this process wrote the file and stamped it right after renaming it (see
+    /// [`Workspace`]).
+    fn remember(&self, s: &PlannedStage, p: PathBuf, now: Stamp, published: bool) {
         // file times are coarse (a clock tick of a few ms): a file changed within the same tick
         // after its verification would keep its stamp. As git does with "racily clean"
-        // entries, a stamp younger than RACY_NS is trusted for this process only.
+        // entries, a stamp younger than RACY_NS is trusted for this process only, unless it
+        // was taken by the publisher itself on a file system with sub-second times.
         let wall = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_nanos() as i64);
-        let settled = wall - now[3].max(now[4]) > RACY_NS;
+        let settled = wall - now[3].max(now[4]) > RACY_NS || (published && fine_times(&now));
         if let Ok(mut m) = self.verified.lock() {
             m.session.insert(p, now);
             if !settled {
@@ -168,18 +187,16 @@ impl Workspace {
         match self.known(s, &p, &now) {
             Some(true) => return Integrity::Valid,
             Some(false) => {
-                // content verified before, file untouched since: mark and key suffice
-                let cheap = ArtefactReader::open_complete(&p).and_then(|r| r.verify_key(&s.key));
-                if cheap.is_ok() {
-                    self.remember(s, p, now);
-                    return Integrity::Valid;
-                }
+                // mark, key and content verified before (the key is the file's name), file
+                // untouched since: nothing to read
+                self.remember(s, p, now, false);
+                return Integrity::Valid;
             }
             None => {}
         }
         let verdict = store::digest::check(&p, &s.key);
         if verdict.is_valid() {
-            self.remember(s, p, now);
+            self.remember(s, p, now, false);
         }
         verdict
     }
@@ -189,7 +206,7 @@ impl Workspace {
     pub fn mark_verified(&self, s: &PlannedStage) {
         let p = self.artefact_of(s);
         if let Some(now) = stamp(&p) {
-            self.remember(s, p, now);
+            self.remember(s, p, now, true);
         }
     }
 

@@ -99,6 +99,9 @@ impl Scene for Fig1 {
     fn code_version(&self) -> u64 {
         1
     }
+    fn fields_read(&self) -> u64 {
+        1
+    }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
             ParamSpec::new("gamma0", ParamType::positive())

@@ -169,6 +169,9 @@ impl Scene for Fig4 {
     fn code_version(&self) -> u64 {
         1
     }
+    fn fields_read(&self) -> u64 {
+        1
+    }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         inputs()
     }

@@ -417,6 +417,9 @@ impl Scene for Fig6 {
     fn code_version(&self) -> u64 {
         1
     }
+    fn fields_read(&self) -> u64 {
+        3
+    }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
             ParamSpec::new("load_unit", ParamType::one_of(&["absolute", "p_fc"]))

@@ -126,6 +126,12 @@ pub trait Scene: Sync {
     fn check(&self, _params: &Params) -> Result<(), ParamIssue> {
         Ok(())
     }
+    /// How many grid-sized fields the scene reads whole from its inputs (fig1: a displacement,
+    /// fig4: a gap, fig6: a gap and two current components): the memory pre-flight's lower
+    /// bound is that many fields on the finest upstream grid; 0 for per-point data (kB).
+    fn fields_read(&self) -> u64 {
+        0
+    }
     /// The input stages.
     fn inputs(&self, params: &Params) -> Vec<InputSpec>;
     /// The outputs it writes.
@@ -216,6 +222,18 @@ impl StageKind for SceneKind {
     }
     fn inputs(&self, params: &Params) -> Vec<InputSpec> {
         self.0.inputs(params)
+    }
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        let fields = self.0.fields_read();
+        if fields == 0 {
+            return Some(0);
+        }
+        let n = orchestrator::upstream_max(inputs, &["n", "ns"])?;
+        Some(fields * kinds::surface::field_bytes(n))
     }
     fn side_outputs(&self, params: &Params) -> Vec<String> {
         self.0

@@ -315,7 +315,7 @@ impl ArtefactWriter {
     /// Records the content digest ([`crate::digest`]), marks the file complete, closes it, fsyncs it, renames it to the final path (replacing
     /// any file there) and fsyncs the folder. Returns the final path.
     pub fn publish(mut self) -> Result<PathBuf> {
-        let digest = crate::digest::content_digest(self.file()?)
+        let digest = crate::digest::digest_for(self.file()?, crate::clock::Purpose::Publish)
             .with_context(|| format!("cannot hash the content of `{}`", self.tmp.display()))?;
         self.set_attr(crate::digest::CONTENT_ATTR, digest)?;
         self.set_attr(COMPLETE_ATTR, true)?;

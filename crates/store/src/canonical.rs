@@ -120,11 +120,14 @@ pub fn hash_bytes(bytes: &[u8]) -> String {
     blake3::hash(bytes).to_hex().to_string()
 }
 
-/// BLAKE3 of a file's content (streamed), as 64 lowercase hex digits.
+/// BLAKE3 of a file's content (streamed), as 64 lowercase hex digits. Its time counts in
+/// [`crate::clock`] ([`crate::clock::Purpose::File`]).
 pub fn hash_file(path: &std::path::Path) -> std::io::Result<String> {
+    let timer = crate::clock::Timer::start(crate::clock::Purpose::File);
     let mut hasher = blake3::Hasher::new();
     let mut file = std::fs::File::open(path)?;
-    std::io::copy(&mut file, &mut hasher)?;
+    let bytes = std::io::copy(&mut file, &mut hasher)?;
+    timer.done(bytes);
     Ok(hasher.finalize().to_hex().to_string())
 }
 

@@ -19,6 +19,7 @@
 //! checks catch most damage there; the rest shows as a read error, which counts as invalid).
 
 use crate::artefact::{ArtefactReader, COMPLETE_ATTR};
+use crate::clock::{Purpose, Timer};
 use anyhow::{Result, anyhow, bail};
 use hdf5::types::{FloatSize, IntSize, TypeDescriptor, VarLenAscii, VarLenUnicode};
 use std::path::Path;
@@ -26,12 +27,25 @@ use std::path::Path;
 /// Root attribute holding the content digest (64 hex digits).
 pub const CONTENT_ATTR: &str = "content_blake3";
 
-fn put(h: &mut blake3::Hasher, bytes: &[u8]) {
+/// BLAKE3 and the number of bytes fed to it (for [`crate::clock`]).
+struct Sink {
+    h: blake3::Hasher,
+    bytes: u64,
+}
+
+impl Sink {
+    fn update(&mut self, b: &[u8]) {
+        self.bytes += b.len() as u64;
+        self.h.update(b);
+    }
+}
+
+fn put(h: &mut Sink, bytes: &[u8]) {
     h.update(&(bytes.len() as u64).to_le_bytes());
     h.update(bytes);
 }
 
-fn le<T: Copy, const N: usize>(h: &mut blake3::Hasher, v: &[T], f: impl Fn(T) -> [u8; N]) {
+fn le<T: Copy, const N: usize>(h: &mut Sink, v: &[T], f: impl Fn(T) -> [u8; N]) {
     h.update(&(v.len() as u64).to_le_bytes());
     for x in v {
         h.update(&f(*x));
@@ -39,7 +53,7 @@ fn le<T: Copy, const N: usize>(h: &mut blake3::Hasher, v: &[T], f: impl Fn(T) ->
 }
 
 /// Hashes the type, shape and values of a dataset or attribute.
-fn values(h: &mut blake3::Hasher, c: &hdf5::Container, what: &str) -> Result<()> {
+fn values(h: &mut Sink, c: &hdf5::Container, what: &str) -> Result<()> {
     let td = c.dtype()?.to_descriptor()?;
     put(h, td.to_string().as_bytes());
     let shape = c.shape();
@@ -71,7 +85,7 @@ fn values(h: &mut blake3::Hasher, c: &hdf5::Container, what: &str) -> Result<()>
     Ok(())
 }
 
-fn attrs(h: &mut blake3::Hasher, loc: &hdf5::Location, path: &str) -> Result<()> {
+fn attrs(h: &mut Sink, loc: &hdf5::Location, path: &str) -> Result<()> {
     let mut names = loc.attr_names()?;
     names.sort();
     for name in names {
@@ -86,7 +100,7 @@ fn attrs(h: &mut blake3::Hasher, loc: &hdf5::Location, path: &str) -> Result<()>
     Ok(())
 }
 
-fn group(h: &mut blake3::Hasher, g: &hdf5::Group, path: &str) -> Result<()> {
+fn group(h: &mut Sink, g: &hdf5::Group, path: &str) -> Result<()> {
     h.update(b"G");
     put(h, path.as_bytes());
     attrs(h, g, path)?;
@@ -113,12 +127,23 @@ fn group(h: &mut blake3::Hasher, g: &hdf5::Group, path: &str) -> Result<()> {
     Ok(())
 }
 
-/// The content digest of an open HDF5 file (see the module docs), 64 hex digits.
+/// The content digest of an open HDF5 file (see the module docs), 64 hex digits. Its time
+/// counts as verification in [`crate::clock`].
 pub fn content_digest(file: &hdf5::File) -> Result<String> {
-    let mut h = blake3::Hasher::new();
+    digest_for(file, Purpose::Verify)
+}
+
+/// [`content_digest`], its time counted under `purpose`.
+pub(crate) fn digest_for(file: &hdf5::File, purpose: Purpose) -> Result<String> {
+    let timer = Timer::start(purpose);
+    let mut h = Sink {
+        h: blake3::Hasher::new(),
+        bytes: 0,
+    };
     h.update(b"saddleflow-content-v1");
     group(&mut h, file, "")?;
-    Ok(h.finalize().to_hex().to_string())
+    timer.done(h.bytes);
+    Ok(h.h.finalize().to_hex().to_string())
 }
 
 /// The verdict on a cache entry.

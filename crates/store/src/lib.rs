@@ -9,6 +9,7 @@
 //!   [`digest::check`] tells a valid cache entry (complete, expected key, matching content) from
 //!   a missing, invalid or damaged one.
 //! - [`Provenance`] is written on every pipeline artefact and read back.
+//! - [`clock`] counts the time this process spends hashing (publication, verification, files).
 //! - [`canonical`] renders JSON canonically and hashes it with BLAKE3 (cache keys).
 //! - [`fsutil`] publishes plain files (figures, CSV) atomically too.
 //!
@@ -27,6 +28,7 @@
 
 pub mod artefact;
 pub mod canonical;
+pub mod clock;
 pub mod digest;
 pub use fsutil;
 pub mod provenance;
@@ -35,5 +37,6 @@ pub use artefact::{
     ArtefactReader, ArtefactWriter, AttrValue, COMPLETE_ATTR, fields, silence_hdf5,
 };
 pub use canonical::{canonical_json, hash_bytes, hash_json, is_key};
+pub use clock::HashStats;
 pub use digest::{CONTENT_ATTR, Integrity, content_digest};
 pub use provenance::{PROVENANCE_GROUP, Provenance, SADDLEFLOW_VERSION, SideOutput};
