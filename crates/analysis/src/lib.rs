@@ -15,7 +15,8 @@
 //! - Extrapolation to zero grid spacing with a fit-plus-subset error bar
 //!   ([`extrapolate_to_zero`]) and Richardson extrapolation ([`richardson_pair`],
 //!   [`richardson_triple`]); formulas in [`extrapolate`].
-//! - Jump detection on quasi-static paths: [`detect_jumps`].
+//! - Jump detection on quasi-static paths: [`detect_jumps`]; hysteresis loops between a path's
+//!   branches and the kind of a jump: [`hysteresis`].
 //! - Scaling collapse: [`rescale_curve`], [`rescale_gap_samples`], [`collapse_quality`],
 //!   [`optimise_collapse`].
 //! - Near-critical asymptotics: running (local) exponents with grid errors ([`running`]),
@@ -28,6 +29,7 @@ pub mod corrections;
 mod error;
 pub mod extrapolate;
 mod fit;
+pub mod hysteresis;
 pub mod jumps;
 mod linear;
 pub mod models;

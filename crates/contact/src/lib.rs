@@ -166,15 +166,49 @@ pub enum Method {
     NonlinearCg,
 }
 
+impl Method {
+    /// Every method, in the order parameter lists show them.
+    pub const ALL: [Method; 5] = [
+        Method::Auto,
+        Method::PolonskyKeer,
+        Method::PolonskyKeerPlain,
+        Method::Fire,
+        Method::NonlinearCg,
+    ];
+
+    /// The name [`FromStr`](std::str::FromStr) reads and [`Display`](std::fmt::Display) writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Auto => "auto",
+            Method::PolonskyKeer => "polonsky-keer",
+            Method::PolonskyKeerPlain => "polonsky-keer-plain",
+            Method::Fire => "fire",
+            Method::NonlinearCg => "nonlinear-cg",
+        }
+    }
+
+    /// Whether the method solves the hard wall only (Polonsky–Keer, either variant).
+    pub fn hard_wall_only(self) -> bool {
+        matches!(self, Method::PolonskyKeer | Method::PolonskyKeerPlain)
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 impl std::str::FromStr for Method {
     type Err = ContactError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if let Some(m) = Method::ALL.into_iter().find(|m| m.name() == s) {
+            return Ok(m);
+        }
         match s {
-            "auto" => Ok(Method::Auto),
-            "polonsky-keer" | "pk" => Ok(Method::PolonskyKeer),
-            "polonsky-keer-plain" | "pk-plain" => Ok(Method::PolonskyKeerPlain),
-            "fire" => Ok(Method::Fire),
-            "nonlinear-cg" | "ncg" => Ok(Method::NonlinearCg),
+            "pk" => Ok(Method::PolonskyKeer),
+            "pk-plain" => Ok(Method::PolonskyKeerPlain),
+            "ncg" => Ok(Method::NonlinearCg),
             _ => Err(ContactError::Parameter {
                 name: "method",
                 value: s.to_string(),

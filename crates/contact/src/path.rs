@@ -1,8 +1,12 @@
 //! Quasi-static paths: loading and unloading branches in the mean pressure, or in the interaction
-//! strength (γ0 or γr) at fixed load. Every step starts from the previous state, so metastable
-//! branches and hysteresis appear where they exist.
+//! strength (γ0 or γr) at fixed load. Every step starts from the previous state (a warm start),
+//! so metastable branches and hysteresis appear where they exist. The reverse branch retraces
+//! the forward values and may continue below the first of them ([`PathSpec::extension`], e.g.
+//! into tensile loads with adhesion); a branch ends early, recorded in [`PathResult::ended`],
+//! when the surfaces separate (pull-off under force control).
 
-use crate::{ContactError, Interaction, Model, Solution, SolverOptions};
+use crate::{ContactError, Interaction, Model, Solution, SolverOptions, StopReason};
+use std::fmt;
 
 /// Which direction a point was reached in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -20,6 +24,12 @@ impl Branch {
             Branch::Loading => "loading",
             Branch::Unloading => "unloading",
         }
+    }
+}
+
+impl fmt::Display for Branch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -49,6 +59,20 @@ pub struct PathSpec {
     pub control: Control,
     /// Whether to run the reverse branch after the forward one.
     pub reverse: bool,
+    /// Control values (mean pressures or strengths, as `control`) that continue the reverse
+    /// branch below the forward branch's first value, decreasing (empty: none).
+    pub extension: Vec<f64>,
+}
+
+/// One planned point of a path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlannedPoint {
+    /// Branch.
+    pub branch: Branch,
+    /// Mean pressure (E* h0/λ).
+    pub load: f64,
+    /// The interaction at this point (its strength varied on a strength path).
+    pub interaction: Interaction,
 }
 
 /// One solved point of a path.
@@ -56,7 +80,8 @@ pub struct PathSpec {
 pub struct PathPoint {
     /// Branch.
     pub branch: Branch,
-    /// Index along the path (forward and reverse branches numbered continuously).
+    /// Index in the plan ([`PathSpec::plan`]; forward and reverse branches numbered
+    /// continuously).
     pub step: usize,
     /// Mean pressure (E* h0/λ).
     pub load: f64,
@@ -78,8 +103,28 @@ pub struct PathPoint {
     pub force_residual: f64,
     /// Converged within tolerance.
     pub converged: bool,
+    /// Why the solve stopped without converging (`None` if it converged).
+    pub stop_reason: Option<StopReason>,
     /// Wall time of the solve (s).
     pub wall_s: f64,
+}
+
+/// A branch that ended early: no equilibrium was found at its next point because the surfaces
+/// separated (pull-off under force control).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PullOff {
+    /// Branch.
+    pub branch: Branch,
+    /// Index in the plan of the point that had no equilibrium.
+    pub step: usize,
+    /// Its mean pressure (E* h0/λ).
+    pub load: f64,
+    /// Its strength (γ0 or γr; 0 for the hard wall).
+    pub strength: f64,
+    /// The mean pressure at which separation was detected (E* h0/λ).
+    pub pressure: f64,
+    /// The smallest gap then (h0).
+    pub min_gap: f64,
 }
 
 /// A finished path.
@@ -87,12 +132,47 @@ pub struct PathPoint {
 pub struct PathResult {
     /// Solved points in path order.
     pub points: Vec<PathPoint>,
-    /// Why a branch ended early (e.g. pull-off), if it did.
-    pub ended: Vec<String>,
+    /// Branches that ended early (pull-off), in path order.
+    pub ended: Vec<PullOff>,
+}
+
+/// Why a path stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum PathError {
+    /// The path or the interaction is invalid.
+    #[error(transparent)]
+    Spec(#[from] ContactError),
+    /// A point could not be solved (other than by pull-off, which ends its branch).
+    #[error("{branch} branch, step {step}: load {load} E*h0/λ, {interaction:?}")]
+    Solve {
+        /// Branch.
+        branch: Branch,
+        /// Index in the plan.
+        step: usize,
+        /// Mean pressure (E* h0/λ).
+        load: f64,
+        /// The interaction there.
+        interaction: Interaction,
+        /// The solver's error.
+        #[source]
+        source: ContactError,
+    },
+    /// The observer failed (e.g. writing a field).
+    #[error("{branch} branch, step {step}")]
+    Observe {
+        /// Branch.
+        branch: Branch,
+        /// Index in the plan.
+        step: usize,
+        /// The observer's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
 }
 
 impl PathSpec {
-    /// Checks that the values are finite and strictly increasing.
+    /// Checks that the values are finite and strictly increasing, and the extension finite and
+    /// strictly decreasing below the first value, and only with a reverse branch.
     pub fn validate(&self) -> Result<(), ContactError> {
         let values = match &self.control {
             Control::Load { values } => values,
@@ -110,7 +190,11 @@ impl PathSpec {
                 allowed: "at least one value",
             });
         }
-        if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+        if let Some(v) = values
+            .iter()
+            .chain(&self.extension)
+            .find(|v| !v.is_finite())
+        {
             return Err(ContactError::parameter("values", *v, "finite numbers"));
         }
         if values.windows(2).any(|w| w[1] <= w[0]) {
@@ -120,11 +204,60 @@ impl PathSpec {
                 allowed: "strictly increasing",
             });
         }
+        let below = std::iter::once(&values[0]).chain(&self.extension);
+        if below.clone().zip(below.skip(1)).any(|(a, b)| b >= a) {
+            return Err(ContactError::Parameter {
+                name: "extension",
+                value: format!("{:?}", self.extension),
+                allowed: "strictly decreasing below the first value",
+            });
+        }
+        if !self.reverse && !self.extension.is_empty() {
+            return Err(ContactError::Parameter {
+                name: "extension",
+                value: format!("{:?}", self.extension),
+                allowed: "empty without a reverse branch (it continues the reverse branch)",
+            });
+        }
         Ok(())
+    }
+
+    /// The planned points for `interaction` (whose strength a strength path replaces): the
+    /// forward values, then (if `reverse`) the same values backwards without the last one,
+    /// followed by the extension. [`PathPoint::step`] indexes this list.
+    pub fn plan(&self, interaction: Interaction) -> Vec<PlannedPoint> {
+        let at = |branch: Branch, v: f64| match &self.control {
+            Control::Load { .. } => PlannedPoint {
+                branch,
+                load: v,
+                interaction,
+            },
+            Control::Strength { load, .. } => PlannedPoint {
+                branch,
+                load: *load,
+                interaction: with_strength(interaction, v),
+            },
+        };
+        let values = match &self.control {
+            Control::Load { values } | Control::Strength { values, .. } => values,
+        };
+        let mut plan: Vec<PlannedPoint> = values.iter().map(|&v| at(Branch::Loading, v)).collect();
+        if self.reverse {
+            plan.extend(
+                values
+                    .iter()
+                    .rev()
+                    .skip(1)
+                    .chain(&self.extension)
+                    .map(|&v| at(Branch::Unloading, v)),
+            );
+        }
+        plan
     }
 }
 
-fn with_strength(interaction: Interaction, s: f64) -> Interaction {
+/// `interaction` with its strength (γ0 or γr) replaced by `s` (the hard wall has none).
+pub fn with_strength(interaction: Interaction, s: f64) -> Interaction {
     match interaction {
         Interaction::HardWall => Interaction::HardWall,
         Interaction::Adhesion { rho, .. } => Interaction::Adhesion { gamma0: s, rho },
@@ -132,7 +265,8 @@ fn with_strength(interaction: Interaction, s: f64) -> Interaction {
     }
 }
 
-fn strength(interaction: Interaction) -> f64 {
+/// The strength of `interaction`: γ0, γr, or 0 for the hard wall.
+pub fn strength(interaction: Interaction) -> f64 {
     match interaction {
         Interaction::HardWall => 0.0,
         Interaction::Adhesion { gamma0, .. } => gamma0,
@@ -140,60 +274,61 @@ fn strength(interaction: Interaction) -> f64 {
     }
 }
 
-/// Runs a path. `observe` sees every solved point with its full solution (to save fields); the
-/// returned points are the path's summary. A branch ends early, with a note in
-/// [`PathResult::ended`], when the surfaces separate (pull-off under a tensile load).
-pub fn sweep(
+/// Runs a path. `observe` sees every solved point with its full solution (to save fields or
+/// measure more) and may stop the path with an error; the returned points are the path's
+/// summary. A branch ends early, recorded in [`PathResult::ended`], when the surfaces separate
+/// (pull-off); the next branch then starts cold.
+pub fn run<E>(
     model: &mut Model,
     interaction: Interaction,
     spec: &PathSpec,
     opts: &SolverOptions,
-    mut observe: impl FnMut(&PathPoint, &Solution),
-) -> Result<PathResult, ContactError> {
+    mut observe: impl FnMut(&PathPoint, &Solution) -> Result<(), E>,
+) -> Result<PathResult, PathError>
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
     spec.validate()?;
     interaction.validate()?;
-    let forward: Vec<(f64, Interaction)> = match &spec.control {
-        Control::Load { values } => values.iter().map(|&p| (p, interaction)).collect(),
-        Control::Strength { load, values } => values
-            .iter()
-            .map(|&s| (*load, with_strength(interaction, s)))
-            .collect(),
-    };
-    let mut plan: Vec<(Branch, f64, Interaction)> = forward
-        .iter()
-        .map(|&(p, i)| (Branch::Loading, p, i))
-        .collect();
-    if spec.reverse {
-        plan.extend(
-            forward
-                .iter()
-                .rev()
-                .skip(1)
-                .map(|&(p, i)| (Branch::Unloading, p, i)),
-        );
-    }
     let mut result = PathResult {
         points: Vec::new(),
         ended: Vec::new(),
     };
     let mut previous: Option<Solution> = None;
     let mut skip_branch: Option<Branch> = None;
-    for (step, (branch, load, inter)) in plan.into_iter().enumerate() {
+    for (step, planned) in spec.plan(interaction).into_iter().enumerate() {
+        let PlannedPoint {
+            branch,
+            load,
+            interaction: inter,
+        } = planned;
         if skip_branch == Some(branch) {
             continue;
         }
         let sol = match model.solve(inter, load, opts, previous.as_ref()) {
             Ok(s) => s,
             Err(ContactError::Detached { pressure, min_gap }) => {
-                result.ended.push(format!(
-                    "{} branch ended at step {step}: surfaces separated at mean pressure {pressure} (min gap {min_gap})",
-                    branch.name()
-                ));
+                result.ended.push(PullOff {
+                    branch,
+                    step,
+                    load,
+                    strength: strength(inter),
+                    pressure,
+                    min_gap,
+                });
                 skip_branch = Some(branch);
                 previous = None;
                 continue;
             }
-            Err(e) => return Err(e),
+            Err(source) => {
+                return Err(PathError::Solve {
+                    branch,
+                    step,
+                    load,
+                    interaction: inter,
+                    source,
+                });
+            }
         };
         let point = PathPoint {
             branch,
@@ -208,11 +343,119 @@ pub fn sweep(
             max_violation: sol.stats.max_violation,
             force_residual: sol.stats.force_residual,
             converged: sol.stats.converged,
+            stop_reason: sol.stats.reason.clone(),
             wall_s: sol.stats.wall_s,
         };
-        observe(&point, &sol);
+        observe(&point, &sol).map_err(|e| PathError::Observe {
+            branch,
+            step,
+            source: e.into(),
+        })?;
         result.points.push(point);
         previous = Some(sol);
     }
     Ok(result)
+}
+
+/// [`run`] with an observer that cannot fail, and solver errors as [`ContactError`].
+pub fn sweep(
+    model: &mut Model,
+    interaction: Interaction,
+    spec: &PathSpec,
+    opts: &SolverOptions,
+    mut observe: impl FnMut(&PathPoint, &Solution),
+) -> Result<PathResult, ContactError> {
+    run(model, interaction, spec, opts, |p, s| {
+        observe(p, s);
+        Ok::<(), std::convert::Infallible>(())
+    })
+    .map_err(|e| match e {
+        PathError::Spec(e) | PathError::Solve { source: e, .. } => e,
+        PathError::Observe { .. } => unreachable!("the observer cannot fail"),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Lattice, Surface};
+
+    fn spec(values: Vec<f64>, extension: Vec<f64>) -> PathSpec {
+        PathSpec {
+            control: Control::Load { values },
+            reverse: true,
+            extension,
+        }
+    }
+
+    #[test]
+    fn plan_retraces_and_extends() {
+        let s = spec(vec![1.0, 2.0, 3.0], vec![0.5, 0.0]);
+        let plan = s.plan(Interaction::HardWall);
+        let loads: Vec<f64> = plan.iter().map(|p| p.load).collect();
+        assert_eq!(loads, [1.0, 2.0, 3.0, 2.0, 1.0, 0.5, 0.0]);
+        let loading = plan.iter().filter(|p| p.branch == Branch::Loading).count();
+        assert_eq!(loading, 3);
+        let gamma = PathSpec {
+            control: Control::Strength {
+                load: 0.1,
+                values: vec![0.1, 0.2],
+            },
+            reverse: true,
+            extension: vec![],
+        };
+        let adhesion = Interaction::Adhesion {
+            gamma0: 9.0,
+            rho: 0.04,
+        };
+        let plan = gamma.plan(adhesion);
+        let st: Vec<f64> = plan.iter().map(|p| strength(p.interaction)).collect();
+        assert_eq!(st, [0.1, 0.2, 0.1]);
+        assert!(plan.iter().all(|p| p.load == 0.1));
+    }
+
+    #[test]
+    fn invalid_extensions_are_rejected() {
+        assert!(spec(vec![1.0, 2.0], vec![1.0]).validate().is_err());
+        assert!(spec(vec![1.0, 2.0], vec![0.5, 0.7]).validate().is_err());
+        let mut s = spec(vec![1.0, 2.0], vec![0.5]);
+        assert!(s.validate().is_ok());
+        s.reverse = false;
+        assert!(s.validate().is_err());
+    }
+
+    /// Unloading an adhesive contact into tension ends in pull-off, recorded, not an error;
+    /// every point is warm-started from the previous one, so the reverse branch at the top
+    /// value reproduces the forward branch's state there.
+    #[test]
+    fn adhesive_unloading_ends_in_pull_off() {
+        let s = Surface::new(Lattice::Square, 4).unwrap();
+        let mut m = Model::new(&s).unwrap();
+        let p_fc = s.p_fc_grid();
+        let inter = Interaction::Adhesion {
+            gamma0: 0.2,
+            rho: 0.25,
+        };
+        let values: Vec<f64> = [0.05, 0.1].iter().map(|f| f * p_fc).collect();
+        let extension: Vec<f64> = (1..=40).map(|k| (0.05 - 0.05 * k as f64) * p_fc).collect();
+        let spec = spec(values, extension);
+        let mut seen = 0;
+        let r = run(&mut m, inter, &spec, &SolverOptions::default(), |_, _| {
+            seen += 1;
+            Ok::<(), std::convert::Infallible>(())
+        })
+        .unwrap();
+        assert_eq!(seen, r.points.len());
+        assert_eq!(r.ended.len(), 1, "{:?}", r.ended);
+        let end = &r.ended[0];
+        assert_eq!(end.branch, Branch::Unloading);
+        assert!(end.load < 0.0, "pull-off needs tension: {end:?}");
+        // the branch stops at the pull-off point: nothing after it was solved
+        assert!(r.points.iter().all(|p| p.step < end.step));
+        assert!(
+            r.points
+                .iter()
+                .all(|p| p.converged && p.stop_reason.is_none())
+        );
+    }
 }

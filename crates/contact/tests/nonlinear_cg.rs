@@ -172,6 +172,7 @@ fn load_path(p_fc: f64, step: f64, to: f64) -> PathSpec {
             values: (0..=k).map(|i| p_fc * (0.0025 + step * i as f64)).collect(),
         },
         reverse: true,
+        extension: Vec::new(),
     }
 }
 
@@ -222,6 +223,7 @@ fn agrees_with_fire_on_the_strength_path_at_zero_load() {
     let spec = PathSpec {
         control: Control::Strength { load: 0.0, values },
         reverse: true,
+        extension: Vec::new(),
     };
     let inter = Interaction::Adhesion {
         gamma0: 0.01,

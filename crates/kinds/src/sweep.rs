@@ -20,8 +20,9 @@
 //! - `reverse_extension`: segments `{ to, steps | step }` that continue the reverse branch below
 //!   the forward branch's first value, e.g. into tensile loads with adhesion (default none). The
 //!   branch ends early when the surfaces separate (pull-off); that is recorded, not an error.
-//! - solver: `method` (`auto`, `polonsky-keer`, `fire`), `tol_gap`, `tol_force`, `max_iter`
-//!   ([`contact::SolverOptions`]).
+//! - solver: `method` (any of [`contact::Method::ALL`] by name: `auto`, `polonsky-keer`,
+//!   `polonsky-keer-plain` (both hard wall only), `fire`, `nonlinear-cg`), `tol_gap`,
+//!   `tol_force`, `max_iter` ([`contact::SolverOptions`]).
 //! - `jump_ratio`, `jump_window`: [`analysis::JumpOptions`] of the jump detector;
 //!   `loop_tolerance` (default 0.02): area difference between the branches that makes a
 //!   hysteresis loop even without a change of topology ([`Loop`]).
@@ -32,11 +33,11 @@
 //!   fewer grid spacings (jumps are then mesh-dependent); on a strength path at its largest
 //!   strength, naming the strength above which the zone is under-resolved.
 //!
-//! Every point starts from the previous point's state ([`contact::Model::solve`] with a warm
-//! start), so metastable branches and hysteresis appear where they exist. The path loop is this
-//! module's own rather than [`contact::path::sweep`], because that one retraces exactly the
-//! forward values and always cold-starts; the adhesive unloading branch has to continue into
-//! tensile loads, below where loading started.
+//! The path is [`contact::path::run`]: every point starts from the previous point's state (a
+//! warm start), so metastable branches and hysteresis appear where they exist; the reverse
+//! extension and pull-off are handled there. This module parses the parameters, measures the
+//! topology of each point, detects the jumps ([`analysis::detect_jumps`]) and the hysteresis
+//! loops ([`analysis::hysteresis`]), and writes the artefact.
 //!
 //! # Artefact
 //! - root attributes: `interaction`, `gamma0` / `gamma_r`, `rho`, `control`, `unit`, `p_fc`
@@ -53,8 +54,8 @@
 //! - `jumps/*`, one entry per detected jump (detected on each branch's converged points):
 //!   `branch`, `index` and `index_after` (point indices before and after), `load_before`,
 //!   `load_after`, `strength_before`, `strength_after`, `area_before`, `area_after`, `ratio`,
-//!   `event` (see [`classify`]), `detector` (`trend`: [`analysis::detect_jumps`]; `loop`: an
-//!   end of a hysteresis loop the trend detector missed, see [`find_loops`]);
+//!   `event` (see [`analysis::hysteresis::classify`]), `detector` (`trend`: [`analysis::detect_jumps`]; `loop`: an
+//!   end of a hysteresis loop the trend detector missed, see [`analysis::hysteresis::find_loops`]);
 //! - `loops/*`, one entry per hysteresis loop between the branches ([`Loop`]): `x_lo`, `x_hi`
 //!   (control values: loads in E* h0/λ or strengths), `max_area_difference`, `x_at_max`;
 //! - `ended/*`: `branch`, `load`, `strength`, `message` of each branch that ended early
@@ -64,8 +65,10 @@
 //! Non-converged points are kept and flagged (`converged = 0`, `stop_reason`), listed in the
 //! stage's warnings, and left out of jump detection; downstream kinds must not use them silently.
 
+use analysis::hysteresis::{self, BranchState};
 use anyhow::{Context, Result, anyhow, bail};
-use contact::{ContactError, Interaction, Method, Solution, SolverOptions};
+use contact::path::{self, Branch, Control, PathPoint, PathSpec};
+use contact::{Interaction, Method, Solution, SolverOptions};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
     StageReport,
@@ -279,55 +282,6 @@ fn interaction_of(params: &Params) -> Result<Interaction> {
     })
 }
 
-fn with_strength(i: Interaction, s: f64) -> Interaction {
-    match i {
-        Interaction::HardWall => Interaction::HardWall,
-        Interaction::Adhesion { rho, .. } => Interaction::Adhesion { gamma0: s, rho },
-        Interaction::Repulsion { rho, .. } => Interaction::Repulsion { gamma_r: s, rho },
-    }
-}
-
-fn strength_of(i: Interaction) -> f64 {
-    match i {
-        Interaction::HardWall => 0.0,
-        Interaction::Adhesion { gamma0, .. } => gamma0,
-        Interaction::Repulsion { gamma_r, .. } => gamma_r,
-    }
-}
-
-/// What a jump is, from the areas on either side, the direction, and whether the fluid
-/// percolates before and after (along either axis):
-/// - `contact formation` / `contact loss`: the area leaves or reaches zero;
-/// - `full contact` / `trough opening`: the area reaches or leaves one;
-/// - `coalescence` / `break-up`: the fluid stops or starts percolating (contact patches merge
-///   across the saddles, or the contact network tears);
-/// - `area jump (up)` / `area jump (down)`: anything else.
-pub fn classify(
-    area_before: f64,
-    area_after: f64,
-    fluid_before: bool,
-    fluid_after: bool,
-) -> &'static str {
-    let up = area_after > area_before;
-    if area_before == 0.0 && up {
-        "contact formation"
-    } else if area_after == 0.0 && !up {
-        "contact loss"
-    } else if area_after == 1.0 && up {
-        "full contact"
-    } else if area_before == 1.0 && !up {
-        "trough opening"
-    } else if fluid_before && !fluid_after {
-        "coalescence"
-    } else if !fluid_before && fluid_after {
-        "break-up"
-    } else if up {
-        "area jump (up)"
-    } else {
-        "area jump (down)"
-    }
-}
-
 /// One solved point (what `points/*` holds).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Point {
@@ -386,29 +340,16 @@ pub struct JumpRow {
     pub area: (f64, f64),
     /// Jump size over the neighbours' trend (NaN for a loop end the trend detector missed).
     pub ratio: f64,
-    /// [`classify`].
+    /// [`analysis::hysteresis::classify`].
     pub event: String,
     /// Which detector found it: `trend` ([`analysis::detect_jumps`]) or `loop` (an end of a
     /// hysteresis loop, see [`Loop`]).
     pub detector: String,
 }
 
-/// A hysteresis loop: a run of consecutive control values at which the forward and reverse
-/// branches are in different states — different topology (contact or none, fluid percolating
-/// or not, full contact or not) or contact areas differing by more than `loop_tolerance`.
-/// Two states at one load are two equilibria: the branches are bistable there, and each
-/// branch must jump where it rejoins the other (at the loop's upper end on loading, at its
-/// lower end on unloading).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Loop {
-    /// Smallest and largest control value (load in E* h0/λ, or strength) where the branches
-    /// differ.
-    pub x: (f64, f64),
-    /// Largest |area(reverse) − area(forward)| in the loop.
-    pub max_area_difference: f64,
-    /// Where it is largest.
-    pub x_at_max: f64,
-}
+/// A hysteresis loop between the branches (what `loops/*` holds): see [`analysis::hysteresis`];
+/// `x` in control values (loads in E* h0/λ, or strengths).
+pub use analysis::hysteresis::Loop;
 
 /// A branch that ended early.
 #[derive(Clone, Debug, PartialEq)]
@@ -583,13 +524,6 @@ impl SweepData {
     }
 }
 
-/// The planned path: (branch, load, strength) per step.
-struct PlannedStep {
-    branch: contact::path::Branch,
-    load: f64,
-    interaction: Interaction,
-}
-
 impl StageKind for SweepKind {
     /// Lower bound: heights, displacement, pressure and gap on the surface's grid (the solver
     /// holds more: FFT buffers, minimiser state).
@@ -648,10 +582,7 @@ impl StageKind for SweepKind {
             ParamSpec::new("load", ParamType::float())
                 .default(0.0)
                 .doc("strength control: the fixed mean pressure (in `unit`)"),
-            ParamSpec::new(
-                "method",
-                ParamType::one_of(&["auto", "polonsky-keer", "fire"]),
-            )
+            ParamSpec::new("method", ParamType::one_of(&Method::ALL.map(Method::name)))
             .default("auto")
             .doc("minimiser (auto: Polonsky–Keer for the hard wall, FIRE otherwise)"),
             ParamSpec::new("tol_gap", ParamType::positive())
@@ -735,10 +666,18 @@ impl StageKind for SweepKind {
                 "needs `reverse = true` (it continues the reverse branch)",
             ));
         }
-        if params.str("method").ok() == Some("polonsky-keer") && inter != "hardwall" {
+        if let Some(m) = params
+            .str("method")
+            .ok()
+            .and_then(|m| m.parse::<Method>().ok())
+            && m.hard_wall_only()
+            && inter != "hardwall"
+        {
             return Err(issue(
                 "method",
-                "\"polonsky-keer\" solves the hard wall only; use \"fire\" or \"auto\"",
+                format!(
+                    "\"{m}\" solves the hard wall only; use \"fire\", \"nonlinear-cg\" or \"auto\""
+                ),
             ));
         }
         Ok(())
@@ -758,25 +697,88 @@ impl StageKind for SweepKind {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let crate::surface::SurfaceInput {
-            mut model,
-            lx,
-            ly,
-            nx,
-            ny,
-            p_fc,
-            lattice,
-            n: n_exp,
-        } = crate::surface::SurfaceInput::read(inputs.one("surface")?)?;
+        let mut surface = crate::surface::SurfaceInput::read(inputs.one("surface")?)?;
+        let setup = Setup::parse(params, &surface)?;
+        let zone = setup.zone_resolution(ctx, &surface, params.f64("min_zone_spacings")?);
+        let plan = setup.spec.plan(setup.base);
+        let keep = fields_to_keep(&setup, &plan, &params.f64_array("fields_at")?);
+        let fields_all = params.bool("fields_all")?;
 
+        // the path: every point warm-started from the previous one (contact::path)
+        let mut points: Vec<Point> = Vec::new();
+        let total = plan.len();
+        let result = contact::path::run(
+            &mut surface.model,
+            setup.base,
+            &setup.spec,
+            &setup.opts,
+            |pt, sol| -> Result<()> {
+                let point = point_of(pt, sol);
+                if fields_all || keep.contains(&pt.step) {
+                    write_fields(out, &point, points.len(), sol)?;
+                }
+                let x = setup.control_value(pt.load, pt.strength);
+                let what = format!("{} {x:.4}, a = {:.4}", point.branch, point.contact_area);
+                ctx.progress((pt.step + 1) as f64 / total as f64, &what);
+                points.push(point);
+                Ok(())
+            },
+        )?;
+        let ended: Vec<Ended> = result
+            .ended
+            .iter()
+            .map(|e| ended_of(e, surface.p_fc))
+            .collect();
+
+        let mut jumps = trend_jumps(&points, &setup, params)?;
+        let loops =
+            loops_and_their_ends(&points, &setup, params.f64("loop_tolerance")?, &mut jumps);
+        let n_bad = warn_unconverged(ctx, &points, &ended, surface.p_fc);
+        let sweep = Sweep {
+            points: &points,
+            jumps: &jumps,
+            loops: &loops,
+            ended: &ended,
+        };
+        write_artefact(out, &setup, &surface, zone, n_bad, &sweep)?;
+        Ok(report(&sweep, n_bad, surface.p_fc, zone.1))
+    }
+}
+
+/// What `run` reads from the parameters and the surface.
+struct Setup {
+    /// The interaction (its strength replaced along a strength path).
+    base: Interaction,
+    control: String,
+    unit: String,
+    /// p_fc or 1: loads are given in this unit.
+    scale: f64,
+    /// The path in absolute units.
+    spec: PathSpec,
+    opts: SolverOptions,
+}
+
+impl Setup {
+    fn parse(params: &Params, surface: &crate::surface::SurfaceInput) -> Result<Setup> {
         let base = interaction_of(params)?;
         base.validate().map_err(|e| anyhow!("{e}"))?;
         let control = params.str("control")?.to_string();
         let unit = params.str("unit")?.to_string();
-        let scale = if unit == "p_fc" { p_fc } else { 1.0 };
+        let scale = if unit == "p_fc" { surface.p_fc } else { 1.0 };
         let fwd = forward_values(params).map_err(|e| anyhow!("{e}"))?;
         let ext = extension_values(params, fwd[0]).map_err(|e| anyhow!("{e}"))?;
-        let reverse = params.bool("reverse")?;
+        let (control_spec, extension) = if control == "strength" {
+            let load = params.f64("load").unwrap_or(0.0) * scale;
+            (Control::Strength { load, values: fwd }, ext)
+        } else {
+            let abs = |v: Vec<f64>| v.into_iter().map(|v| v * scale).collect::<Vec<_>>();
+            (Control::Load { values: abs(fwd) }, abs(ext))
+        };
+        let spec = PathSpec {
+            control: control_spec,
+            reverse: params.bool("reverse")?,
+            extension,
+        };
         let opts = SolverOptions {
             tol_gap: params.f64("tol_gap")?,
             tol_force: params.f64("tol_force")?,
@@ -787,27 +789,68 @@ impl StageKind for SweepKind {
                 .map_err(|e| anyhow!("{e}"))?,
             trace: false,
         };
+        Ok(Setup {
+            base,
+            control,
+            unit,
+            scale,
+            spec,
+            opts,
+        })
+    }
 
-        // resolution of the cohesive zone: at the path's largest strength (the shortest zone)
-        // when the path varies the strength
-        let dx = lx / nx as f64;
-        let min_spacings = params.f64("min_zone_spacings")?;
-        let strongest = if control == "strength" {
-            let s_max = fwd.iter().chain(&ext).copied().fold(0.0, f64::max);
-            with_strength(base, s_max)
+    fn strength_path(&self) -> bool {
+        self.control == "strength"
+    }
+
+    /// The control value of a point in the path's unit (loads over `scale`, or the strength).
+    fn control_value(&self, load: f64, strength: f64) -> f64 {
+        if self.strength_path() {
+            strength
         } else {
-            base
+            load / self.scale
+        }
+    }
+
+    /// The control value jumps and loops are measured in (absolute loads, or the strength).
+    fn x_of(&self, p: &Point) -> f64 {
+        if self.strength_path() {
+            p.strength
+        } else {
+            p.load
+        }
+    }
+
+    /// The cohesive-zone length ρ²E*/γ (at the path's largest strength on a strength path) and
+    /// the grid spacings it spans; warns when that is fewer than `min_spacings`.
+    fn zone_resolution(
+        &self,
+        ctx: &mut StageContext,
+        surface: &crate::surface::SurfaceInput,
+        min_spacings: f64,
+    ) -> (Option<f64>, f64) {
+        let dx = surface.lx / surface.nx as f64;
+        let strongest = match &self.spec.control {
+            Control::Strength { values, .. } => {
+                let s_max = values
+                    .iter()
+                    .chain(&self.spec.extension)
+                    .copied()
+                    .fold(0.0, f64::max);
+                path::with_strength(self.base, s_max)
+            }
+            Control::Load { .. } => self.base,
         };
         let zone = strongest.cohesive_zone_length(1.0);
         let spacings = zone.map_or(f64::INFINITY, |z| z / dx);
         if spacings < min_spacings {
-            let rho = base.range();
+            let (rho, n_exp) = (self.base.range(), surface.n);
             // strengths above this resolve the zone by fewer than `min_spacings` spacings
             let s_limit = rho * rho / (min_spacings * dx);
-            let msg = if control == "strength" {
+            let msg = if self.strength_path() {
                 format!(
                     "under-resolved cohesive zone: ρ²E*/γ spans fewer than {min_spacings} grid spacings for γ > {s_limit:.4} (dx = {dx:.3e} λ, n = {n_exp}, ρ = {rho}); at the path's largest γ = {:.4} it is {:.3e} λ = {spacings:.2e} spacings; jumps above γ = {s_limit:.4} depend on the mesh (use a finer grid)",
-                    strength_of(strongest),
+                    path::strength(strongest),
                     zone.unwrap_or(f64::NAN),
                 )
             } else {
@@ -820,294 +863,317 @@ impl StageKind for SweepKind {
             };
             ctx.warn(msg);
         }
+        (zone, spacings)
+    }
+}
 
-        // the planned path
-        use contact::path::Branch;
-        let step_of = |branch: Branch, v: f64| -> PlannedStep {
-            match control.as_str() {
-                "strength" => PlannedStep {
-                    branch,
-                    load: params.f64("load").unwrap_or(0.0) * scale,
-                    interaction: with_strength(base, v),
-                },
-                _ => PlannedStep {
-                    branch,
-                    load: v * scale,
-                    interaction: base,
-                },
-            }
-        };
-        let mut plan: Vec<PlannedStep> = fwd.iter().map(|&v| step_of(Branch::Loading, v)).collect();
-        if reverse {
-            plan.extend(
-                fwd.iter()
-                    .rev()
-                    .skip(1)
-                    .chain(ext.iter())
-                    .map(|&v| step_of(Branch::Unloading, v)),
-            );
-        }
-        let control_value = |s: &PlannedStep| match control.as_str() {
-            "strength" => strength_of(s.interaction),
-            _ => s.load / scale,
-        };
-        // steps whose fields are kept: per branch, the step nearest to each requested value
-        let mut keep_fields = std::collections::BTreeSet::new();
-        for target in params.f64_array("fields_at")? {
-            for br in [Branch::Loading, Branch::Unloading] {
-                if let Some(k) =
-                    (0..plan.len())
-                        .filter(|&k| plan[k].branch == br)
-                        .min_by(|&a, &b| {
-                            (control_value(&plan[a]) - target)
-                                .abs()
-                                .total_cmp(&(control_value(&plan[b]) - target).abs())
-                        })
-                {
-                    keep_fields.insert(k);
-                }
-            }
-        }
-
-        let fields_all = params.bool("fields_all")?;
-
-        // the path
-        let mut points: Vec<Point> = Vec::new();
-        let mut ended: Vec<Ended> = Vec::new();
-        let mut previous: Option<Solution> = None;
-        let mut skip: Option<Branch> = None;
-        let total = plan.len();
-        for (step, ps) in plan.iter().enumerate() {
-            if skip == Some(ps.branch) {
-                continue;
-            }
-            let sol = match model.solve(ps.interaction, ps.load, &opts, previous.as_ref()) {
-                Ok(s) => s,
-                Err(ContactError::Detached { pressure, min_gap }) => {
-                    ended.push(Ended {
-                        branch: ps.branch.name().into(),
-                        load: ps.load,
-                        strength: strength_of(ps.interaction),
-                        message: format!(
-                            "{} branch ended at step {step}: the surfaces separated at mean pressure {pressure:.6e} E*h0/λ ({:.5} p_fc; min gap {min_gap:.3e} h0): pull-off, no equilibrium under force control beyond it",
-                            ps.branch.name(),
-                            pressure / p_fc
-                        ),
-                    });
-                    skip = Some(ps.branch);
-                    previous = None;
-                    continue;
-                }
-                Err(e) => {
-                    return Err(anyhow!(e)).with_context(|| {
-                        format!(
-                            "{} branch, step {step}: load {} E*h0/λ, {}",
-                            ps.branch.name(),
-                            ps.load,
-                            formats::solution::interaction_json(&ps.interaction)
-                        )
-                    });
-                }
-            };
-            let mask = sol.gap.mapv(|g| g == 0.0);
-            let dual = percolation::dual_percolation(mask.view());
-            let area = percolation::contact_area(mask.view());
-            let point = Point {
-                branch: ps.branch.name().into(),
-                step: step as i64,
-                load: ps.load,
-                strength: strength_of(ps.interaction),
-                contact_area: sol.contact_area,
-                contact_area_corrected: if area.n_contact == 0 {
-                    0.0
-                } else {
-                    area.corrected
-                },
-                mean_gap: sol.mean_gap,
-                mean_displacement: sol.mean_displacement,
-                energy: sol.energy,
-                iterations: sol.stats.iterations as i64,
-                max_violation: sol.stats.max_violation,
-                force_residual: sol.stats.force_residual,
-                converged: sol.stats.converged,
-                stop_reason: sol
-                    .stats
-                    .reason
-                    .as_ref()
-                    .map(|r| r.to_string())
-                    .unwrap_or_default(),
-                wall_s: sol.stats.wall_s,
-                contact_clusters: dual.contact_summary.n_clusters as i64,
-                fluid_percolates_x: dual.fluid_percolates(percolation::Axis::X),
-                fluid_percolates_y: dual.fluid_percolates(percolation::Axis::Y),
-            };
-            if fields_all || keep_fields.contains(&step) {
-                let g = format!("fields/{}_{}", point.branch, points.len());
-                out.write_f64_2d(&format!("{g}/gap"), sol.gap.view())?;
-                out.write_f64_2d(&format!("{g}/displacement"), sol.displacement.view())?;
-                out.write_f64_2d(&format!("{g}/pressure"), sol.pressure.view())?;
-                out.set_attr_at(&g, "load", point.load)?;
-                out.set_attr_at(&g, "strength", point.strength)?;
-                out.set_attr_at(&g, "contact_area", point.contact_area)?;
-            }
-            ctx.progress(
-                (step + 1) as f64 / total as f64,
-                &format!(
-                    "{} {:.4}, a = {:.4}",
-                    point.branch,
-                    control_value(ps),
-                    point.contact_area
-                ),
-            );
-            points.push(point);
-            previous = Some(sol);
-        }
-
-        // jumps, per branch, on converged points
-        let jopts = analysis::JumpOptions {
-            ratio: params.f64("jump_ratio")?,
-            window: params.i64("jump_window")? as usize,
-            ..Default::default()
-        };
-        let mut jumps: Vec<JumpRow> = Vec::new();
-        for br in ["loading", "unloading"] {
-            let idx: Vec<usize> = (0..points.len())
-                .filter(|&k| points[k].branch == br && points[k].converged)
-                .collect();
-            let x: Vec<f64> = idx
-                .iter()
-                .map(|&k| match control.as_str() {
-                    "strength" => points[k].strength,
-                    _ => points[k].load,
+/// Steps whose fields are kept: per branch, the step nearest to each requested control value.
+fn fields_to_keep(
+    setup: &Setup,
+    plan: &[path::PlannedPoint],
+    targets: &[f64],
+) -> std::collections::BTreeSet<usize> {
+    let value = |s: &path::PlannedPoint| setup.control_value(s.load, path::strength(s.interaction));
+    let mut keep = std::collections::BTreeSet::new();
+    for &target in targets {
+        for br in [Branch::Loading, Branch::Unloading] {
+            if let Some(k) = (0..plan.len())
+                .filter(|&k| plan[k].branch == br)
+                .min_by(|&a, &b| {
+                    (value(&plan[a]) - target)
+                        .abs()
+                        .total_cmp(&(value(&plan[b]) - target).abs())
                 })
-                .collect();
-            let y: Vec<f64> = idx.iter().map(|&k| points[k].contact_area).collect();
-            let found = analysis::detect_jumps(&x, &y, &jopts)
-                .map_err(|e| anyhow!("jump detection on the {br} branch: {e}"))?;
-            for j in found {
-                let (a, b) = (idx[j.index], idx[j.index + 1]);
-                let (pa, pb) = (&points[a], &points[b]);
-                let fluid = |p: &Point| p.fluid_percolates_x || p.fluid_percolates_y;
-                jumps.push(JumpRow {
-                    branch: br.into(),
-                    index: a,
-                    index_after: b,
-                    load: (pa.load, pb.load),
-                    strength: (pa.strength, pb.strength),
-                    area: (pa.contact_area, pb.contact_area),
-                    ratio: j.ratio,
-                    event: classify(pa.contact_area, pb.contact_area, fluid(pa), fluid(pb)).into(),
-                    detector: "trend".into(),
-                });
+            {
+                keep.insert(k);
             }
         }
-        let x_of = |p: &Point| match control.as_str() {
-            "strength" => p.strength,
-            _ => p.load,
-        };
-        let loops = find_loops(&points, &x_of, params.f64("loop_tolerance")?, &mut jumps);
+    }
+    keep
+}
 
-        // warnings: non-converged points, a forward branch that ended early
-        let bad: Vec<&Point> = points.iter().filter(|p| !p.converged).collect();
-        if !bad.is_empty() {
-            let list: Vec<String> = bad
-                .iter()
-                .take(10)
-                .map(|p| {
-                    format!(
-                        "step {} ({}, load {:.5} p_fc, strength {}): {} iterations, force residual {:.2e}, violation {:.2e}: {}",
-                        p.step,
-                        p.branch,
-                        p.load / p_fc,
-                        p.strength,
-                        p.iterations,
-                        p.force_residual,
-                        p.max_violation,
-                        p.stop_reason
-                    )
-                })
-                .collect();
-            ctx.warn(format!(
-                "{} of {} points did not converge (flagged converged = 0, excluded from jump detection){}: {}",
-                bad.len(),
-                points.len(),
-                if bad.len() > 10 { "; the first 10" } else { "" },
-                list.join("; ")
+/// A solved point with the contact's topology measured on its gap field.
+fn point_of(pt: &PathPoint, sol: &Solution) -> Point {
+    let mask = sol.gap.mapv(|g| g == 0.0);
+    let dual = percolation::dual_percolation(mask.view());
+    let area = percolation::contact_area(mask.view());
+    Point {
+        branch: pt.branch.name().into(),
+        step: pt.step as i64,
+        load: pt.load,
+        strength: pt.strength,
+        contact_area: pt.contact_area,
+        contact_area_corrected: if area.n_contact == 0 {
+            0.0
+        } else {
+            area.corrected
+        },
+        mean_gap: pt.mean_gap,
+        mean_displacement: pt.mean_displacement,
+        energy: pt.energy,
+        iterations: pt.iterations as i64,
+        max_violation: pt.max_violation,
+        force_residual: pt.force_residual,
+        converged: pt.converged,
+        stop_reason: pt
+            .stop_reason
+            .as_ref()
+            .map(|r| r.to_string())
+            .unwrap_or_default(),
+        wall_s: pt.wall_s,
+        contact_clusters: dual.contact_summary.n_clusters as i64,
+        fluid_percolates_x: dual.fluid_percolates(percolation::Axis::X),
+        fluid_percolates_y: dual.fluid_percolates(percolation::Axis::Y),
+    }
+}
+
+/// `fields/<branch>_<index>/{gap,displacement,pressure}` of the `index`-th solved point.
+fn write_fields(
+    out: &mut ArtefactWriter,
+    point: &Point,
+    index: usize,
+    sol: &Solution,
+) -> Result<()> {
+    let g = format!("fields/{}_{index}", point.branch);
+    out.write_f64_2d(&format!("{g}/gap"), sol.gap.view())?;
+    out.write_f64_2d(&format!("{g}/displacement"), sol.displacement.view())?;
+    out.write_f64_2d(&format!("{g}/pressure"), sol.pressure.view())?;
+    out.set_attr_at(&g, "load", point.load)?;
+    out.set_attr_at(&g, "strength", point.strength)?;
+    out.set_attr_at(&g, "contact_area", point.contact_area)?;
+    Ok(())
+}
+
+fn ended_of(e: &path::PullOff, p_fc: f64) -> Ended {
+    Ended {
+        branch: e.branch.name().into(),
+        load: e.load,
+        strength: e.strength,
+        message: format!(
+            "{} branch ended at step {}: the surfaces separated at mean pressure {:.6e} E*h0/λ ({:.5} p_fc; min gap {:.3e} h0): pull-off, no equilibrium under force control beyond it",
+            e.branch.name(),
+            e.step,
+            e.pressure,
+            e.pressure / p_fc,
+            e.min_gap
+        ),
+    }
+}
+
+fn fluid(p: &Point) -> bool {
+    p.fluid_percolates_x || p.fluid_percolates_y
+}
+
+/// Indices of the converged points of `branch`, in path order.
+fn converged(points: &[Point], branch: &str) -> Vec<usize> {
+    (0..points.len())
+        .filter(|&k| points[k].branch == branch && points[k].converged)
+        .collect()
+}
+
+/// A jump between points `a` and `b` (`ratio` NaN for a loop end).
+fn jump_row(points: &[Point], a: usize, b: usize, ratio: f64, detector: &str) -> JumpRow {
+    let (pa, pb) = (&points[a], &points[b]);
+    JumpRow {
+        branch: pa.branch.clone(),
+        index: a,
+        index_after: b,
+        load: (pa.load, pb.load),
+        strength: (pa.strength, pb.strength),
+        area: (pa.contact_area, pb.contact_area),
+        ratio,
+        event: hysteresis::classify(pa.contact_area, pb.contact_area, fluid(pa), fluid(pb)).into(),
+        detector: detector.into(),
+    }
+}
+
+/// Jumps against the neighbours' trend ([`analysis::detect_jumps`]), per branch, on converged
+/// points.
+fn trend_jumps(points: &[Point], setup: &Setup, params: &Params) -> Result<Vec<JumpRow>> {
+    let jopts = analysis::JumpOptions {
+        ratio: params.f64("jump_ratio")?,
+        window: params.i64("jump_window")? as usize,
+        ..Default::default()
+    };
+    let mut jumps = Vec::new();
+    for br in ["loading", "unloading"] {
+        let idx = converged(points, br);
+        let x: Vec<f64> = idx.iter().map(|&k| setup.x_of(&points[k])).collect();
+        let y: Vec<f64> = idx.iter().map(|&k| points[k].contact_area).collect();
+        let found = analysis::detect_jumps(&x, &y, &jopts)
+            .map_err(|e| anyhow!("jump detection on the {br} branch: {e}"))?;
+        for j in found {
+            jumps.push(jump_row(
+                points,
+                idx[j.index],
+                idx[j.index + 1],
+                j.ratio,
+                "trend",
             ));
         }
-        for e in ended.iter().filter(|e| e.branch == "loading") {
-            ctx.warn(format!("the forward branch ended early: {}", e.message));
-        }
-
-        // artefact
-        out.set_cell(lx, ly)?;
-        out.set_attr("interaction", base.name())?;
-        if let Interaction::Adhesion { gamma0, .. } = base {
-            out.set_attr("gamma0", gamma0)?;
-        }
-        if let Interaction::Repulsion { gamma_r, .. } = base {
-            out.set_attr("gamma_r", gamma_r)?;
-        }
-        out.set_attr("rho", base.range())?;
-        out.set_attr("control", control.as_str())?;
-        out.set_attr("unit", unit.as_str())?;
-        out.set_attr("unit_scale", scale)?;
-        out.set_attr("p_fc", p_fc)?;
-        out.set_attr("lattice", lattice.as_str())?;
-        out.set_attr("n", n_exp)?;
-        out.set_attr("nx", nx as i64)?;
-        out.set_attr("ny", ny as i64)?;
-        out.set_attr("dx", dx)?;
-        out.set_attr("cohesive_zone_length", zone.unwrap_or(f64::NAN))?;
-        out.set_attr("zone_spacings", spacings)?;
-        out.set_attr("n_points", points.len() as i64)?;
-        out.set_attr("n_unconverged", bad.len() as i64)?;
-        write_points(out, &points)?;
-        write_jumps(out, &jumps)?;
-        let col = |g: fn(&Loop) -> f64| loops.iter().map(g).collect::<Vec<f64>>();
-        out.write_f64_1d("loops/x_lo", &col(|l| l.x.0))?;
-        out.write_f64_1d("loops/x_hi", &col(|l| l.x.1))?;
-        out.write_f64_1d("loops/max_area_difference", &col(|l| l.max_area_difference))?;
-        out.write_f64_1d("loops/x_at_max", &col(|l| l.x_at_max))?;
-        out.write_strings(
-            "ended/branch",
-            &ended.iter().map(|e| e.branch.as_str()).collect::<Vec<_>>(),
-        )?;
-        out.write_f64_1d(
-            "ended/load",
-            &ended.iter().map(|e| e.load).collect::<Vec<_>>(),
-        )?;
-        out.write_f64_1d(
-            "ended/strength",
-            &ended.iter().map(|e| e.strength).collect::<Vec<_>>(),
-        )?;
-        out.write_strings(
-            "ended/message",
-            &ended.iter().map(|e| e.message.as_str()).collect::<Vec<_>>(),
-        )?;
-
-        let iters: Vec<i64> = points.iter().map(|p| p.iterations).collect();
-        Ok(StageReport::with_stats(json!({
-            "points": points.len(),
-            "unconverged": bad.len(),
-            "iterations_total": iters.iter().sum::<i64>(),
-            "iterations_max": iters.iter().copied().max().unwrap_or(0),
-            "force_residual_max": points.iter().map(|p| p.force_residual).fold(0.0, f64::max),
-            "violation_max": points.iter().map(|p| p.max_violation).fold(0.0, f64::max),
-            "solve_wall_s": points.iter().map(|p| p.wall_s).sum::<f64>(),
-            "loops": loops.iter().map(|l| json!({
-                "x": [l.x.0, l.x.1],
-                "max_area_difference": l.max_area_difference,
-            })).collect::<Vec<_>>(),
-            "jumps": jumps.iter().map(|j| json!({
-                "branch": j.branch, "event": j.event, "detector": j.detector,
-                "load_over_p_fc": [j.load.0 / p_fc, j.load.1 / p_fc],
-                "area": [j.area.0, j.area.1],
-            })).collect::<Vec<_>>(),
-            "ended": ended.iter().map(|e| e.message.clone()).collect::<Vec<_>>(),
-            "zone_spacings": if spacings.is_finite() { json!(spacings) } else { Value::Null },
-        })))
     }
+    Ok(jumps)
+}
+
+/// The hysteresis loops between the branches ([`hysteresis::find_loops`] on the converged
+/// points); the loops' ends the trend detector missed are added to `jumps` (`detector =
+/// "loop"`), which end sorted by branch (loading first) and index.
+fn loops_and_their_ends(
+    points: &[Point],
+    setup: &Setup,
+    tolerance: f64,
+    jumps: &mut Vec<JumpRow>,
+) -> Vec<Loop> {
+    let (up, down) = (converged(points, "loading"), converged(points, "unloading"));
+    let states = |idx: &[usize]| -> Vec<BranchState> {
+        idx.iter()
+            .map(|&k| BranchState {
+                x: setup.x_of(&points[k]),
+                area: points[k].contact_area,
+                fluid: fluid(&points[k]),
+            })
+            .collect()
+    };
+    let (loops, ends) = hysteresis::find_loops(&states(&up), &states(&down), tolerance);
+    for end in ends {
+        let idx = if end.forward { &up } else { &down };
+        let (a, b) = (idx[end.before], idx[end.after]);
+        if !jumps
+            .iter()
+            .any(|j| j.branch == points[a].branch && j.index == a)
+        {
+            jumps.push(jump_row(points, a, b, f64::NAN, "loop"));
+        }
+    }
+    jumps.sort_by_key(|j| (j.branch != "loading", j.index));
+    loops
+}
+
+/// Warns about non-converged points and a forward branch that ended early; returns the number
+/// of non-converged points.
+fn warn_unconverged(ctx: &mut StageContext, points: &[Point], ended: &[Ended], p_fc: f64) -> usize {
+    let bad: Vec<&Point> = points.iter().filter(|p| !p.converged).collect();
+    if !bad.is_empty() {
+        let list: Vec<String> = bad
+            .iter()
+            .take(10)
+            .map(|p| {
+                format!(
+                    "step {} ({}, load {:.5} p_fc, strength {}): {} iterations, force residual {:.2e}, violation {:.2e}: {}",
+                    p.step,
+                    p.branch,
+                    p.load / p_fc,
+                    p.strength,
+                    p.iterations,
+                    p.force_residual,
+                    p.max_violation,
+                    p.stop_reason
+                )
+            })
+            .collect();
+        ctx.warn(format!(
+            "{} of {} points did not converge (flagged converged = 0, excluded from jump detection){}: {}",
+            bad.len(),
+            points.len(),
+            if bad.len() > 10 { "; the first 10" } else { "" },
+            list.join("; ")
+        ));
+    }
+    for e in ended.iter().filter(|e| e.branch == "loading") {
+        ctx.warn(format!("the forward branch ended early: {}", e.message));
+    }
+    bad.len()
+}
+
+/// What the artefact and the report hold besides the setup.
+struct Sweep<'a> {
+    points: &'a [Point],
+    jumps: &'a [JumpRow],
+    loops: &'a [Loop],
+    ended: &'a [Ended],
+}
+
+fn write_artefact(
+    out: &mut ArtefactWriter,
+    setup: &Setup,
+    surface: &crate::surface::SurfaceInput,
+    (zone, spacings): (Option<f64>, f64),
+    n_bad: usize,
+    s: &Sweep,
+) -> Result<()> {
+    let base = setup.base;
+    out.set_cell(surface.lx, surface.ly)?;
+    out.set_attr("interaction", base.name())?;
+    if let Interaction::Adhesion { gamma0, .. } = base {
+        out.set_attr("gamma0", gamma0)?;
+    }
+    if let Interaction::Repulsion { gamma_r, .. } = base {
+        out.set_attr("gamma_r", gamma_r)?;
+    }
+    out.set_attr("rho", base.range())?;
+    out.set_attr("control", setup.control.as_str())?;
+    out.set_attr("unit", setup.unit.as_str())?;
+    out.set_attr("unit_scale", setup.scale)?;
+    out.set_attr("p_fc", surface.p_fc)?;
+    out.set_attr("lattice", surface.lattice.as_str())?;
+    out.set_attr("n", surface.n)?;
+    out.set_attr("nx", surface.nx as i64)?;
+    out.set_attr("ny", surface.ny as i64)?;
+    out.set_attr("dx", surface.lx / surface.nx as f64)?;
+    out.set_attr("cohesive_zone_length", zone.unwrap_or(f64::NAN))?;
+    out.set_attr("zone_spacings", spacings)?;
+    out.set_attr("n_points", s.points.len() as i64)?;
+    out.set_attr("n_unconverged", n_bad as i64)?;
+    write_points(out, s.points)?;
+    write_jumps(out, s.jumps)?;
+    let col = |g: fn(&Loop) -> f64| s.loops.iter().map(g).collect::<Vec<f64>>();
+    out.write_f64_1d("loops/x_lo", &col(|l| l.x.0))?;
+    out.write_f64_1d("loops/x_hi", &col(|l| l.x.1))?;
+    out.write_f64_1d("loops/max_area_difference", &col(|l| l.max_area_difference))?;
+    out.write_f64_1d("loops/x_at_max", &col(|l| l.x_at_max))?;
+    let ended = s.ended;
+    out.write_strings(
+        "ended/branch",
+        &ended.iter().map(|e| e.branch.as_str()).collect::<Vec<_>>(),
+    )?;
+    out.write_f64_1d(
+        "ended/load",
+        &ended.iter().map(|e| e.load).collect::<Vec<_>>(),
+    )?;
+    out.write_f64_1d(
+        "ended/strength",
+        &ended.iter().map(|e| e.strength).collect::<Vec<_>>(),
+    )?;
+    out.write_strings(
+        "ended/message",
+        &ended.iter().map(|e| e.message.as_str()).collect::<Vec<_>>(),
+    )?;
+    Ok(())
+}
+
+fn report(s: &Sweep, n_bad: usize, p_fc: f64, spacings: f64) -> StageReport {
+    let points = s.points;
+    let iters: Vec<i64> = points.iter().map(|p| p.iterations).collect();
+    StageReport::with_stats(json!({
+        "points": points.len(),
+        "unconverged": n_bad,
+        "iterations_total": iters.iter().sum::<i64>(),
+        "iterations_max": iters.iter().copied().max().unwrap_or(0),
+        "force_residual_max": points.iter().map(|p| p.force_residual).fold(0.0, f64::max),
+        "violation_max": points.iter().map(|p| p.max_violation).fold(0.0, f64::max),
+        "solve_wall_s": points.iter().map(|p| p.wall_s).sum::<f64>(),
+        "loops": s.loops.iter().map(|l| json!({
+            "x": [l.x.0, l.x.1],
+            "max_area_difference": l.max_area_difference,
+        })).collect::<Vec<_>>(),
+        "jumps": s.jumps.iter().map(|j| json!({
+            "branch": j.branch, "event": j.event, "detector": j.detector,
+            "load_over_p_fc": [j.load.0 / p_fc, j.load.1 / p_fc],
+            "area": [j.area.0, j.area.1],
+        })).collect::<Vec<_>>(),
+        "ended": s.ended.iter().map(|e| e.message.clone()).collect::<Vec<_>>(),
+        "zone_spacings": if spacings.is_finite() { json!(spacings) } else { Value::Null },
+    }))
 }
 
 fn write_points(out: &mut ArtefactWriter, p: &[Point]) -> Result<()> {
@@ -1184,110 +1250,6 @@ fn write_jumps(out: &mut ArtefactWriter, j: &[JumpRow]) -> Result<()> {
     Ok(())
 }
 
-/// The state's topology: (in contact, fluid percolates along x or y, full contact).
-fn topology(p: &Point) -> (bool, bool, bool) {
-    (
-        p.contact_area > 0.0,
-        p.fluid_percolates_x || p.fluid_percolates_y,
-        p.contact_area >= 1.0,
-    )
-}
-
-/// Finds the hysteresis loops between the forward and reverse branches (converged points at
-/// equal control values, see [`Loop`]) and adds the loops' ends to `jumps` where the trend
-/// detector missed them (`detector = "loop"`): on the forward branch between the loop's
-/// largest control value and the next one (where the branches agree again), on the reverse
-/// branch between its smallest and the next one below. A loop that reaches the end of the
-/// common range (e.g. the reverse branch continues below the forward branch's start) gets no
-/// jump at that end.
-pub fn find_loops(
-    points: &[Point],
-    x_of: &dyn Fn(&Point) -> f64,
-    tolerance: f64,
-    jumps: &mut Vec<JumpRow>,
-) -> Vec<Loop> {
-    let conv = |b: &str| -> Vec<usize> {
-        (0..points.len())
-            .filter(|&k| points[k].branch == b && points[k].converged)
-            .collect()
-    };
-    let (up, down) = (conv("loading"), conv("unloading"));
-    let down_at: std::collections::HashMap<u64, usize> = down
-        .iter()
-        .map(|&k| (x_of(&points[k]).to_bits(), k))
-        .collect();
-    // (forward index, reverse index) at common control values, in forward order
-    let common: Vec<(usize, usize)> = up
-        .iter()
-        .filter_map(|&u| down_at.get(&x_of(&points[u]).to_bits()).map(|&d| (u, d)))
-        .collect();
-    let differ = |&(u, d): &(usize, usize)| {
-        let (a, b) = (&points[u], &points[d]);
-        topology(a) != topology(b) || (a.contact_area - b.contact_area).abs() > tolerance
-    };
-    let fluid = |p: &Point| p.fluid_percolates_x || p.fluid_percolates_y;
-    let add = |jumps: &mut Vec<JumpRow>, a: usize, b: usize| {
-        let (pa, pb) = (&points[a], &points[b]);
-        if jumps.iter().any(|j| j.branch == pa.branch && j.index == a) {
-            return;
-        }
-        jumps.push(JumpRow {
-            branch: pa.branch.clone(),
-            index: a,
-            index_after: b,
-            load: (pa.load, pb.load),
-            strength: (pa.strength, pb.strength),
-            area: (pa.contact_area, pb.contact_area),
-            ratio: f64::NAN,
-            event: classify(pa.contact_area, pb.contact_area, fluid(pa), fluid(pb)).into(),
-            detector: "loop".into(),
-        });
-    };
-    let mut loops = Vec::new();
-    let mut k = 0;
-    while k < common.len() {
-        if !differ(&common[k]) {
-            k += 1;
-            continue;
-        }
-        let c0 = k;
-        while k + 1 < common.len() && differ(&common[k + 1]) {
-            k += 1;
-        }
-        let c1 = k;
-        let (mut dmax, mut xmax) = (0.0f64, f64::NAN);
-        for &(u, d) in &common[c0..=c1] {
-            let diff = (points[d].contact_area - points[u].contact_area).abs();
-            if diff > dmax || xmax.is_nan() {
-                dmax = diff;
-                xmax = x_of(&points[u]);
-            }
-        }
-        loops.push(Loop {
-            x: (x_of(&points[common[c0].0]), x_of(&points[common[c1].0])),
-            max_area_difference: dmax,
-            x_at_max: xmax,
-        });
-        // forward branch: from the loop's top to the next common value (branches agree there)
-        if let Some(&(u_next, _)) = common.get(c1 + 1) {
-            let u = common[c1].0;
-            if up.iter().position(|&i| i == u).map(|p| up.get(p + 1)) == Some(Some(&u_next)) {
-                add(jumps, u, u_next);
-            }
-        }
-        // reverse branch: from the loop's bottom to the next common value below
-        if c0 > 0 {
-            let (d, d_next) = (common[c0].1, common[c0 - 1].1);
-            if down.iter().position(|&i| i == d).map(|p| down.get(p + 1)) == Some(Some(&d_next)) {
-                add(jumps, d, d_next);
-            }
-        }
-        k += 1;
-    }
-    jumps.sort_by_key(|j| (j.branch != "loading", j.index));
-    loops
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1344,16 +1306,5 @@ mod tests {
         assert!(bad(json!([{"to": 0.5, "steps": 2}]), false).contains("below"));
         assert!(bad(json!([]), true).contains("at least one"));
         assert!(bad(json!([{"from": 0.0, "to": 1.0, "step": 1e-9}]), true).contains("at most"));
-    }
-
-    #[test]
-    fn classification() {
-        assert_eq!(classify(0.0, 0.1, true, true), "contact formation");
-        assert_eq!(classify(0.1, 0.0, true, true), "contact loss");
-        assert_eq!(classify(0.9, 1.0, true, false), "full contact");
-        assert_eq!(classify(1.0, 0.5, false, false), "trough opening");
-        assert_eq!(classify(0.35, 0.43, true, false), "coalescence");
-        assert_eq!(classify(0.41, 0.32, false, true), "break-up");
-        assert_eq!(classify(0.2, 0.3, true, true), "area jump (up)");
     }
 }

@@ -1,0 +1,132 @@
+//! The conjugate direction of the preconditioned method (Vollebregt 2014): the gradient on the
+//! free set F (the contact set and the nodes the last step found penetrating) is mapped by the
+//! stiffness K = G⁻¹, z = K g_F, restricted to F with its mean removed, and conjugated with
+//! β = ⟨g, z⟩/⟨g_old, z_old⟩. Two transform pairs per iteration: z = K g_F (with ⟨g, z⟩ from
+//! Parseval), then r = G t.
+
+use super::passes::{L, free, line_row};
+use super::{Conjugacy, Direction};
+use crate::compliance::Compliance;
+
+/// The direction t on F (0 off it), r = G t and the line-search sums, with z the buffer of
+/// K g_F; `m` is the mean of the old direction on the contact set.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn direction<K: Compliance>(
+    kernel: &mut K,
+    z: &mut [f64],
+    t: &mut [f64],
+    r: &mut [f64],
+    (u, p, h): (&[f64], &[f64], &[f64]),
+    (sigma, shift): (f64, f64),
+    m: f64,
+    cg: &mut Conjugacy,
+) -> Direction {
+    let (_, ny) = kernel.shape();
+    // z = K g on the free set F (g zero off it), and δ = ⟨g, z − m_z⟩_F from Parseval.
+    let tt: &[f64] = t;
+    let ([sg_t, sg, free_count, _], quadratic, [sz, _, _, _]) = kernel.apply_fused(
+        true,
+        z,
+        |i, row| {
+            let o = i * ny..(i + 1) * ny;
+            gradient_row(
+                row,
+                &u[o.clone()],
+                &p[o.clone()],
+                &h[o.clone()],
+                &tt[o],
+                sigma,
+                shift,
+            )
+        },
+        None,
+        |i, _, z| [masked_sum(z, &p[i * ny..(i + 1) * ny]), 0.0, 0.0, 0.0],
+    );
+    let mz = sz / free_count;
+    let delta = quadratic - mz * sg;
+    let beta = cg.beta(delta);
+    let zz: &[f64] = z;
+    let ([st, _, _, _], _, [sr, srt, _, _]) = kernel.apply_fused(
+        false,
+        t,
+        |i, t| {
+            let o = i * ny..(i + 1) * ny;
+            direction_preconditioned_row(t, &zz[o.clone()], &p[o], mz, beta, m)
+        },
+        Some(r),
+        |i, t, r| line_row(r, t, &p[i * ny..(i + 1) * ny]),
+    );
+    Direction {
+        st,
+        // Σ_F g t = ⟨g, z − m_z⟩ + β ⟨g, t_old − m⟩.
+        sgt: delta + beta * (sg_t - m * sg),
+        sr,
+        srt,
+        free_count,
+    }
+}
+
+/// Pass B over one row (preconditioned): writes the gap on the free set F (the contact set and
+/// the nodes marked penetrating), g = σU − h − shift on F and 0 off it, into `row` (the input
+/// of the stiffness transform); returns Σ g t and Σ g for the old direction t, and |F|.
+fn gradient_row(
+    row: &mut [f64],
+    u: &[f64],
+    p: &[f64],
+    h: &[f64],
+    t: &[f64],
+    sigma: f64,
+    shift: f64,
+) -> [f64; 4] {
+    let (mut sgt, mut sg, mut count) = ([0.0; L], [0.0; L], [0.0; L]);
+    for (k, row) in row.chunks_mut(L).enumerate() {
+        for (l, out) in row.iter_mut().enumerate() {
+            let j = k * L + l;
+            let on = free(p[j]);
+            let g = if on { sigma * u[j] - h[j] - shift } else { 0.0 };
+            *out = g;
+            sgt[l] += g * t[j];
+            sg[l] += g;
+            count[l] += if on { 1.0 } else { 0.0 };
+        }
+    }
+    [sgt.iter().sum(), sg.iter().sum(), count.iter().sum(), 0.0]
+}
+
+/// Σ_F z over one row (F the free set, see [`free`]).
+fn masked_sum(z: &[f64], p: &[f64]) -> f64 {
+    let mut s = [0.0; L];
+    for (k, z) in z.chunks(L).enumerate() {
+        for (l, &v) in z.iter().enumerate() {
+            s[l] += if free(p[k * L + l]) { v } else { 0.0 };
+        }
+    }
+    s.iter().sum()
+}
+
+/// Pass C over one row (preconditioned): the direction t = (z − m_z) + β (t − m) on the free set
+/// F, 0 off it, with z = K g the preconditioned gradient and m_z, m the means (so Σ_F t = 0);
+/// returns Σ t.
+fn direction_preconditioned_row(
+    t: &mut [f64],
+    z: &[f64],
+    p: &[f64],
+    mz: f64,
+    beta: f64,
+    m: f64,
+) -> [f64; 4] {
+    let mut st = [0.0; L];
+    for (k, t) in t.chunks_mut(L).enumerate() {
+        for (l, t) in t.iter_mut().enumerate() {
+            let j = k * L + l;
+            let tj = if free(p[j]) {
+                (z[j] - mz) + beta * (*t - m)
+            } else {
+                0.0
+            };
+            *t = tj;
+            st[l] += tj;
+        }
+    }
+    [st.iter().sum(), 0.0, 0.0, 0.0]
+}
