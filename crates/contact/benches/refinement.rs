@@ -40,15 +40,15 @@ fn solver() -> SolverOptions {
 
 /// One discretisation: uniform (or base alone), composite, or coupled.
 enum Disc {
-    Periodic(Model),
-    Composite(RefinedModel, Option<contact::refinement::Refined>),
+    Periodic(Box<Model>),
+    Composite(Box<(RefinedModel, Option<contact::refinement::Refined>)>),
     Coupled(coupled::RefineOptions),
 }
 
 impl Disc {
     fn new(s: &Surface, method: &str, levels: u32, w: Option<usize>) -> Disc {
         let Some(w) = w else {
-            return Disc::Periodic(Model::new(s).expect("model"));
+            return Disc::Periodic(Box::new(Model::new(s).expect("model")));
         };
         let window = Window::centred(&s.grid, 0.5, 0.0, w, w);
         match method {
@@ -58,7 +58,10 @@ impl Disc {
                     window,
                     solver: solver(),
                 };
-                Disc::Composite(RefinedModel::new(s, &opts).expect("composite"), None)
+                Disc::Composite(Box::new((
+                    RefinedModel::new(s, &opts).expect("composite"),
+                    None,
+                )))
             }
             "coupled" | "bandlimited" => Disc::Coupled(coupled::RefineOptions {
                 levels,
@@ -87,7 +90,8 @@ impl Disc {
                 let n = sol.grid.nx;
                 (sol.gap[[n / 2, 0]], sol.contact_area, sol.stats.iterations)
             }
-            Disc::Composite(m, warm) => {
+            Disc::Composite(b) => {
+                let (m, warm) = &mut **b;
                 let r = m.solve(load, warm.as_ref()).expect("composite solve");
                 assert!(r.stats.converged, "{:?}", r.stats);
                 let g = r

@@ -13,8 +13,12 @@
 //!   (Fourier check: the point-force response 1/(π E* r) transforms to 2/(E* q), the
 //!   periodic kernel's compliance, [`crate::elastic`].)
 //! - [`FreeKernel::from_green`]: any even real-space table, e.g. the periodic lattice Green's
-//!   function of a finer grid restricted to a window (what local refinement needs to reproduce a
-//!   uniform fine solve exactly; see [`crate::refinement`]).
+//!   function of a finer grid restricted to a window (the window solve of the domain
+//!   decomposition, [`crate::refinement::coupled`]).
+//! - [`FreeKernel::composite`]: the composite operator of a locally refined problem
+//!   ([`crate::refinement`]), which replaces the padded convolution altogether (every
+//!   [`Compliance`] method hands over to it), so that the Polonsky–Keer minimiser and the
+//!   free-boundary residuals serve it unchanged.
 //!
 //! Preconditioner (the stiffness the Polonsky–Keer iteration needs): the exact inverse of the
 //! circulant embedding, K̂(q) = 1/Ĝ_pad(q) on the padded grid (floored at 1e-12 of the largest
