@@ -64,6 +64,11 @@
 //!   +7.7e-4, +1.0e-3, +1.7e-3, +1.4e-3 (base alone −1.4e-2, −4.1e-2, −0.14, −0.13).
 //!   The local slope d ln g_s/d ln|l| between neighbouring loads thus differs from the
 //!   uniform one by at most 6.4e-4 (base alone up to 0.1).
+//! - 256² base, k = 2, window 64², against 1024² (`REFINE_BASE=8 REFINE_WINDOW=64`, 1447 s;
+//!   the uniform and base values from the first design's run, the uniform gaps known to 4
+//!   digits only, so ±2e-4 on each ratio): p_c/p_fc 0.2286057870 against 0.228605358
+//!   (+1.9e-6; base alone +2.9e-5); gap at l = −1e-2, −3e-3, −1e-3, −3e-4: −6.8e-4, −8.7e-4,
+//!   −6.5e-4, −8.0e-4 (base alone −3.1e-3, −9.9e-3, −3.8e-2, −7.6e-2).
 //!
 //! At a fixed load (0.227 p_fc, saddle gap 2.08e-3 h0, uniform 2048² the reference):
 //! - 512² base, k = 2, window 64²: −8.2e-6 relative (base alone −6.4e-5).
