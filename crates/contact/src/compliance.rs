@@ -1,8 +1,10 @@
 //! The elastic operator as the Polonsky–Keer minimiser sees it: a compliance G (pressure →
 //! displacement) and an approximate stiffness K ≈ G⁻¹ for its preconditioner, both applied by
-//! FFT with row callbacks. Two implementations: the periodic half-space
-//! ([`crate::elastic::ElasticKernel`], K = G⁻¹ exactly) and the free-boundary one on a zero-padded
-//! grid ([`crate::free_kernel::FreeKernel`], K the inverse of G's circulant embedding).
+//! FFT with row callbacks. Implementations: the periodic half-space
+//! ([`crate::elastic::ElasticKernel`], K = G⁻¹ exactly), the free-boundary one on a zero-padded
+//! grid ([`crate::free_kernel::FreeKernel`], K the inverse of G's circulant embedding) and the
+//! composite operator of local refinement ([`crate::refinement::Composite`], K = Pᵀ K_f P, exact
+//! inside the refined region), the last two reached through `FreeKernel`.
 
 use crate::spectral::RowSums;
 

@@ -13,8 +13,12 @@
 //!   (Fourier check: the point-force response 1/(π E* r) transforms to 2/(E* q), the
 //!   periodic kernel's compliance, [`crate::elastic`].)
 //! - [`FreeKernel::from_green`]: any even real-space table, e.g. the periodic lattice Green's
-//!   function of a finer grid restricted to a window (what local refinement needs to reproduce a
-//!   uniform fine solve exactly; see [`crate::refinement`]).
+//!   function of a finer grid restricted to a window (the window solve of the domain
+//!   decomposition, [`crate::refinement::coupled`]).
+//! - [`FreeKernel::composite`]: the composite operator of a locally refined problem
+//!   ([`crate::refinement`]), which replaces the padded convolution altogether (every
+//!   [`Compliance`] method hands over to it), so that the Polonsky–Keer minimiser and the
+//!   free-boundary residuals serve it unchanged.
 //!
 //! Preconditioner (the stiffness the Polonsky–Keer iteration needs): the exact inverse of the
 //! circulant embedding, K̂(q) = 1/Ĝ_pad(q) on the padded grid (floored at 1e-12 of the largest
@@ -51,6 +55,9 @@ pub struct FreeKernel {
     pad: Vec<f64>,
     nx: usize,
     ny: usize,
+    /// The composite operator of a locally refined problem, which replaces all of the above
+    /// ([`crate::refinement`]).
+    composite: Option<Box<crate::refinement::Composite>>,
 }
 
 /// ∫∫ dX dY / √(X² + Y²) antiderivative, continuous at X = 0 or Y = 0.
@@ -124,7 +131,15 @@ impl FreeKernel {
             pad: vec![0.0; px * py],
             nx,
             ny,
+            composite: None,
         }
+    }
+
+    /// The composite (locally refined) operator as a kernel ([`crate::refinement`]).
+    pub fn composite(c: crate::refinement::Composite) -> Self {
+        let mut k = Self::from_green(1, 1, |_, _| 1.0);
+        k.composite = Some(Box::new(c));
+        k
     }
 
     /// The real-space response at offset (di, dj), |di| ≤ nx, |dj| ≤ ny.
@@ -171,19 +186,32 @@ fn real_even_spectrum(table: &[f64], px: usize, py: usize) -> Vec<f64> {
 }
 
 impl Compliance for FreeKernel {
+    // (each method hands a composite kernel to it)
     fn shape(&self) -> (usize, usize) {
+        if let Some(c) = &self.composite {
+            return c.shape();
+        }
         (self.nx, self.ny)
     }
 
     fn parallel(&self) -> bool {
+        if let Some(c) = &self.composite {
+            return c.parallel();
+        }
         self.spectral.parallel()
     }
 
     fn point_compliance(&self) -> f64 {
+        if let Some(c) = &self.composite {
+            return c.point_compliance();
+        }
         self.green[0]
     }
 
     fn displacement(&mut self, p: &[f64], u: &mut [f64]) {
+        if let Some(c) = &mut self.composite {
+            return c.displacement(p, u);
+        }
         self.load(p);
         self.spectral
             .convolve_with_in_place(&mut self.pad, &self.compliance);
@@ -205,6 +233,9 @@ impl Compliance for FreeKernel {
         P: Fn(usize, &mut [f64]) -> RowSums + Sync,
         F: Fn(usize, &[f64], &mut [f64]) -> RowSums + Sync,
     {
+        if let Some(c) = &mut self.composite {
+            return c.apply_fused(stiffness, input, prepare, output, finish);
+        }
         let ny = self.ny;
         let parallel = self.parallel();
         let before = rows(parallel, input, ny, |i, row| prepare(i, row));
@@ -238,6 +269,9 @@ impl Compliance for FreeKernel {
     }
 
     fn add_point_displacements(&mut self, sources: &[(usize, f64)], u: &mut [f64]) {
+        if let Some(c) = &mut self.composite {
+            return c.add_point_displacements(sources, u);
+        }
         let (nx, ny) = (self.nx, self.ny);
         assert_eq!(u.len(), nx * ny, "field length");
         let (px, py) = (2 * nx, 2 * ny);
@@ -259,7 +293,7 @@ impl Compliance for FreeKernel {
 
 /// Runs `f(i, row)` over the rows of `field` (in parallel if asked) and sums its results in row
 /// order, so the sums do not depend on the thread count.
-fn rows(
+pub(crate) fn rows(
     parallel: bool,
     field: &mut [f64],
     ny: usize,
@@ -330,6 +364,11 @@ impl crate::Model {
         let mut m = Self::from_heights(grid, heights)?;
         m.free = Some(kernel);
         Ok(m)
+    }
+
+    /// The composite operator of a locally refined model, if it is one.
+    pub(crate) fn composite(&self) -> Option<&crate::refinement::Composite> {
+        self.free.as_ref()?.composite.as_deref()
     }
 
     /// The elastic boundary of this model.
