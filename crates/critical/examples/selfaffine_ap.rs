@@ -3,8 +3,12 @@
 //! line; progress on stderr.
 //!
 //! ```sh
-//! cargo run --release -p critical --example selfaffine_ap -- N SEED_FIRST SEED_LAST [REL_WIDTH]
+//! cargo run --release -p critical --example selfaffine_ap -- N SEED_FIRST SEED_LAST \
+//!     [REL_WIDTH [exact|gaussian [SUB]]]
 //! ```
+//! `SUB` > 0: the surface generated on 2^N × 2^N is sampled at every 2^SUB-th node (the same
+//! continuum surface on a coarser grid, exact as long as q_s stays below the coarse grid's
+//! Nyquist wavenumber 2^(N−SUB−1)), for a resolution study on the same surfaces.
 //! H = 0.8, q_r = 2, q_s = 64 (units of 2π/L), rms slope 1 (the hard-wall threshold area does not
 //! depend on the normalisation: scaling the heights scales every load), exact amplitudes,
 //! periodic boundary.
@@ -23,6 +27,7 @@ fn main() {
         "gaussian" => Amplitudes::Gaussian,
         _ => Amplitudes::Exact,
     };
+    let sub: u32 = num(5, "0").parse().expect("SUB");
     let mut a = Vec::new();
     for seed in first..=last {
         let field = SelfAffine {
@@ -37,13 +42,25 @@ fn main() {
         }
         .generate()
         .expect("surface");
+        let field = if sub == 0 {
+            field
+        } else {
+            let step = 1usize << sub;
+            let nn = (1usize << n) / step;
+            let heights = field
+                .heights
+                .slice(ndarray::s![..;step, ..;step])
+                .to_owned();
+            let grid = surface::Grid::periodic(nn, nn, 1.0, 1.0).expect("grid");
+            surface::HeightField::new(grid, heights).expect("field")
+        };
         let opts = PercolationOptions {
             rel_width,
             ..Default::default()
         };
         let r = percolation_load(&field, Boundary::Periodic, &opts).expect("percolation load");
         println!(
-            "{{\"n\": {n}, \"seed\": {seed}, \"p_fc\": {}, \"l_c\": {}, \"l_c_over_p_fc\": {}, \
+            "{{\"n\": {n}, \"sub\": {sub}, \"seed\": {seed}, \"p_fc\": {}, \"l_c\": {}, \"l_c_over_p_fc\": {}, \
              \"a_p_raw\": {}, \"a_p_corrected\": {}, \"a_p_x\": {}, \"a_p_y\": {}, \
              \"bridging_nodes\": {}, \"probes\": {}, \"iterations\": {}, \"retries\": {}, \"wall_s\": {}}}",
             r.p_fc,
@@ -76,7 +93,7 @@ fn main() {
     let (m, sd, sem) = stat(a.iter().map(|x| x.0).collect());
     let (mc, sdc, semc) = stat(a.iter().map(|x| x.1).collect());
     println!(
-        "{{\"summary\": true, \"n\": {n}, \"seeds\": {}, \"a_p_raw_mean\": {m}, \"a_p_raw_sd\": {sd}, \
+        "{{\"summary\": true, \"n\": {n}, \"sub\": {sub}, \"seeds\": {}, \"a_p_raw_mean\": {m}, \"a_p_raw_sd\": {sd}, \
          \"a_p_raw_sem\": {sem}, \"a_p_corrected_mean\": {mc}, \"a_p_corrected_sd\": {sdc}, \
          \"a_p_corrected_sem\": {semc}}}",
         a.len()
