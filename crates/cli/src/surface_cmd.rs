@@ -163,19 +163,19 @@ pub fn read_surface(what: &str, path: &Path, args: &ReadArgs) -> Result<Reading>
 pub fn check_solve_memory(what: &str, path: &Path, field: &HeightField) -> Result<()> {
     let nodes = field.grid.len() as f64;
     let need = nodes * SOLVE_BYTES_PER_NODE;
-    if let Some(avail) = mem_available() {
-        if need > avail {
-            bail!(
-                "{what} `{}`: a contact solve on {} × {} nodes needs about {:.2} GiB ({} bytes \
+    if let Some(avail) = mem_available()
+        && need > avail
+    {
+        bail!(
+            "{what} `{}`: a contact solve on {} × {} nodes needs about {:.2} GiB ({} bytes \
                  per node), more than the {:.2} GiB available; crop or coarsen the field",
-                path.display(),
-                field.grid.nx,
-                field.grid.ny,
-                need / (1u64 << 30) as f64,
-                SOLVE_BYTES_PER_NODE,
-                avail / (1u64 << 30) as f64
-            );
-        }
+            path.display(),
+            field.grid.nx,
+            field.grid.ny,
+            need / (1u64 << 30) as f64,
+            SOLVE_BYTES_PER_NODE,
+            avail / (1u64 << 30) as f64
+        );
     }
     Ok(())
 }
