@@ -1,5 +1,7 @@
 //! `saddleflow critical`: the percolation threshold of the hard-wall contact on one grid (or
-//! averaged over sub-grid shifts); prints one JSON object.
+//! averaged over sub-grid shifts); prints one JSON object. With `--surface FILE` instead of a
+//! lattice: the fluid percolation load of any height file and the contact area there
+//! (`critical::leakage::percolation_load`), periodic or between reservoirs.
 
 use anyhow::{Context, Result, bail};
 use critical::{CriticalOptions, CriticalResult, Transition, find_critical_shifted, shift_set};
@@ -7,15 +9,29 @@ use serde_json::{Value, json};
 use surface::Lattice;
 
 use crate::guard;
+use crate::surface_cmd::{self, ReadArgs};
+use critical::leakage::{PercolationOptions, percolation_load};
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
     /// Surface model: square, triangular or hexagonal.
-    #[arg(long)]
-    lattice: String,
+    #[arg(long, required_unless_present = "surface", conflicts_with = "surface")]
+    lattice: Option<String>,
     /// Grid exponent: 2^n × 2^n nodes (3..=13).
+    #[arg(long, required_unless_present = "surface", conflicts_with = "surface")]
+    n: Option<u32>,
+    /// A height file instead of a lattice: .h5 (height, lx, ly), .npy or text.
     #[arg(long)]
-    n: u32,
+    surface: Option<PathBuf>,
+    #[command(flatten)]
+    read: ReadArgs,
+    /// With --surface: periodic, or free (flow between reservoirs on opposite edges).
+    #[arg(long, default_value = "periodic")]
+    boundary: String,
+    /// With --surface --boundary free: side edges noflux or periodic.
+    #[arg(long, default_value = "noflux")]
+    sides: String,
     /// Sub-grid shifts: K ≥ 1 averages over the K × K midpoint rule on [0, ½)² spacings; 0 (the
     /// default) solves the unshifted grid only (saddles on nodes).
     #[arg(long, default_value_t = 0)]
@@ -60,15 +76,6 @@ fn parse_loads(s: &str) -> Result<Vec<f64>> {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let lattice: Lattice = a.lattice.parse().context("--lattice")?;
-    if !(surface::N_MIN..=surface::N_MAX).contains(&a.n) {
-        bail!(
-            "--n {}: allowed {}..={} (grids of 2^n × 2^n nodes)",
-            a.n,
-            surface::N_MIN,
-            surface::N_MAX
-        );
-    }
     if !(a.tol > 0.0 && a.tol <= contact::TOL_GAP_MAX) {
         bail!(
             "--tol {:?}: allowed 0 < tol ≤ {:e} (h0, the constraint violation)",
@@ -78,6 +85,24 @@ pub fn run(a: Args) -> Result<()> {
     }
     if !(a.rel_width.is_finite() && a.rel_width > 0.0 && a.rel_width < 1.0) {
         bail!("--rel-width {:?}: allowed a value in (0, 1)", a.rel_width);
+    }
+    if let Some(path) = &a.surface {
+        return run_surface(&a, path);
+    }
+    let lattice: Lattice = a
+        .lattice
+        .as_deref()
+        .unwrap_or_default()
+        .parse()
+        .context("--lattice")?;
+    let n = a.n.expect("clap requires --n with --lattice");
+    if !(surface::N_MIN..=surface::N_MAX).contains(&n) {
+        bail!(
+            "--n {}: allowed {}..={} (grids of 2^n × 2^n nodes)",
+            n,
+            surface::N_MIN,
+            surface::N_MAX
+        );
     }
     if a.shifts > 16 {
         bail!(
@@ -100,20 +125,12 @@ pub fn run(a: Args) -> Result<()> {
     let pool = guard::thread_pool(a.threads)?;
     let t0 = std::time::Instant::now();
     let study = pool.install(|| {
-        find_critical_shifted(
-            lattice,
-            a.n,
-            &shifts,
-            &opts,
-            None,
-            None,
-            a.saddle_every_shift,
-        )
+        find_critical_shifted(lattice, n, &shifts, &opts, None, None, a.saddle_every_shift)
     })?;
     let mut out = summary_json(&study.results, &study.average);
     let obj = out.as_object_mut().expect("object");
     obj.insert("lattice".into(), json!(lattice.name()));
-    obj.insert("n".into(), json!(a.n));
+    obj.insert("n".into(), json!(n));
     obj.insert("tol_gap".into(), json!(a.tol));
     obj.insert("rel_width".into(), json!(a.rel_width));
     // the widest bracket of any shift and transition: a bracket of doubles cannot shrink below
@@ -137,6 +154,61 @@ pub fn run(a: Args) -> Result<()> {
     obj.insert("rel_width_reached".into(), json!(reached));
     obj.insert("p_fc_exact".into(), json!(lattice.exact().p_fc));
     obj.insert("wall_s".into(), json!(t0.elapsed().as_secs_f64()));
+    println!("{}", serde_json::to_string(&out)?);
+    Ok(())
+}
+
+/// `critical --surface FILE`: the fluid percolation load of a height file and a_p there.
+fn run_surface(a: &Args, path: &std::path::Path) -> Result<()> {
+    for (name, given) in [
+        ("--shifts", a.shifts != 0),
+        ("--saddle-loads", a.saddle_loads.is_some()),
+        ("--saddle-every-shift", a.saddle_every_shift),
+    ] {
+        if given {
+            bail!(
+                "{name} applies to --lattice only (a height file has no sub-grid shifts or known saddles)"
+            );
+        }
+    }
+    let boundary = crate::leakage::boundary(&a.boundary, &a.sides)?;
+    let pool = guard::thread_pool(a.threads)?;
+    let r = surface_cmd::read_surface("--surface", path, &a.read)?;
+    surface_cmd::check_solve_memory("--surface", path, &r.field)?;
+    let opts = PercolationOptions {
+        tol_gap: a.tol,
+        rel_width: a.rel_width,
+        guess: a.guess,
+        ..Default::default()
+    };
+    let t0 = std::time::Instant::now();
+    let res = pool.install(|| percolation_load(&r.field, boundary, &opts))?;
+    let out = json!({
+        "surface": path.display().to_string(),
+        "boundary": res.boundary.name(),
+        "sides": crate::leakage::sides_name(boundary),
+        "nx": r.field.grid.nx,
+        "ny": r.field.grid.ny,
+        "lx": r.field.grid.lx,
+        "ly": r.field.grid.ly,
+        "p_fc": res.p_fc,
+        "l_c": res.any.l_c(),
+        "l_c_over_p_fc": res.any.l_c() / res.p_fc,
+        "bracket": [res.any.bracket.lo, res.any.bracket.hi],
+        "a_p_raw": res.any.a_p_raw(),
+        "a_p_corrected": res.any.a_p_corrected(),
+        "l_c_x": res.x.l_c(),
+        "l_c_y": res.y.l_c(),
+        "any": transition_json(&res.any),
+        "x": transition_json(&res.x),
+        "y": transition_json(&res.y),
+        "tol_gap": a.tol,
+        "rel_width": a.rel_width,
+        "probes": res.probes,
+        "retries": res.retries,
+        "iterations": res.iterations,
+        "wall_s": t0.elapsed().as_secs_f64(),
+    });
     println!("{}", serde_json::to_string(&out)?);
     Ok(())
 }

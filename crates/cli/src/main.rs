@@ -8,8 +8,10 @@ mod cluster;
 mod critical;
 mod flow;
 mod guard;
+mod leakage;
 mod pipeline;
 mod solve;
+mod surface_cmd;
 mod tradeoff;
 
 #[derive(Parser)]
@@ -32,6 +34,11 @@ enum Command {
     /// Locate the percolation threshold (L_c, a_p) of the hard-wall contact and print a JSON
     /// summary.
     Critical(critical::Args),
+    /// Self-affine random surfaces (generate) and statistics of height files (stats).
+    #[command(subcommand)]
+    Surface(surface_cmd::Command),
+    /// Leakage against load on a height file: contact, gap, flux along x and y, percolation.
+    Leakage(leakage::Args),
     /// Error against cost of every headline number across fidelity presets (reads the cache):
     /// figure, tables and the README's trade table.
     Tradeoff(tradeoff::Args),
@@ -46,6 +53,8 @@ fn main() -> std::process::ExitCode {
         Command::Solve(args) => solve::run(args),
         Command::Flow(args) => flow::run(args),
         Command::Critical(args) => critical::run(args),
+        Command::Surface(cmd) => surface_cmd::run(cmd),
+        Command::Leakage(args) => leakage::run(args),
         Command::Tradeoff(args) => tradeoff::run(args),
         Command::Pipeline(cmd) => pipeline::run(cmd),
     };

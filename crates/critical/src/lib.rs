@@ -48,6 +48,7 @@
 
 pub mod bracket;
 pub mod ladder;
+pub mod leakage;
 pub mod running;
 pub mod saddle;
 pub mod scaling;
