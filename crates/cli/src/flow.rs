@@ -10,7 +10,7 @@
 //! (true relative residual), `conservation_error`, `flux_error_estimate`, `wall_s`, `nx`, `ny`, `lx`, `ly`, and some
 //! more solver details; `underflow_nodes` counts open nodes whose conductivity g³ underflows
 //! double precision (a field whose largest gap is outside [5.3e-52, 2.4e51] h0 is refused: see
-//! `stages::gapfile::max_gap_range`). A solve that did not converge is still printed, with `converged: false`
+//! `formats::gapfile::max_gap_range`). A solve that did not converge is still printed, with `converged: false`
 //! and a warning on stderr. With `--fields OUT.h5` the gap, pressure and current density
 //! (`current_x`, `current_y`) are written with the summary and provenance.
 
