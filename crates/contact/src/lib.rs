@@ -17,8 +17,9 @@
 //! - [`nonlinear_cg::NonlinearCg`]: bound-constrained nonlinear conjugate gradients on the
 //!   displacement, preconditioned by the elastic stiffness, with a line search that stops at the
 //!   first minimum along the ray; any interaction, follows metastable branches from warm starts,
-//!   converges to the same force-residual bound as FIRE in 3–5× fewer iterations (not yet chosen
-//!   by [`Method::Auto`]).
+//!   converges to the same force-residual bound as FIRE in 3–5× fewer iterations; what
+//!   [`Method::Auto`] chooses for adhesion and repulsion where the grid resolves the cohesive
+//!   zone to half a spacing ([`NCG_MIN_ZONE_SPACINGS`]), FIRE below.
 //!
 //! [`Model::solve`] picks one, warm-starts from a previous [`Solution`] if given, and always
 //! returns the iterations, residuals and a converged flag; [`path`] runs quasi-static loading and
@@ -149,10 +150,23 @@ pub fn pressure_max(tol_gap: f64, l: f64) -> f64 {
     std::f64::consts::PI * tol_gap / (f64::EPSILON * l)
 }
 
+/// Smallest cohesive-zone length ρ²E*/γ, in grid spacings, at which [`Method::Auto`] uses
+/// nonlinear CG for adhesion and repulsion; below it uses FIRE. Where the zone is far below the
+/// spacing, the discrete problem has many lattice-trapped metastable states separated by tiny
+/// barriers, and which one a warm start relaxes into depends on the minimiser's dynamics, not on
+/// the physics. Measured on the draft preset's paths (`ADHESIVE_PATH=6,7 cargo bench -p contact
+/// --bench adhesive`, tolerance 1e-8): at 1.02 spacings (Figure 2, square model, 128²) the two
+/// minimisers differ by at most 52 of 16384 nodes of contact at 7 of 177 points (adhesion) and
+/// 36 nodes at 4 of 149 (repulsion), with the same jumps; on Figure 3's hexagonal γ0 path (128²)
+/// by 16 nodes at 0.48 spacings, 200 at 0.22 and on another branch below 0.05 (full contact at
+/// γ0 = 15 for nonlinear CG, not before 20 for FIRE). FIRE stays the reference there.
+pub const NCG_MIN_ZONE_SPACINGS: f64 = 1.0;
+
 /// Which minimiser to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
-    /// Polonsky–Keer for the hard wall, FIRE otherwise.
+    /// Polonsky–Keer for the hard wall; nonlinear CG for adhesion and repulsion whose cohesive
+    /// zone spans at least [`NCG_MIN_ZONE_SPACINGS`] grid spacings, FIRE below (see there).
     #[default]
     Auto,
     /// Constrained conjugate gradients, stiffness-preconditioned (hard wall only).
@@ -462,17 +476,29 @@ impl Model {
                 opts,
                 warm,
             ),
-            Method::NonlinearCg => self.solve_with(
+            Method::Auto if !self.resolves_cohesive_zone(interaction) => {
+                self.solve_with(&fire::Fire::default(), interaction, pressure, opts, warm)
+            }
+            Method::Auto | Method::NonlinearCg => self.solve_with(
                 &nonlinear_cg::NonlinearCg::default(),
                 interaction,
                 pressure,
                 opts,
                 warm,
             ),
-            Method::Auto | Method::Fire => {
+            Method::Fire => {
                 self.solve_with(&fire::Fire::default(), interaction, pressure, opts, warm)
             }
         }
+    }
+
+    /// Whether the cohesive zone ρ²E*/γ of `interaction` spans at least
+    /// [`NCG_MIN_ZONE_SPACINGS`] of the grid's coarser spacing (true without one: no strength).
+    pub fn resolves_cohesive_zone(&self, interaction: Interaction) -> bool {
+        let dx = (self.grid.lx / self.grid.nx as f64).max(self.grid.ly / self.grid.ny as f64);
+        interaction
+            .cohesive_zone_length(1.0)
+            .is_none_or(|zone| zone >= NCG_MIN_ZONE_SPACINGS * dx)
     }
 
     /// Solves with a given minimiser.
