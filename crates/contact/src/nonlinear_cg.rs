@@ -78,7 +78,7 @@
 //! line search's local passes make the difference). Where the grid does not resolve the
 //! cohesive zone the two part: on the γ0 path above they differ by 200 nodes of contact at
 //! γ0 = 0.4 (0.22 spacings) and reach full contact at γ0 = 15 (nonlinear CG) and beyond 18
-//! (FIRE); [`crate::Method::Auto`] therefore keeps FIRE below half a spacing
+//! (FIRE); [`crate::Method::Auto`] therefore keeps FIRE below one spacing
 //! ([`crate::NCG_MIN_ZONE_SPACINGS`]).
 //!
 //! Preconditioner variants tried (256², cold/warm iterations on five states: adhesion at

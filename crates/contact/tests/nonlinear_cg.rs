@@ -325,7 +325,7 @@ fn auto_chooses_by_the_resolution_of_the_cohesive_zone() {
         tol_force: 1e-8,
         ..SolverOptions::default()
     };
-    // γ just above and below the threshold: zone = ρ²/γ = (0.5 ± 1 %) spacings
+    // γ just above and below the threshold: zone = ρ²/γ = the threshold ± 1 %
     let at = RHO * RHO / (contact::NCG_MIN_ZONE_SPACINGS * dx);
     let cases = [
         (Interaction::HardWall, "polonsky-keer"),
