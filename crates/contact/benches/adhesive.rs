@@ -14,6 +14,9 @@
 //! - `ADHESIVE_CANDIDATES` grid exponents where the other candidates of
 //!   `contact::nonlinear_cg` run too (Fletcher–Reeves, steepest descent, L-BFGS), default none;
 //! - `ADHESIVE_PRESSURE` mean pressure (E* h0/λ), default 0;
+//! - `ADHESIVE_PATH` grid exponents: instead of the solves above, the draft preset's Figure 2
+//!   and Figure 3 paths, warm-started point by point, by the methods of `ADHESIVE_PATH_METHODS`
+//!   (default `auto,fire`): iterations per warm step, CPU time, points where they differ;
 //! - `ADHESIVE_DUMP=DIR` writes per n the heights and our displacement of the cold solve (raw
 //!   little-endian f64, row-major (n, n), first index x) as `DIR/heights_n{N}.f64` and
 //!   `DIR/ours_u_n{N}.f64`, for `bench/peers/adhesive_peers.py`.
