@@ -17,8 +17,9 @@
 //! - [`nonlinear_cg::NonlinearCg`]: bound-constrained nonlinear conjugate gradients on the
 //!   displacement, preconditioned by the elastic stiffness, with a line search that stops at the
 //!   first minimum along the ray; any interaction, follows metastable branches from warm starts,
-//!   converges to the same force-residual bound as FIRE in 3–5× fewer iterations (not yet chosen
-//!   by [`Method::Auto`]).
+//!   converges to the same force-residual bound as FIRE in 3–5× fewer iterations; what
+//!   [`Method::Auto`] chooses for adhesion and repulsion where the cohesive zone spans a grid
+//!   spacing ([`NCG_MIN_ZONE_SPACINGS`]), FIRE below.
 //!
 //! [`Model::solve`] picks one, warm-starts from a previous [`Solution`] if given, and always
 //! returns the iterations, residuals and a converged flag; [`path`] runs quasi-static loading and
@@ -149,10 +150,35 @@ pub fn pressure_max(tol_gap: f64, l: f64) -> f64 {
     std::f64::consts::PI * tol_gap / (f64::EPSILON * l)
 }
 
+/// Smallest cohesive-zone length ρ²E*/γ, in grid spacings, at which [`Method::Auto`] uses
+/// nonlinear CG for adhesion and repulsion; below it uses FIRE. Where the zone is below the
+/// spacing, the discrete problem has many lattice-trapped metastable states separated by tiny
+/// barriers, and which one a warm start relaxes into depends on the minimiser, not on the
+/// physics. Measured on the draft preset (tables of `saddleflow run --params params/draft.toml`
+/// against FIRE everywhere; tolerance 1e-8):
+/// - nonlinear CG everywhere: Figure 2's jumps and loops on 128² (1.02 spacings) unchanged, but
+///   on 64² (0.51) two lattice jumps of the repulsive path vanish, and Figure 3's γ0 paths (down
+///   to 1e-3 spacings) end on other branches: γ_fc of the triangular model on 128² 4.25 → 27.5,
+///   γ_fc/γ_p of the hexagonal one 153 → 113;
+/// - threshold 0.5: Figure 2 as with FIRE on both grids but for those two lattice jumps; γ_fc of
+///   the square model on 64² 42.5 → 32.5 (two path steps);
+/// - threshold 1 (this): every jump of Figure 2 on both grids unchanged, loops unchanged, areas
+///   within 52 of 16384 nodes (lattice trapping at 11 of 328 points on 128²); Figure 3's jumps
+///   unchanged but on the square model's 64² grid: full contact one path step earlier (γ_fc
+///   42.5 → 37.5) and a lattice jump at γ0 ≈ 17 gone. That change and the
+///   square model's other area differences (≤ 74 nodes on 128²) arise at γ0 ≥ 1.8, where FIRE
+///   runs in both: the states handed over at γ0 ≤ 0.2 differ at the tolerance level (mean gap
+///   ≤ 1e-7), and FIRE's outcome on the under-resolved grid depends on that: FIRE alone at
+///   tolerance 1e-9 instead of 1e-8 moves γ_fc of the square model on 64² from 40–45 to 25–30
+///   and of the hexagonal model on 128² from 18.3–20 to 10–11.7. Below a spacing, no minimiser
+///   fixes these jumps to within a path step.
+pub const NCG_MIN_ZONE_SPACINGS: f64 = 1.0;
+
 /// Which minimiser to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
-    /// Polonsky–Keer for the hard wall, FIRE otherwise.
+    /// Polonsky–Keer for the hard wall; nonlinear CG for adhesion and repulsion whose cohesive
+    /// zone spans at least [`NCG_MIN_ZONE_SPACINGS`] grid spacings, FIRE below (see there).
     #[default]
     Auto,
     /// Constrained conjugate gradients, stiffness-preconditioned (hard wall only).
@@ -496,17 +522,29 @@ impl Model {
                 opts,
                 warm,
             ),
-            Method::NonlinearCg => self.solve_with(
+            Method::Auto if !self.resolves_cohesive_zone(interaction) => {
+                self.solve_with(&fire::Fire::default(), interaction, pressure, opts, warm)
+            }
+            Method::Auto | Method::NonlinearCg => self.solve_with(
                 &nonlinear_cg::NonlinearCg::default(),
                 interaction,
                 pressure,
                 opts,
                 warm,
             ),
-            Method::Auto | Method::Fire => {
+            Method::Fire => {
                 self.solve_with(&fire::Fire::default(), interaction, pressure, opts, warm)
             }
         }
+    }
+
+    /// Whether the cohesive zone ρ²E*/γ of `interaction` spans at least
+    /// [`NCG_MIN_ZONE_SPACINGS`] of the grid's coarser spacing (true without one: no strength).
+    pub fn resolves_cohesive_zone(&self, interaction: Interaction) -> bool {
+        let dx = (self.grid.lx / self.grid.nx as f64).max(self.grid.ly / self.grid.ny as f64);
+        interaction
+            .cohesive_zone_length(1.0)
+            .is_none_or(|zone| zone >= NCG_MIN_ZONE_SPACINGS * dx)
     }
 
     /// Solves with a given minimiser.

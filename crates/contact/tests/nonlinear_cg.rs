@@ -314,3 +314,56 @@ fn agrees_with_polonsky_keer_on_the_hard_wall() {
         .fold(0.0f64, |d, (a, b)| d.max((a - b).abs()));
     assert!(du < 1e-8, "max gap difference {du:e}");
 }
+
+/// `Method::Auto` takes nonlinear CG for adhesion and repulsion where the cohesive zone ρ²E*/γ
+/// spans at least `NCG_MIN_ZONE_SPACINGS` grid spacings, FIRE below (many lattice-trapped states:
+/// which one a warm start reaches depends on the minimiser), Polonsky–Keer for the hard wall.
+#[test]
+fn auto_chooses_by_the_resolution_of_the_cohesive_zone() {
+    let (s, mut m) = square(6);
+    let dx = 1.0 / 64.0;
+    let p = 0.1 * s.p_fc_grid();
+    let opts = SolverOptions {
+        tol_force: 1e-8,
+        ..SolverOptions::default()
+    };
+    // γ just above and below the threshold: zone = ρ²/γ = the threshold ± 1 %
+    let at = RHO * RHO / (contact::NCG_MIN_ZONE_SPACINGS * dx);
+    let cases = [
+        (Interaction::HardWall, "polonsky-keer"),
+        (
+            Interaction::Adhesion {
+                gamma0: at / 1.01,
+                rho: RHO,
+            },
+            "nonlinear-cg",
+        ),
+        (
+            Interaction::Adhesion {
+                gamma0: at * 1.01,
+                rho: RHO,
+            },
+            "fire",
+        ),
+        (
+            Interaction::Repulsion {
+                gamma_r: at / 1.01,
+                rho: RHO,
+            },
+            "nonlinear-cg",
+        ),
+        (
+            Interaction::Repulsion {
+                gamma_r: at * 1.01,
+                rho: RHO,
+            },
+            "fire",
+        ),
+    ];
+    for (inter, want) in cases {
+        assert_eq!(m.resolves_cohesive_zone(inter), want != "fire", "{inter:?}");
+        let sol = m.solve(inter, p, &opts, None).unwrap();
+        assert_eq!(sol.stats.method, want, "{inter:?}");
+        assert!(sol.stats.converged, "{inter:?}: {:?}", sol.stats);
+    }
+}
