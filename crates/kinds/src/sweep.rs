@@ -584,7 +584,7 @@ impl StageKind for SweepKind {
                 .doc("strength control: the fixed mean pressure (in `unit`)"),
             ParamSpec::new("method", ParamType::one_of(&Method::ALL.map(Method::name)))
             .default("auto")
-            .doc("minimiser (auto: Polonsky–Keer for the hard wall, FIRE otherwise)"),
+            .doc("minimiser (auto: Polonsky–Keer for the hard wall; nonlinear CG for adhesion and repulsion where the grid resolves the cohesive zone, FIRE where it does not)"),
             ParamSpec::new("tol_gap", ParamType::positive())
                 .default(1e-10)
                 .doc("constraint-violation tolerance (h0)"),
