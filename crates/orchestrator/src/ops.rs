@@ -143,7 +143,11 @@ pub fn gc(ws: &Workspace, plans: &[Plan], dry_run: bool, wait: bool) -> Result<G
         let size = file_size(&path);
         let delete = if store::fsutil::is_temp_name(&name) {
             store::fsutil::is_stale_temp(&name)
-        } else if let Some(stem) = name.strip_suffix(".h5").filter(|s| store::is_key(s)) {
+        } else if let Some(stem) = name
+            .strip_suffix(".h5")
+            .or_else(|| name.strip_suffix(".h5.b3"))
+            .filter(|s| store::is_key(s))
+        {
             !reachable.contains(&(kind, stem.to_string()))
         } else {
             false // not ours: leave it

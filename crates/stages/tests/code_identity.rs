@@ -103,10 +103,17 @@ fn editing_a_stage_module_reruns_the_kinds_that_reach_it_and_no_others() {
         .map(|(m, _)| m.clone())
         .collect();
     assert!(
-        users.contains("sweep") && users.contains("figure"),
+        users.contains("sweep") && users.contains("fig2") && users.contains("fig3"),
         "{users:?}"
     );
-    assert!(!users.contains("surface") && !users.contains("mock"));
+    // across crates at module granularity: scenes that read no sweep are not touched
+    assert!(
+        !users.contains("surface")
+            && !users.contains("mock")
+            && !users.contains("fig4")
+            && !users.contains("convergence"),
+        "{users:?}"
+    );
     assert_eq!(changed(&before, &after), users);
 }
 

@@ -327,6 +327,14 @@ impl ArtefactWriter {
             .with_context(|| format!("cannot flush `{}`", self.tmp.display()))?;
         file.close()
             .with_context(|| format!("cannot close `{}`", self.tmp.display()))?;
+        // the whole file's checksum beside it, written before the rename: readers check the
+        // bytes before handing them to the HDF5 library (which can crash on corrupt metadata)
+        let sum = crate::digest::file_checksum(&self.tmp, crate::clock::Purpose::Publish)
+            .with_context(|| format!("cannot hash `{}`", self.tmp.display()))?;
+        fsutil::write_atomic(
+            &crate::digest::checksum_path(&self.final_path),
+            sum.as_bytes(),
+        )?;
         fsutil::commit_rename(&self.tmp, &self.final_path)?;
         Ok(self.final_path.clone())
     }
