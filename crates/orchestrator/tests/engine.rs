@@ -352,12 +352,13 @@ fn gc_keeps_what_the_plans_reach_and_deletes_the_rest() {
     let stale = p.path("results/cache/add/.deadbeef.h5.tmp-4000000000-0");
     std::fs::write(&stale, b"partial").unwrap();
     let dry = orchestrator::ops::gc(&p.ws(), std::slice::from_ref(&plan), true, false).unwrap();
-    assert_eq!(dry.deleted.len(), 4, "{:?}", dry.deleted); // old a, c, d + the temporary
+    // old a, c, d, their whole-file checksums, the temporary
+    assert_eq!(dry.deleted.len(), 7, "{:?}", dry.deleted);
     assert!(stale.exists());
     let before = p.files().len();
     let r = orchestrator::ops::gc(&p.ws(), std::slice::from_ref(&plan), false, false).unwrap();
-    assert_eq!(r.deleted.len(), 4);
-    assert_eq!(p.files().len(), before - 4);
+    assert_eq!(r.deleted.len(), 7);
+    assert_eq!(p.files().len(), before - 7);
     let s = p.run(&reg, &quiet());
     assert!(ran(&s).is_empty());
 }

@@ -234,7 +234,7 @@ pub fn check(path: &Path, expected_key: &str) -> Integrity {
     // (not fail) on corrupted metadata, so a damaged file must be caught before it is opened
     let whole = match file_checksum_matches(path) {
         Ok(ok) => ok,
-        Err(e) => return Integrity::Damaged(e),
+        Err(verdict) => return verdict,
     };
     let verdict = std::panic::catch_unwind(|| {
         let r = match ArtefactReader::open_complete(path) {
@@ -258,7 +258,7 @@ pub fn check(path: &Path, expected_key: &str) -> Integrity {
 }
 
 /// The whole-file checksum beside an artefact: `<file>.b3`, the BLAKE3 hex of the file's bytes
-/// as published.
+/// as published and their number (`<hex> <bytes>`).
 pub fn checksum_path(path: &Path) -> std::path::PathBuf {
     let mut s = path.as_os_str().to_owned();
     s.push(".b3");
@@ -276,19 +276,33 @@ pub fn file_checksum(path: &Path, purpose: crate::clock::Purpose) -> std::io::Re
 }
 
 /// `Ok(true)`: the file's bytes match its checksum file; `Ok(false)`: there is no checksum
-/// file (an artefact written before checksums, or by hand); `Err`: they differ (the message
-/// names the file).
-fn file_checksum_matches(path: &Path) -> Result<bool, String> {
+/// file (an artefact written before checksums, or by hand): the content digest decides;
+/// `Err`: they differ (the verdict names the file).
+fn file_checksum_matches(path: &Path) -> Result<bool, Integrity> {
     let Ok(want) = std::fs::read_to_string(checksum_path(path)) else {
         return Ok(false);
     };
+    let mut parts = want.split_whitespace();
+    let (hash, size) = (parts.next().unwrap_or(""), parts.next());
+    let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    if let Some(size) = size.and_then(|s| s.parse::<u64>().ok())
+        && len < size
+    {
+        return Err(Integrity::Invalid(format!(
+            "`{}` is truncated: {len} of the {size} bytes published",
+            path.display()
+        )));
+    }
     match file_checksum(path, crate::clock::Purpose::Verify) {
-        Ok(got) if got == want.trim() => Ok(true),
-        Ok(_) => Err(format!(
-            "`{}`: its bytes differ from the checksum written at publication ({}): damaged or replaced",
+        Ok(got) if got == hash => Ok(true),
+        Ok(_) => Err(Integrity::Damaged(format!(
+            "`{}`: its bytes differ from the checksum written at publication ({}): damaged, or a foreign file copied over it",
             path.display(),
             checksum_path(path).display()
-        )),
-        Err(e) => Err(format!("`{}`: cannot read: {e}", path.display())),
+        ))),
+        Err(e) => Err(Integrity::Invalid(format!(
+            "`{}`: cannot read: {e}",
+            path.display()
+        ))),
     }
 }
