@@ -42,7 +42,7 @@ pub use config::{ConfigError, ConfigErrors, Origin, ParamsFile, PipelineFile};
 pub use events::{Event, EventLog, What};
 pub use kind::{
     CodeIdentity, InputSpec, Inputs, Params, ProgressSink, Registry, StageContext, StageKind,
-    StageReport,
+    StageReport, Typed, TypedKind, parse_params,
 };
 pub use plan::{Plan, PlannedStage};
 pub use progress::ProgressMode;
