@@ -38,8 +38,9 @@ use critical::{
 };
 use ndarray::Array2;
 use orchestrator::{
-    Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
+    Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageReport, TypedKind,
 };
+use serde::Deserialize;
 use serde_json::json;
 use store::{ArtefactReader, ArtefactWriter, fields};
 use surface::{Lattice, Surface};
@@ -83,7 +84,40 @@ pub(crate) fn ns_spec(max_len: usize, doc: &str) -> ParamSpec {
     .doc(doc)
 }
 
-impl StageKind for CriticalKind {
+/// The `critical` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CriticalParams {
+    /// Which model.
+    #[serde(deserialize_with = "crate::solver::from_str")]
+    pub lattice: Lattice,
+    /// Grid exponents, strictly ascending.
+    pub ns: Vec<u32>,
+    /// m × m sub-grid shifts; 0 = unshifted grid only.
+    pub shifts: usize,
+    /// Polonsky–Keer tolerance on the constraint violation (h0).
+    pub tol_gap: f64,
+    /// Target relative width of each load bracket.
+    pub rel_width: f64,
+    /// Reduced loads l < 0 of the saddle-gap samples.
+    pub saddle_loads: Vec<f64>,
+    /// Store the near-critical fields of the finest grid.
+    pub fields: bool,
+}
+
+/// Grid exponents strictly ascending (the `ns` of `critical` and `ladder`).
+pub(crate) fn check_ascending(ns: &[u32]) -> Result<(), ParamIssue> {
+    if ns.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(ParamIssue::new(
+            "ns",
+            format!("{ns:?}: allowed a strictly ascending list of grid exponents"),
+        ));
+    }
+    Ok(())
+}
+
+impl TypedKind for CriticalKind {
+    type Params = CriticalParams;
     /// Lower bound: heights, displacement, pressure and gap on the finest grid.
     fn memory_estimate(
         &self,
@@ -112,9 +146,7 @@ impl StageKind for CriticalKind {
             ParamSpec::new("shifts", ParamType::int_range(0, MAX_SHIFTS))
                 .default(0)
                 .doc("m × m sub-grid shifts (midpoint rule on [0, ½)²); 0 = unshifted grid only"),
-            ParamSpec::new("tol_gap", ParamType::float_range(1e-14, 1e-4))
-                .default(1e-10)
-                .doc("Polonsky–Keer tolerance on the constraint violation (h0)"),
+            crate::solver::tol_gap_spec(),
             ParamSpec::new("rel_width", ParamType::float_range(1e-13, 0.1))
                 .default(1e-9)
                 .doc("target relative width (hi − lo)/hi of each load bracket"),
@@ -138,22 +170,15 @@ impl StageKind for CriticalKind {
                 .doc("store the near-critical fields of the finest grid (first shift)"),
         ]
     }
-    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
-        let ns = ns(params).map_err(|e| ParamIssue::new("ns", e.to_string()))?;
-        if ns.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(ParamIssue::new(
-                "ns",
-                format!("{ns:?}: allowed a strictly ascending list of grid exponents"),
-            ));
-        }
-        Ok(())
+    fn check(&self, params: &CriticalParams) -> Result<(), ParamIssue> {
+        check_ascending(&params.ns)
     }
-    fn cost(&self, params: &Params) -> f64 {
+    fn cost(&self, params: &CriticalParams) -> f64 {
         // ~1000 Polonsky–Keer iterations per shift and level, each an FFT pair; relative to a
         // 512² solve
-        let m = params.i64("shifts").unwrap_or(0).max(1) as f64;
-        ns(params)
-            .unwrap_or_default()
+        let m = params.shifts.max(1) as f64;
+        params
+            .ns
             .iter()
             .map(|&n| 4f64.powi(n as i32) / 4f64.powi(9) * m * m * 10.0)
             .sum()
@@ -161,22 +186,17 @@ impl StageKind for CriticalKind {
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &CriticalParams,
         _inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let lattice = lattice_from_name(params.str("lattice")?)?;
-        let ns = ns(params)?;
-        let m = params.i64("shifts")? as usize;
-        let mut opts = ResolutionOptions::new(ns.clone(), m);
+        let lattice = params.lattice;
+        let ns = params.ns.clone();
+        let mut opts = ResolutionOptions::new(ns.clone(), params.shifts);
         opts.critical = CriticalOptions {
-            tol_gap: params.f64("tol_gap")?,
-            rel_width: params.f64("rel_width")?,
-            saddle_loads: params
-                .get("saddle_loads")?
-                .as_array()
-                .map(|a| a.iter().filter_map(|v| v.as_f64()).collect())
-                .unwrap_or_default(),
+            tol_gap: params.tol_gap,
+            rel_width: params.rel_width,
+            saddle_loads: params.saddle_loads.clone(),
             ..Default::default()
         };
         // Progress by cost: a level costs ∝ 4^n.
@@ -233,7 +253,7 @@ impl StageKind for CriticalKind {
         out.set_attr("a_p_raw", av.any.a_p_raw.mean)?;
         out.set_attr("a_p_corrected", av.any.a_p_corrected.mean)?;
         out.set_attr("p_fc_over_l_c", av.p_fc_over_l_c.mean)?;
-        if params.bool("fields")? {
+        if params.fields {
             let f = study.fields.as_ref().expect("kept");
             let s = Surface::on_grid(lattice, g);
             out.write_f64_2d(fields::HEIGHT, s.heights.view())?;

@@ -42,9 +42,8 @@ use anyhow::{Result, bail};
 use critical::scaling::{
     EdgeOptions, ExponentFit, blocked_half_length, fit_exponent, open_half_width,
 };
-use orchestrator::{
-    InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
-};
+use orchestrator::{InputSpec, Inputs, ParamSpec, ParamType, StageContext, StageReport, TypedKind};
+use serde::Deserialize;
 use serde_json::json;
 use store::{ArtefactReader, ArtefactWriter};
 
@@ -300,12 +299,23 @@ pub fn identity(z: &Exponent, u: &Exponent, c: &Exponent) -> (f64, f64) {
     )
 }
 
-impl StageKind for ExponentsKind {
+/// The `exponents` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExponentsParams {
+    /// Square-root onset: fit the loaded nodes within span · r_c of the contact line.
+    pub span: f64,
+    /// Square-root onset: but at least this many nodes.
+    pub min_nodes: usize,
+}
+
+impl TypedKind for ExponentsKind {
+    type Params = ExponentsParams;
     /// Lower bound 0: fits over the ladders' per-rung numbers (kB), no grid-sized allocation.
     fn memory_estimate(
         &self,
-        _params: &Params,
-        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+        _params: &orchestrator::Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<orchestrator::Params>>,
     ) -> Option<u64> {
         Some(0)
     }
@@ -330,22 +340,22 @@ impl StageKind for ExponentsKind {
                 .doc("square-root onset: but at least this many nodes"),
         ]
     }
-    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+    fn inputs(&self, _params: &ExponentsParams) -> Vec<InputSpec> {
         vec![InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model")]
     }
-    fn cost(&self, _params: &Params) -> f64 {
+    fn cost(&self, _params: &ExponentsParams) -> f64 {
         0.05
     }
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &ExponentsParams,
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
         let opts = EdgeOptions {
-            span: params.f64("span")?,
-            min_nodes: params.i64("min_nodes")? as usize,
+            span: params.span,
+            min_nodes: params.min_nodes,
         };
         let mut models = Vec::new();
         let mut flux_points = Vec::new();

@@ -23,11 +23,10 @@
 //! `wall_s`, `check` (the check in words).
 
 use anyhow::{Context, Result, anyhow, bail};
-use contact::{Interaction, Lattice, Model, Solution, SolverOptions, Surface};
-use orchestrator::{
-    InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
-};
+use contact::{Interaction, Lattice, Model, Solution, Surface};
+use orchestrator::{InputSpec, Inputs, ParamSpec, ParamType, StageContext, StageReport, TypedKind};
 use reynolds::{FlowAxis, FlowOptions};
+use serde::Deserialize;
 use serde_json::json;
 use store::ArtefactWriter;
 use tables::Table;
@@ -84,24 +83,35 @@ pub fn table(cases: &[Case]) -> Table {
 }
 
 fn solve(model: &mut Model, load: f64, tol_gap: f64) -> Result<Solution> {
-    let opts = SolverOptions {
-        tol_gap,
-        ..Default::default()
-    };
+    let opts = crate::solver::SolverParams::tol_gap(tol_gap).options();
     Ok(model.solve(Interaction::HardWall, load, &opts, None)?)
 }
 
-fn lattice_of(params: &Params) -> Result<Lattice> {
-    crate::surface::lattice_from_name(params.str("lattice")?)
+/// The `extremes` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExtremesParams {
+    /// Which model.
+    #[serde(deserialize_with = "crate::solver::from_str")]
+    pub lattice: Lattice,
+    /// The largest grid solved (and the next coarser one).
+    pub n_largest: u32,
+    /// Grid of the load extremes.
+    pub n: u32,
+    /// Reduced loads (L − L_c)/L_c at the critical input's finest grid, non-zero.
+    pub ls: Vec<f64>,
+    /// Polonsky–Keer tolerance on the constraint violation (h0).
+    pub tol_gap: f64,
 }
 
-impl StageKind for ExtremesKind {
+impl TypedKind for ExtremesKind {
+    type Params = ExtremesParams;
     /// Lower bound: heights, displacement, pressure and gap on the largest grid (its doc's
     /// 7 GB at n = 13 is about 13 such fields: FFT buffers and minimiser state).
     fn memory_estimate(
         &self,
-        params: &Params,
-        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+        params: &orchestrator::Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<orchestrator::Params>>,
     ) -> Option<u64> {
         let n = params.i64("n_largest").ok()?.max(params.i64("n").ok()?);
         Some(4 * crate::surface::field_bytes(n))
@@ -138,36 +148,33 @@ impl StageKind for ExtremesKind {
             )
             .default(json!([-1e-4, 1e-4]))
             .doc("reduced loads (L − L_c)/L_c at the critical input's finest grid, non-zero"),
-            ParamSpec::new("tol_gap", ParamType::float_range(1e-14, 1e-4))
-                .default(1e-10)
-                .doc("Polonsky–Keer tolerance on the constraint violation (h0)"),
+            crate::solver::tol_gap_spec(),
         ]
     }
-    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+    fn inputs(&self, _params: &ExtremesParams) -> Vec<InputSpec> {
         vec![
             InputSpec::one("critical", &["critical"])
                 .doc("L_c on the grids of the near-critical cases (unshifted: shifts = 0)"),
         ]
     }
-    fn side_outputs(&self, _params: &Params) -> Vec<String> {
+    fn side_outputs(&self, _params: &ExtremesParams) -> Vec<String> {
         vec![TABLE.to_string()]
     }
-    fn cost(&self, params: &Params) -> f64 {
-        let n = params.i64("n_largest").unwrap_or(10) as i32;
+    fn cost(&self, params: &ExtremesParams) -> f64 {
+        let n = params.n_largest as i32;
         4f64.powi(n) / 4f64.powi(9) * 0.3
     }
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &ExtremesParams,
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let lattice = lattice_of(params)?;
-        let tol = params.f64("tol_gap")?;
-        let n_largest = params.i64("n_largest")? as u32;
-        let n_loads = params.i64("n")? as u32;
-        let ls = params.f64_array("ls")?;
+        let lattice = params.lattice;
+        let tol = params.tol_gap;
+        let (n_largest, n_loads) = (params.n_largest, params.n);
+        let ls = &params.ls;
         if let Some(l) = ls.iter().find(|l| **l == 0.0) {
             bail!("ls: {l} — the reduced loads must be non-zero (at l = 0 the check has no side)");
         }
@@ -296,7 +303,7 @@ impl StageKind for ExtremesKind {
         let s = Surface::new(lattice, level.n)?;
         let (lx, ly) = (s.grid.lx, s.grid.ly);
         let mut model = Model::new(&s)?;
-        let mut ls = ls;
+        let mut ls = ls.clone();
         ls.sort_by(f64::total_cmp);
         for l in ls {
             let load = l_c * (1.0 + l);

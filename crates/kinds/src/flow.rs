@@ -42,10 +42,9 @@
 
 use anyhow::{Context, Result, anyhow, bail};
 use formats::gapfile;
-use orchestrator::{
-    InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
-};
+use orchestrator::{InputSpec, Inputs, ParamSpec, ParamType, StageContext, StageReport, TypedKind};
 use reynolds::{FlowAxis, FlowOptions, FlowResult};
+use serde::Deserialize;
 use serde_json::{Value, json};
 use store::{ArtefactReader, ArtefactWriter, fields};
 
@@ -131,24 +130,47 @@ struct Row {
     res: FlowResult,
 }
 
-fn axis_of(params: &Params) -> Result<FlowAxis> {
-    gapfile::parse_axis(params.str("axis")?)
+/// Deserialises a flow axis (`"x"`, `"y"`) through [`gapfile::parse_axis`].
+pub(crate) fn de_axis<'de, D: serde::Deserializer<'de>>(d: D) -> Result<FlowAxis, D::Error> {
+    let s = String::deserialize(d)?;
+    gapfile::parse_axis(&s).map_err(serde::de::Error::custom)
 }
 
-fn wanted_branch(params: &Params, branch: &str) -> bool {
-    match params.str("branches").unwrap_or("both") {
-        "both" => true,
-        b => b == branch,
+/// The `flow` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlowParams {
+    /// Flow direction.
+    #[serde(deserialize_with = "de_axis")]
+    pub axis: FlowAxis,
+    /// `loading`, `unloading` or `both`.
+    pub branches: String,
+    /// Target true relative residual.
+    pub tol: f64,
+    /// Cap on preconditioned CG iterations per solve.
+    pub max_iter: usize,
+    /// Loads at which the current density is stored.
+    pub currents_at: Vec<f64>,
+    /// Store the current density at the last flowing point of each branch.
+    pub current_last_flowing: bool,
+    /// Loads at which the loading branch's conductivity is a headline number.
+    pub headline_at: Vec<f64>,
+}
+
+impl FlowParams {
+    fn wanted_branch(&self, branch: &str) -> bool {
+        self.branches == "both" || self.branches == branch
     }
 }
 
-impl StageKind for FlowKind {
+impl TypedKind for FlowKind {
+    type Params = FlowParams;
     /// Lower bound: the gap, the pressure and the two face conductances on the grid of the
     /// sweep's surface (the solver holds more: multigrid levels, Krylov vectors).
     fn memory_estimate(
         &self,
-        _params: &Params,
-        inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+        _params: &orchestrator::Params,
+        inputs: &std::collections::BTreeMap<String, Vec<orchestrator::Params>>,
     ) -> Option<u64> {
         let n = orchestrator::upstream_max(inputs, &["n"])?;
         Some(4 * crate::surface::field_bytes(n))
@@ -212,28 +234,28 @@ impl StageKind for FlowKind {
             .doc("loads (in the sweep's unit) at which the loading branch's conductivity is a headline number (log-linear between the neighbouring points)"),
         ]
     }
-    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+    fn inputs(&self, _params: &FlowParams) -> Vec<InputSpec> {
         vec![
             InputSpec::one("sweep", &["sweep"])
                 .doc("a load path whose artefact holds gap fields (fields_at or fields_all)"),
         ]
     }
-    fn cost(&self, _params: &Params) -> f64 {
+    fn cost(&self, _params: &FlowParams) -> f64 {
         0.2
     }
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &FlowParams,
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
         let sweep = inputs.one("sweep")?;
         let sweep_file = sweep.path().display().to_string();
-        let axis = axis_of(params)?;
+        let axis = params.axis;
         let opts = FlowOptions {
-            tolerance: params.f64("tol")?,
-            max_iterations: params.i64("max_iter")? as usize,
+            tolerance: params.tol,
+            max_iterations: params.max_iter,
             return_fields: false,
             ..Default::default()
         };
@@ -244,7 +266,7 @@ impl StageKind for FlowKind {
 
         // which points have a stored gap
         let selected: Vec<usize> = (0..pts.len())
-            .filter(|&k| wanted_branch(params, &pts.branch[k]))
+            .filter(|&k| params.wanted_branch(&pts.branch[k]))
             .collect();
         let with_gap: Vec<usize> = selected
             .iter()
@@ -257,7 +279,7 @@ impl StageKind for FlowKind {
                  selected branches ({}); set `fields_all = true` (every point) or `fields_at` \
                  (chosen loads) on the sweep stage",
                 selected.len(),
-                params.str("branches")?
+                params.branches
             );
         }
         let skipped = selected.len() - with_gap.len();
@@ -357,7 +379,7 @@ impl StageKind for FlowKind {
 
         // current densities
         let mut current_rows: Vec<usize> = Vec::new();
-        for target in params.f64_array("currents_at")? {
+        for &target in &params.currents_at {
             for br in ["loading", "unloading"] {
                 if let Some(i) = (0..rows.len())
                     .filter(|&i| pts.branch[rows[i].sweep_index] == br)
@@ -378,7 +400,7 @@ impl StageKind for FlowKind {
                 }
             }
         }
-        if params.bool("current_last_flowing")? {
+        if params.current_last_flowing {
             for br in ["loading", "unloading"] {
                 let idx: Vec<usize> = (0..rows.len())
                     .filter(|&i| pts.branch[rows[i].sweep_index] == br)
@@ -477,7 +499,7 @@ impl StageKind for FlowKind {
         let mut heads = Vec::new();
         let lattice = sweep.attr_str("lattice").unwrap_or_default();
         let inter = sweep.attr_str("interaction").unwrap_or_default();
-        for x in params.f64_array("headline_at")? {
+        for &x in &params.headline_at {
             let curve: Vec<(f64, f64)> = rows
                 .iter()
                 .filter(|r| pts.branch[r.sweep_index] == "loading" && r.res.converged)

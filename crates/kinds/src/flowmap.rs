@@ -27,14 +27,15 @@
 //! - `bisection/*`: every probe's `load`, `flows` (u8), `contact_area`, `iterations`,
 //!   `converged` (u8).
 
+use crate::solver::{self, SolverParams};
 use anyhow::{Result, anyhow, bail};
-use contact::{Interaction, Method, Solution, SolverOptions};
+use contact::{Interaction, Method, Solution};
 use formats::gapfile;
 use orchestrator::{
-    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
-    StageReport,
+    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, StageContext, StageReport, TypedKind,
 };
 use reynolds::{FlowAxis, FlowOptions};
+use serde::Deserialize;
 use serde_json::json;
 use store::{ArtefactWriter, fields};
 
@@ -62,13 +63,49 @@ struct Probe {
     converged: bool,
 }
 
-impl StageKind for FlowMapKind {
+/// The `flowmap` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlowMapParams {
+    /// Reduced load (L − L_c)/L_c of the state, < 0.
+    pub l: f64,
+    /// Flow direction.
+    #[serde(deserialize_with = "crate::flow::de_axis")]
+    pub axis: FlowAxis,
+    /// Flow: target true relative residual.
+    pub tol: f64,
+    /// Flow: cap on preconditioned CG iterations.
+    pub max_iter: usize,
+    /// Contact: constraint-violation tolerance (h0).
+    pub tol_gap: f64,
+    /// Contact: iteration cap per solve.
+    pub max_iter_contact: usize,
+    /// Bisection: stop when (hi − lo)/hi is below this.
+    pub rel_width: f64,
+    /// Bisection: lower end of the initial bracket, in p_fc.
+    pub lo_over_p_fc: f64,
+}
+
+impl FlowMapParams {
+    /// The contact solver's parameters (Polonsky–Keer: hard wall).
+    pub fn solver(&self) -> SolverParams {
+        SolverParams {
+            tol_gap: self.tol_gap,
+            max_iter: self.max_iter_contact,
+            method: Method::PolonskyKeer,
+            ..SolverParams::default()
+        }
+    }
+}
+
+impl TypedKind for FlowMapKind {
+    type Params = FlowMapParams;
     /// Lower bound: heights, displacement, pressure and gap of the contact solve on the
     /// surface's grid (the flow solve after it reuses as much).
     fn memory_estimate(
         &self,
-        _params: &Params,
-        inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+        _params: &orchestrator::Params,
+        inputs: &std::collections::BTreeMap<String, Vec<orchestrator::Params>>,
     ) -> Option<u64> {
         let n = orchestrator::upstream_max(inputs, &["n"])?;
         Some(4 * crate::surface::field_bytes(n))
@@ -110,12 +147,8 @@ impl StageKind for FlowMapKind {
             ParamSpec::new("max_iter", ParamType::int_range(1, 100_000))
                 .default(200)
                 .doc("flow: cap on preconditioned CG iterations"),
-            ParamSpec::new("tol_gap", open01(1e-3))
-                .default(1e-10)
-                .doc("contact: constraint-violation tolerance (h0)"),
-            ParamSpec::new("max_iter_contact", ParamType::int_range(1, 100_000_000))
-                .default(200_000)
-                .doc("contact: iteration cap per solve"),
+            solver::tol_gap_spec(),
+            solver::max_iter_spec("max_iter_contact"),
             ParamSpec::new("rel_width", open01(0.1))
                 .default(1e-4)
                 .doc("bisection: stop when (hi − lo)/hi is below this"),
@@ -124,9 +157,8 @@ impl StageKind for FlowMapKind {
                 .doc("bisection: lower end of the initial bracket, in p_fc"),
         ]
     }
-    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
-        let l = params.f64("l").unwrap_or(-0.01);
-        let w = params.f64("rel_width").unwrap_or(1e-4);
+    fn check(&self, params: &FlowMapParams) -> Result<(), ParamIssue> {
+        let (l, w) = (params.l, params.rel_width);
         if w >= l.abs() / 2.0 {
             return Err(ParamIssue::new(
                 "rel_width",
@@ -138,17 +170,16 @@ impl StageKind for FlowMapKind {
         }
         Ok(())
     }
-    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+    fn inputs(&self, _params: &FlowMapParams) -> Vec<InputSpec> {
         vec![InputSpec::one("surface", &["surface"]).doc("the surface (hard wall)")]
     }
-    fn cost(&self, params: &Params) -> f64 {
-        let w = params.f64("rel_width").unwrap_or(1e-4);
-        (1.0 / w).log2().ceil() * 0.05
+    fn cost(&self, params: &FlowMapParams) -> f64 {
+        (1.0 / params.rel_width).log2().ceil() * 0.05
     }
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &FlowMapParams,
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
@@ -162,15 +193,8 @@ impl StageKind for FlowMapKind {
             lattice,
             n: n_exp,
         } = crate::surface::SurfaceInput::read(inputs.one("surface")?)?;
-        let axis = gapfile::parse_axis(params.str("axis")?)?;
-        let l = params.f64("l")?;
-        let rel_width = params.f64("rel_width")?;
-        let copts = SolverOptions {
-            tol_gap: params.f64("tol_gap")?,
-            max_iter: params.i64("max_iter_contact")? as usize,
-            method: Method::PolonskyKeer,
-            ..Default::default()
-        };
+        let (axis, l, rel_width) = (params.axis, params.l, params.rel_width);
+        let copts = params.solver().options();
         let mut probes: Vec<Probe> = Vec::new();
         let mut solve = |load: f64, warm: Option<&Solution>| -> Result<Solution> {
             model
@@ -190,7 +214,7 @@ impl StageKind for FlowMapKind {
         };
 
         // bracket
-        let mut lo = params.f64("lo_over_p_fc")? * p_fc;
+        let mut lo = params.lo_over_p_fc * p_fc;
         let mut hi = p_fc;
         let mut lo_state = solve(lo, None)?;
         if !record(&mut probes, lo, &lo_state) {
@@ -198,7 +222,7 @@ impl StageKind for FlowMapKind {
                 "{lattice} n = {n_exp}: the fluid does not flow along {} even at the bracket's \
                  lower end {lo} (lo_over_p_fc = {}); lower `lo_over_p_fc`",
                 gapfile::axis_name(axis),
-                params.f64("lo_over_p_fc")?
+                params.lo_over_p_fc
             );
         }
         let hi_state = solve(hi, Some(&lo_state))?;
@@ -247,8 +271,8 @@ impl StageKind for FlowMapKind {
             ));
         }
         let fopts = FlowOptions {
-            tolerance: params.f64("tol")?,
-            max_iterations: params.i64("max_iter")? as usize,
+            tolerance: params.tol,
+            max_iterations: params.max_iter,
             return_fields: true,
             ..Default::default()
         };

@@ -32,10 +32,10 @@ use anyhow::{Context, Result, anyhow, bail};
 use contact::Solution;
 use critical::ladder::{LadderOptions, Rung, Window, axis_saddle, solve_ladder};
 use orchestrator::{
-    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
-    StageReport,
+    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, StageContext, StageReport, TypedKind,
 };
 use reynolds::{FlowAxis, FlowOptions};
+use serde::Deserialize;
 use serde_json::json;
 use store::{ArtefactReader, ArtefactWriter};
 use surface::{Lattice, Surface};
@@ -49,12 +49,31 @@ pub const CODE_VERSION: u64 = 2;
 /// The paper's ladder, plus l = 0 (the contact line at L_c).
 pub const DEFAULT_LS: [f64; 9] = [-0.02, -0.01, -0.005, -0.002, 0.0, 0.002, 0.005, 0.01, 0.02];
 
-impl StageKind for LadderKind {
+/// The `ladder` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LadderParams {
+    /// Grid exponents, strictly ascending; each a level of the `critical` input.
+    pub ns: Vec<u32>,
+    /// Reduced loads (L − L_c)/L_c, distinct.
+    pub ls: Vec<f64>,
+    /// Half-size of the stored window around the saddle (λ).
+    pub window: f64,
+    /// Polonsky–Keer tolerance on the constraint violation (h0).
+    pub tol_gap: f64,
+    /// Reynolds flux at every rung.
+    pub flow: bool,
+    /// Flow: target true relative residual.
+    pub flow_tol: f64,
+}
+
+impl TypedKind for LadderKind {
+    type Params = LadderParams;
     /// Lower bound: heights, displacement, pressure and gap on the finest grid of the ladder.
     fn memory_estimate(
         &self,
-        params: &Params,
-        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+        params: &orchestrator::Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<orchestrator::Params>>,
     ) -> Option<u64> {
         let n = crate::critical::ns(params).ok()?.into_iter().max()?;
         Some(4 * crate::surface::field_bytes(n as i64))
@@ -87,9 +106,7 @@ impl StageKind for LadderKind {
             ParamSpec::new("window", ParamType::float_range(0.005, 0.5))
                 .default(0.12)
                 .doc("half-size of the stored window around the saddle (λ)"),
-            ParamSpec::new("tol_gap", ParamType::float_range(1e-14, 1e-4))
-                .default(1e-10)
-                .doc("Polonsky–Keer tolerance on the constraint violation (h0)"),
+            crate::solver::tol_gap_spec(),
             ParamSpec::new("flow", ParamType::Bool)
                 .default(true)
                 .doc("Reynolds flux through the cell along the saddle's channel at every rung"),
@@ -98,17 +115,9 @@ impl StageKind for LadderKind {
                 .doc("flow: target true relative residual"),
         ]
     }
-    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
-        let ns = crate::critical::ns(params).map_err(|e| ParamIssue::new("ns", e.to_string()))?;
-        if ns.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(ParamIssue::new(
-                "ns",
-                format!("{ns:?}: allowed a strictly ascending list of grid exponents"),
-            ));
-        }
-        let mut ls = params
-            .f64_array("ls")
-            .map_err(|e| ParamIssue::new("ls", e.to_string()))?;
+    fn check(&self, params: &LadderParams) -> Result<(), ParamIssue> {
+        crate::critical::check_ascending(&params.ns)?;
+        let mut ls = params.ls.clone();
         ls.sort_by(f64::total_cmp);
         if ls.windows(2).any(|w| w[1] == w[0]) {
             return Err(ParamIssue::new(
@@ -118,16 +127,16 @@ impl StageKind for LadderKind {
         }
         Ok(())
     }
-    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+    fn inputs(&self, _params: &LadderParams) -> Vec<InputSpec> {
         vec![
             InputSpec::one("critical", &["critical"])
                 .doc("L_c of the model on the ladder's grids (unshifted: shifts = 0)"),
         ]
     }
-    fn cost(&self, params: &Params) -> f64 {
-        let k = params.f64_array("ls").map(|v| v.len()).unwrap_or(9) as f64;
-        crate::critical::ns(params)
-            .unwrap_or_default()
+    fn cost(&self, params: &LadderParams) -> f64 {
+        let k = params.ls.len() as f64;
+        params
+            .ns
             .iter()
             .map(|&n| 4f64.powi(n as i32) / 4f64.powi(9) * k * 0.5)
             .sum()
@@ -135,24 +144,24 @@ impl StageKind for LadderKind {
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &LadderParams,
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
         let crit = inputs.one("critical")?;
         let levels = CriticalLevel::read_all(crit)?;
         let lattice = levels[0].lattice;
-        let ns = crate::critical::ns(params)?;
-        let mut ls = params.f64_array("ls")?;
+        let ns = params.ns.clone();
+        let mut ls = params.ls.clone();
         ls.sort_by(f64::total_cmp);
         let opts = LadderOptions {
-            tol_gap: params.f64("tol_gap")?,
-            window: params.f64("window")?,
+            tol_gap: params.tol_gap,
+            window: params.window,
             ..Default::default()
         };
-        let flow = params.bool("flow")?;
+        let flow = params.flow;
         let fopts = FlowOptions {
-            tolerance: params.f64("flow_tol")?,
+            tolerance: params.flow_tol,
             ..Default::default()
         };
         // L_c per level, checked before any solve

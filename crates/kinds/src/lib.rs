@@ -14,7 +14,9 @@
 //! | `extremes` | the solvers at extreme loads and grids, with wall time and peak memory | – | table side output |
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 //!
-//! Each kind lives in the module of its name and implements [`orchestrator::StageKind`]; the
+//! Each kind lives in the module of its name and implements [`orchestrator::TypedKind`] (its
+//! parameters a serde struct, registered through [`orchestrator::Typed`]; `sweep` still
+//! [`orchestrator::StageKind`] directly); [`solver`] holds the shared contact-solver parameters; the
 //! readers of a kind's artefact live in its module too (the scenes read through them).
 //! [`headline`] is the shared record of headline numbers that kinds publish.
 
@@ -27,21 +29,22 @@ pub mod headline;
 pub mod ladder;
 pub mod mock;
 pub mod resolution;
+pub mod solver;
 pub mod surface;
 pub mod sweep;
 
-use orchestrator::Registry;
+use orchestrator::{Registry, Typed};
 
 /// Registers every compute kind.
 pub fn register(r: &mut Registry) {
-    r.register(surface::SurfaceKind);
+    r.register(Typed(surface::SurfaceKind));
     r.register(sweep::SweepKind);
-    r.register(flow::FlowKind);
-    r.register(flowmap::FlowMapKind);
-    r.register(critical::CriticalKind);
-    r.register(resolution::ResolutionKind);
-    r.register(ladder::LadderKind);
-    r.register(exponents::ExponentsKind);
-    r.register(extremes::ExtremesKind);
-    r.register(mock::MockKind);
+    r.register(Typed(flow::FlowKind));
+    r.register(Typed(flowmap::FlowMapKind));
+    r.register(Typed(critical::CriticalKind));
+    r.register(Typed(resolution::ResolutionKind));
+    r.register(Typed(ladder::LadderKind));
+    r.register(Typed(exponents::ExponentsKind));
+    r.register(Typed(extremes::ExtremesKind));
+    r.register(Typed(mock::MockKind));
 }

@@ -3,21 +3,35 @@
 //! purpose, and can write a side output.
 
 use anyhow::{Result, bail};
-use orchestrator::{
-    InputSpec, Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport,
-};
+use orchestrator::{InputSpec, Inputs, ParamSpec, ParamType, StageContext, StageReport, TypedKind};
+use serde::Deserialize;
 use serde_json::json;
 use store::ArtefactWriter;
 
 /// The `mock` stage kind.
 pub struct MockKind;
 
-impl StageKind for MockKind {
+/// The `mock` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MockParams {
+    /// Own value.
+    pub value: f64,
+    /// Seconds to sleep.
+    pub sleep_s: f64,
+    /// Fail on purpose.
+    pub fail: bool,
+    /// Side output path ("" = none).
+    pub side_output: String,
+}
+
+impl TypedKind for MockKind {
+    type Params = MockParams;
     /// Lower bound 0: a test kind holding a number, no grid-sized allocation.
     fn memory_estimate(
         &self,
-        _params: &Params,
-        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+        _params: &orchestrator::Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<orchestrator::Params>>,
     ) -> Option<u64> {
         Some(0)
     }
@@ -38,38 +52,39 @@ impl StageKind for MockKind {
             ParamSpec::new("side_output", ParamType::string()).default(""),
         ]
     }
-    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+    fn inputs(&self, _params: &MockParams) -> Vec<InputSpec> {
         vec![InputSpec::many("inputs", &[]).optional()]
     }
-    fn side_outputs(&self, params: &Params) -> Vec<String> {
-        match params.str("side_output") {
-            Ok(s) if !s.is_empty() => vec![s.to_string()],
-            _ => Vec::new(),
+    fn side_outputs(&self, params: &MockParams) -> Vec<String> {
+        if params.side_output.is_empty() {
+            Vec::new()
+        } else {
+            vec![params.side_output.clone()]
         }
     }
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &MockParams,
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let sleep = params.f64("sleep_s")?;
+        let sleep = params.sleep_s;
         let steps = 20;
         for i in 0..steps {
             std::thread::sleep(std::time::Duration::from_secs_f64(sleep / steps as f64));
             ctx.progress((i + 1) as f64 / steps as f64, "sleeping");
         }
-        if params.bool("fail")? {
+        if params.fail {
             bail!("failing on purpose (fail = true)");
         }
-        let mut v = params.f64("value")?;
+        let mut v = params.value;
         for r in inputs.all("inputs") {
             v += r.attr_f64("value")?;
         }
         out.set_attr("value", v)?;
         out.write_f64_1d("value", &[v])?;
-        let side = params.str("side_output")?;
+        let side = &params.side_output;
         if !side.is_empty() {
             ctx.emit_file(side, format!("value = {v}\n").into_bytes());
         }

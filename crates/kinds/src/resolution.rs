@@ -30,10 +30,11 @@ use crate::headline::Headline;
 use anyhow::{Result, bail};
 use critical::{Extrapolated, Stat};
 use orchestrator::{
-    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageKind,
-    StageReport,
+    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageReport,
+    TypedKind,
 };
-use serde_json::json;
+use serde::Deserialize;
+use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use store::{ArtefactReader, ArtefactWriter};
 use surface::Lattice;
@@ -62,8 +63,8 @@ pub fn paper_ratio(l: Lattice) -> f64 {
     }
 }
 
-fn parse_order(params: &Params, key: &str) -> Result<analysis::Order> {
-    let v = params.get(key)?;
+/// An extrapolation order: `"free"` or a number > 0.
+fn parse_order(key: &str, v: &Value) -> Result<analysis::Order> {
     if let Some(s) = v.as_str() {
         if s == "free" {
             return Ok(analysis::Order::Free);
@@ -86,12 +87,31 @@ const AREA_QUANTITIES: [&str; 6] = [
 ];
 const LOAD_QUANTITIES: [&str; 4] = ["l_c", "l_c_x", "l_c_y", "p_fc_over_l_c"];
 
-impl StageKind for ResolutionKind {
+/// The `resolution` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResolutionParams {
+    /// Order of the leading error term of contact areas.
+    pub area_order: f64,
+    /// Order for loads: `"free"` or a number; kept as written so that `check` reports a bad
+    /// value at its key (see [`ResolutionParams::load_order`]).
+    pub load_order: Value,
+}
+
+impl ResolutionParams {
+    /// The load order.
+    pub fn load_order(&self) -> Result<analysis::Order> {
+        parse_order("load_order", &self.load_order)
+    }
+}
+
+impl TypedKind for ResolutionKind {
+    type Params = ResolutionParams;
     /// Lower bound 0: fits over per-level numbers (bytes), no grid-sized allocation.
     fn memory_estimate(
         &self,
-        _params: &Params,
-        _inputs: &std::collections::BTreeMap<String, Vec<Params>>,
+        _params: &orchestrator::Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<orchestrator::Params>>,
     ) -> Option<u64> {
         Some(0)
     }
@@ -114,8 +134,9 @@ impl StageKind for ResolutionKind {
                 .doc("order for loads: \"free\" (fitted) or a number"),
         ]
     }
-    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
-        parse_order(params, "load_order")
+    fn check(&self, params: &ResolutionParams) -> Result<(), ParamIssue> {
+        params
+            .load_order()
             .map(|_| ())
             .map_err(|e| ParamIssue::new("load_order", e.to_string()))
     }
@@ -155,24 +176,24 @@ impl StageKind for ResolutionKind {
         }
         Ok(())
     }
-    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+    fn inputs(&self, _params: &ResolutionParams) -> Vec<InputSpec> {
         vec![
             InputSpec::many("levels", &["critical"])
                 .doc("the model's critical stages (their grids together)"),
         ]
     }
-    fn cost(&self, _params: &Params) -> f64 {
+    fn cost(&self, _params: &ResolutionParams) -> f64 {
         0.01
     }
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &ResolutionParams,
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let area_order = analysis::Order::Fixed(params.f64("area_order")?);
-        let mut load_order = parse_order(params, "load_order")?;
+        let area_order = analysis::Order::Fixed(params.area_order);
+        let mut load_order = params.load_order()?;
         let mut levels: Vec<CriticalLevel> = Vec::new();
         for r in inputs.all("levels") {
             levels.extend(CriticalLevel::read_all(r)?);

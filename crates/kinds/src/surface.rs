@@ -8,7 +8,8 @@
 //! saddles)).
 
 use anyhow::{Result, anyhow};
-use orchestrator::{Inputs, ParamSpec, ParamType, Params, StageContext, StageKind, StageReport};
+use orchestrator::{Inputs, ParamSpec, ParamType, Params, StageContext, StageReport, TypedKind};
+use serde::Deserialize;
 use serde_json::json;
 use store::{ArtefactWriter, fields};
 use surface::{CriticalKind, Lattice, Surface};
@@ -76,12 +77,21 @@ pub fn lattice_spec() -> ParamSpec {
     .doc("which model")
 }
 
-/// Parses a lattice name.
+/// Parses a lattice name (through `FromStr for Lattice`), e.g. a `lattice` attribute read back
+/// from an artefact.
 pub fn lattice_from_name(name: &str) -> Result<Lattice> {
-    Lattice::ALL
-        .into_iter()
-        .find(|l| l.name() == name)
-        .ok_or_else(|| anyhow!("unknown lattice `{name}`; allowed: square, triangular, hexagonal"))
+    name.parse().map_err(|e| anyhow!("{e}"))
+}
+
+/// The `surface` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SurfaceParams {
+    /// Which model.
+    #[serde(deserialize_with = "crate::solver::from_str")]
+    pub lattice: Lattice,
+    /// Grid exponent: 2^n × 2^n nodes.
+    pub n: u32,
 }
 
 /// Bytes of one `f64` field on a 2^n × 2^n grid.
@@ -89,7 +99,8 @@ pub fn field_bytes(n: i64) -> u64 {
     8u64 << (2 * n.clamp(0, 30) as u32)
 }
 
-impl StageKind for SurfaceKind {
+impl TypedKind for SurfaceKind {
+    type Params = SurfaceParams;
     /// Lower bound: the height field itself.
     fn memory_estimate(
         &self,
@@ -117,21 +128,18 @@ impl StageKind for SurfaceKind {
             .doc("grid exponent: 2^n × 2^n nodes"),
         ]
     }
-    fn cost(&self, params: &Params) -> f64 {
+    fn cost(&self, params: &SurfaceParams) -> f64 {
         // sampling is cheap; weight by nodes relative to a 512² contact solve
-        params
-            .i64("n")
-            .map_or(0.01, |n| 4f64.powi(n as i32) / 4f64.powi(9) * 0.01)
+        4f64.powi(params.n as i32) / 4f64.powi(9) * 0.01
     }
     fn run(
         &self,
         ctx: &mut StageContext,
-        params: &Params,
+        params: &SurfaceParams,
         _inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let lattice = lattice_from_name(params.str("lattice")?)?;
-        let n = params.i64("n")? as u32;
+        let (lattice, n) = (params.lattice, params.n);
         let s = Surface::new(lattice, n).map_err(|e| anyhow!("{e}"))?;
         ctx.progress(0.5, "sampled");
         let st = s.statistics();

@@ -3,6 +3,7 @@
 
 use crate::schema::{ParamIssue, ParamSpec};
 use anyhow::{Context, Result, anyhow};
+use serde::de::DeserializeOwned;
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -70,7 +71,7 @@ impl Params {
             .collect()
     }
     /// Deserialises the whole parameter set into a typed struct.
-    pub fn parse<T: serde::de::DeserializeOwned>(&self) -> Result<T> {
+    pub fn parse<T: DeserializeOwned>(&self) -> Result<T> {
         serde_json::from_value(Value::Object(self.0.clone())).context("parameters")
     }
     /// The parameters as a JSON value.
@@ -304,6 +305,164 @@ pub trait StageKind: Send + Sync {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport>;
+    /// For kinds with typed parameters (see [`TypedKind`]): whether `params` (validated,
+    /// defaults filled) deserialise into the kind's parameter struct. `None`: the kind reads its
+    /// parameters untyped. Tests use it to hold the [`ParamSpec`] list and the struct together.
+    fn parse_typed(&self, _params: &Params) -> Option<Result<()>> {
+        None
+    }
+}
+
+/// Parses validated, defaults-filled parameters into a kind's typed struct; the error names
+/// the kind and (through serde) the field.
+pub fn parse_params<T: DeserializeOwned>(kind: &str, params: &Params) -> Result<T> {
+    serde_json::from_value(params.to_value()).map_err(|e| {
+        anyhow!(
+            "stage kind `{kind}`: the parameters do not fit its typed parameters: {e} \
+             (a kind whose ParamSpec list and parameter struct disagree: a bug in the kind)"
+        )
+    })
+}
+
+/// A stage kind whose parameters are a serde struct (`#[serde(deny_unknown_fields)]`, one
+/// field per [`ParamSpec`]). Register it wrapped in [`Typed`]: the adapter validates nothing
+/// itself (the plan has already checked every parameter against [`params`](Self::params) and
+/// filled the defaults, so file:line error messages stay), it parses the checked map into
+/// [`Self::Params`] once per call and hands the struct to `check`, `inputs`, `side_outputs`,
+/// `cost` and `run`.
+///
+/// `check_inputs` and `memory_estimate` keep the untyped [`Params`]: they also see the
+/// parameters of other stages (of other kinds).
+pub trait TypedKind: Send + Sync {
+    /// The parameter struct.
+    type Params: DeserializeOwned;
+    /// See [`StageKind::name`].
+    fn name(&self) -> &str;
+    /// See [`StageKind::code_version`].
+    fn code_version(&self) -> u64;
+    /// See [`StageKind::doc`].
+    fn doc(&self) -> &str {
+        ""
+    }
+    /// See [`StageKind::params`]: one spec per field of [`Self::Params`].
+    fn params(&self) -> Vec<ParamSpec>;
+    /// See [`StageKind::check`].
+    fn check(&self, _params: &Self::Params) -> Result<(), ParamIssue> {
+        Ok(())
+    }
+    /// See [`StageKind::check_inputs`].
+    fn check_inputs(
+        &self,
+        _params: &Params,
+        _inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Result<(), String> {
+        Ok(())
+    }
+    /// See [`StageKind::memory_estimate`].
+    fn memory_estimate(
+        &self,
+        _params: &Params,
+        _inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        None
+    }
+    /// See [`StageKind::inputs`].
+    fn inputs(&self, _params: &Self::Params) -> Vec<InputSpec> {
+        Vec::new()
+    }
+    /// See [`StageKind::side_outputs`].
+    fn side_outputs(&self, _params: &Self::Params) -> Vec<String> {
+        Vec::new()
+    }
+    /// See [`StageKind::cost`].
+    fn cost(&self, _params: &Self::Params) -> f64 {
+        1.0
+    }
+    /// See [`StageKind::run`].
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Self::Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport>;
+}
+
+/// The adapter that makes a [`TypedKind`] a [`StageKind`] (both interfaces coexist in one
+/// [`Registry`]).
+pub struct Typed<K>(pub K);
+
+impl<K: TypedKind> Typed<K> {
+    fn parse(&self, params: &Params) -> Result<K::Params> {
+        parse_params(self.0.name(), params)
+    }
+}
+
+impl<K: TypedKind> StageKind for Typed<K> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn code_version(&self) -> u64 {
+        self.0.code_version()
+    }
+    fn doc(&self) -> &str {
+        self.0.doc()
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        self.0.params()
+    }
+    fn check(&self, params: &Params) -> Result<(), ParamIssue> {
+        let p = self.parse(params).map_err(|e| ParamIssue {
+            key: None,
+            message: e.to_string(),
+            at_key: false,
+        })?;
+        self.0.check(&p)
+    }
+    fn check_inputs(
+        &self,
+        params: &Params,
+        inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Result<(), String> {
+        self.0.check_inputs(params, inputs)
+    }
+    fn memory_estimate(
+        &self,
+        params: &Params,
+        inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        self.0.memory_estimate(params, inputs)
+    }
+    // The plan calls `check` first and drops a stage whose parameters do not parse, so the
+    // fallbacks below are never what a planned stage sees.
+    fn inputs(&self, params: &Params) -> Vec<InputSpec> {
+        self.parse(params)
+            .map(|p| self.0.inputs(&p))
+            .unwrap_or_default()
+    }
+    fn side_outputs(&self, params: &Params) -> Vec<String> {
+        self.parse(params)
+            .map(|p| self.0.side_outputs(&p))
+            .unwrap_or_default()
+    }
+    fn cost(&self, params: &Params) -> f64 {
+        self.parse(params).map_or(1.0, |p| self.0.cost(&p))
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &Params,
+        inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let p = self
+            .parse(params)
+            .with_context(|| format!("stage `{}`", ctx.stage))?;
+        self.0.run(ctx, &p, inputs, out)
+    }
+    fn parse_typed(&self, params: &Params) -> Option<Result<()>> {
+        Some(self.parse(params).map(drop))
+    }
 }
 
 /// The key under which [`StageKind::memory_estimate`] finds an input's own inputs' parameters

@@ -42,7 +42,7 @@ pub use config::{ConfigError, ConfigErrors, Origin, ParamsFile, PipelineFile};
 pub use events::{Event, EventLog, What};
 pub use kind::{
     CodeIdentity, InputSpec, Inputs, Params, ProgressSink, Registry, StageContext, StageKind,
-    StageReport, UPSTREAM, upstream_max,
+    StageReport, Typed, TypedKind, UPSTREAM, parse_params, upstream_max,
 };
 pub use plan::{Plan, PlannedStage};
 pub use progress::ProgressMode;

@@ -16,10 +16,9 @@
 //! outside the contact lines, and nearly flat over the troughs.
 
 use crate::fig3::{MODELS, check};
-use crate::scene::{OutputSpec, Outputs, Scene};
+use crate::scene::{OutputSpec, Outputs, Scene, scene_params};
 use anyhow::{Result, bail};
 use figures::scenes::maps::ThreeMaps;
-use kinds::surface::lattice_from_name;
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{ParamSpec, ParamType, Params, StageContext};
 use store::ArtefactReader;
@@ -69,7 +68,7 @@ pub fn data(inputs: &Inputs, gamma0: f64) -> Result<(ThreeMaps, Vec<f64>)> {
         let (u, area) = displacement_at(r, gamma0)?;
         let mean = u.mean().unwrap_or(0.0);
         let field = u.mapv(|v| mean - v);
-        let lattice = lattice_from_name(m)?;
+        let lattice: surface::Lattice = m.parse()?;
         maps.push(crate::fig4::lattice_map(lattice, d.n as u32, field, true)?);
         areas.push(area);
     }
@@ -88,6 +87,14 @@ pub fn data(inputs: &Inputs, gamma0: f64) -> Result<(ThreeMaps, Vec<f64>)> {
 /// lattice overlays from the surfaces' critical points; attribute `gamma0`, dataset
 /// `contact_area` (per panel).
 pub struct Fig1;
+
+/// Figure 1's parameters.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fig1Params {
+    /// The surface energy γ0 (E* h0²/λ) whose state is shown.
+    pub gamma0: f64,
+}
 
 impl Scene for Fig1 {
     fn name(&self) -> &'static str {
@@ -109,6 +116,9 @@ impl Scene for Fig1 {
                 .doc("the surface energy γ0 (E* h0²/λ) whose state is shown"),
         ]
     }
+    fn parse_typed(&self, params: &Params) -> Result<()> {
+        scene_params::<Fig1Params>(self.name(), params).map(drop)
+    }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         inputs()
     }
@@ -122,7 +132,7 @@ impl Scene for Fig1 {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<Outputs> {
-        let g = params.f64("gamma0")?;
+        let g = scene_params::<Fig1Params>(self.name(), params)?.gamma0;
         let (maps, areas) = data(inputs, g)?;
         out.set_attr("gamma0", g)?;
         out.write_f64_1d("contact_area", &areas)?;

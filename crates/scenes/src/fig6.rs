@@ -19,7 +19,7 @@
 //!   `ladder` artefacts may each hold some of the models; the fit is taken from the first one
 //!   that carries `beta` and `beta_prefactor`.
 
-use crate::scene::{OutputSpec, Outputs, Scene};
+use crate::scene::{OutputSpec, Outputs, Scene, scene_params};
 use anyhow::{Result, bail};
 use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit};
 use figures::style::Model;
@@ -176,9 +176,13 @@ pub fn curve(d: &FlowData) -> Curve {
 }
 
 /// Figure 6's data from its inputs; statistics for the stage report.
-pub fn data(ctx: &mut StageContext, inputs: &Inputs, params: &Params) -> Result<(Fig6Data, Value)> {
+pub fn data(
+    ctx: &mut StageContext,
+    inputs: &Inputs,
+    params: &Fig6Params,
+) -> Result<(Fig6Data, Value)> {
     let flows = read_flows(inputs)?;
-    let unit = params.str("load_unit").unwrap_or("absolute").to_string();
+    let unit = params.load_unit.as_str();
     let mut curves = Vec::new();
     let mut stats = Vec::new();
     for d in &flows {
@@ -249,7 +253,7 @@ pub fn data(ctx: &mut StageContext, inputs: &Inputs, params: &Params) -> Result<
             "load $L$ / ($E$^*$h$_0/$λ$)".into()
         },
         flux_label: "conductivity $K$ / $h$_0^3".into(),
-        flux_log: params.bool("flux_log").unwrap_or(true),
+        flux_log: params.flux_log,
         normalised,
         distance_label: "($L$_c − $L$)/$L$_c".into(),
         fit,
@@ -259,7 +263,7 @@ pub fn data(ctx: &mut StageContext, inputs: &Inputs, params: &Params) -> Result<
 }
 
 /// The current map of a `flowmap` artefact, in a window around its largest |j|.
-fn current_map(r: &store::ArtefactReader, params: &Params) -> Result<CurrentMap> {
+fn current_map(r: &store::ArtefactReader, params: &Fig6Params) -> Result<CurrentMap> {
     let jx = r.read_f64_2d(store::fields::CURRENT_X)?;
     let jy = r.read_f64_2d(store::fields::CURRENT_Y)?;
     let gap = r.read_f64_2d(store::fields::GAP)?;
@@ -272,7 +276,7 @@ fn current_map(r: &store::ArtefactReader, params: &Params) -> Result<CurrentMap>
             best = (i, j, m);
         }
     }
-    let half = params.f64("map_half_width").unwrap_or(0.3);
+    let half = params.map_half_width;
     let view = if half > 0.0 {
         let (cx, cy) = (
             best.0 as f64 * lx / nx as f64,
@@ -289,7 +293,7 @@ fn current_map(r: &store::ArtefactReader, params: &Params) -> Result<CurrentMap>
         lx,
         ly,
         view,
-        arrows: params.i64("map_arrows").unwrap_or(12).max(0) as usize,
+        arrows: params.map_arrows,
         log: true,
     })
 }
@@ -407,6 +411,20 @@ pub fn tables(inputs: &Inputs) -> Result<Vec<tables::Table>> {
 /// `curves`.
 pub struct Fig6;
 
+/// Figure 6's parameters.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fig6Params {
+    /// Load axis: `absolute` (E* h0/λ) or `p_fc` (each model's).
+    pub load_unit: String,
+    /// Logarithmic flux axis.
+    pub flux_log: bool,
+    /// Half width (λ) of the current map's window (0: the whole cell).
+    pub map_half_width: f64,
+    /// Arrows per side of the current map.
+    pub map_arrows: usize,
+}
+
 impl Scene for Fig6 {
     fn name(&self) -> &'static str {
         "fig6"
@@ -436,6 +454,9 @@ impl Scene for Fig6 {
                 .doc("arrows per side of the current map (0: none)"),
         ]
     }
+    fn parse_typed(&self, params: &Params) -> Result<()> {
+        scene_params::<Fig6Params>(self.name(), params).map(drop)
+    }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         inputs()
     }
@@ -453,7 +474,8 @@ impl Scene for Fig6 {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<Outputs> {
-        let (data, stats) = data(ctx, inputs, params)?;
+        let params = scene_params::<Fig6Params>(self.name(), params)?;
+        let (data, stats) = data(ctx, inputs, &params)?;
         let plotted: usize = data.flow.iter().map(|c| c.load.len()).sum();
         out.set_attr("points_plotted", plotted as i64)?;
         out.set_attr("curves", stats.clone())?;

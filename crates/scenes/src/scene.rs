@@ -132,6 +132,12 @@ pub trait Scene: Sync {
     fn fields_read(&self) -> u64 {
         0
     }
+    /// Whether the parameters (validated, defaults filled) parse into the scene's typed
+    /// parameter struct (see [`scene_params`]); a scene with parameters overrides this with its
+    /// struct. The default: the scene has none.
+    fn parse_typed(&self, params: &Params) -> Result<()> {
+        scene_params::<NoParams>(self.name(), params).map(drop)
+    }
     /// The input stages.
     fn inputs(&self, params: &Params) -> Vec<InputSpec>;
     /// The outputs it writes.
@@ -145,6 +151,20 @@ pub trait Scene: Sync {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<Outputs>;
+}
+
+/// The parameters of a scene without parameters of its own.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoParams {}
+
+/// A scene's own parameters as its typed struct (`#[serde(deny_unknown_fields)]`): the
+/// validated, defaults-filled parameters without the output folders that [`SceneKind`] adds.
+pub fn scene_params<T: serde::de::DeserializeOwned>(scene: &str, params: &Params) -> Result<T> {
+    let mut own = params.0.clone();
+    own.remove("figure_dir");
+    own.remove("table_dir");
+    orchestrator::parse_params(scene, &Params(own))
 }
 
 /// Checks a side-output path: relative, inside the project, no `..`.
@@ -218,7 +238,15 @@ impl StageKind for SceneKind {
     fn check(&self, params: &Params) -> Result<(), ParamIssue> {
         check_relative("figure_dir", &dir(params, "figure_dir", "figures"))?;
         check_relative("table_dir", &dir(params, "table_dir", "results/tables"))?;
+        self.0.parse_typed(params).map_err(|e| ParamIssue {
+            key: None,
+            message: e.to_string(),
+            at_key: false,
+        })?;
         self.0.check(params)
+    }
+    fn parse_typed(&self, params: &Params) -> Option<Result<()>> {
+        Some(self.0.parse_typed(params))
     }
     fn inputs(&self, params: &Params) -> Vec<InputSpec> {
         self.0.inputs(params)
