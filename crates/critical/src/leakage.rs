@@ -39,7 +39,7 @@ use crate::{
     contact_mask,
 };
 use contact::free_kernel::Boundary as ElasticBoundary;
-use contact::{Interaction, Method, Model, Solution, SolverOptions};
+use contact::{Method, Model, Solution, SolverOptions};
 use ndarray::{Array2, ArrayView2};
 use percolation::{Axis, Connectivity, ContactArea, NO_CLUSTER};
 pub use reynolds::SideEdges;
@@ -506,50 +506,12 @@ impl<'m> SolveProber<'m> {
 
     /// Solves at `load` from the warm start, retrying from the nearest stored solution and cold.
     fn solve(&mut self, load: f64) -> Result<Solution, CriticalError> {
-        let nearest = |store: &[(f64, Solution)]| {
-            store
-                .iter()
-                .min_by(|a, b| (a.0 - load).abs().total_cmp(&(b.0 - load).abs()))
-                .map(|(_, s)| s.clone())
-        };
-        let mut last = String::new();
-        for attempt in 0..3 {
-            let start = match attempt {
-                0 => self.warm_for(load),
-                1 => match nearest(&self.store) {
-                    Some(s) => Some(s),
-                    None => continue,
-                },
-                _ => None,
-            };
-            let sol = self
-                .model
-                .solve(Interaction::HardWall, load, &self.opts, start.as_ref())
-                .map_err(|e| CriticalError::Solver {
-                    load,
-                    detail: e.to_string(),
-                })?;
-            self.iterations += sol.stats.iterations;
-            if sol.stats.converged {
-                return Ok(sol);
-            }
-            self.retries += 1;
-            last = format!(
-                "not converged after {} iterations (violation {:.3e} > tol_gap {:.1e}): {}",
-                sol.stats.iterations,
-                sol.stats.max_violation,
-                self.opts.tol_gap,
-                sol.stats
-                    .reason
-                    .as_ref()
-                    .map(|r| r.to_string())
-                    .unwrap_or_default()
-            );
-        }
-        Err(CriticalError::Solver {
-            load,
-            detail: format!("{last} (also from the nearest solution and from a cold start)"),
-        })
+        let first = self.warm_for(load);
+        let (sol, iterations, retries) =
+            crate::solve_with_retries(self.model, &self.opts, load, first, &self.store)?;
+        self.iterations += iterations;
+        self.retries += retries;
+        Ok(sol)
     }
 
     fn area(&self, load: f64) -> ContactArea {

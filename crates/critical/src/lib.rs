@@ -405,51 +405,11 @@ impl SolveProber<'_> {
         load: f64,
         first: Option<Solution>,
     ) -> Result<Solution, CriticalError> {
-        let nearest = |store: &[(f64, Solution)]| {
-            store
-                .iter()
-                .min_by(|a, b| (a.0 - load).abs().total_cmp(&(b.0 - load).abs()))
-                .map(|(_, s)| s.clone())
-        };
-        let mut last = String::new();
-        let mut first = Some(first);
-        for attempt in 0..3 {
-            let start: Option<Solution> = match attempt {
-                0 => first.take().flatten(),
-                1 => nearest(&self.store),
-                _ => None,
-            };
-            if attempt == 1 && start.is_none() {
-                continue;
-            }
-            let sol = self
-                .model
-                .solve(Interaction::HardWall, load, &self.opts, start.as_ref())
-                .map_err(|e| CriticalError::Solver {
-                    load,
-                    detail: e.to_string(),
-                })?;
-            self.iterations += sol.stats.iterations;
-            if sol.stats.converged {
-                return Ok(sol);
-            }
-            self.retries += 1;
-            last = format!(
-                "not converged after {} iterations (violation {:.3e} > tol_gap {:.1e}): {}",
-                sol.stats.iterations,
-                sol.stats.max_violation,
-                self.opts.tol_gap,
-                sol.stats
-                    .reason
-                    .as_ref()
-                    .map(|r| r.to_string())
-                    .unwrap_or_default()
-            );
-        }
-        Err(CriticalError::Solver {
-            load,
-            detail: format!("{last} (also from the nearest solution and from a cold start)"),
-        })
+        let (sol, iterations, retries) =
+            solve_with_retries(&mut self.model, &self.opts, load, first, &self.store)?;
+        self.iterations += iterations;
+        self.retries += retries;
+        Ok(sol)
     }
 
     fn get(&self, load: f64) -> &Solution {
@@ -606,5 +566,62 @@ pub fn find_critical(
         retries: prober.retries,
         wall_s: t0.elapsed().as_secs_f64(),
         fields,
+    })
+}
+
+/// The hard-wall solve at `load` from `first`; if it does not converge, again from the solution
+/// in `store` nearest in load and then from a cold start. Returns the solution, the iterations
+/// spent and the number of retries; the error names the load and the last failure.
+pub(crate) fn solve_with_retries(
+    model: &mut Model,
+    opts: &SolverOptions,
+    load: f64,
+    first: Option<Solution>,
+    store: &[(f64, Solution)],
+) -> Result<(Solution, usize, usize), CriticalError> {
+    let nearest = || {
+        store
+            .iter()
+            .min_by(|a, b| (a.0 - load).abs().total_cmp(&(b.0 - load).abs()))
+            .map(|(_, s)| s.clone())
+    };
+    let (mut iterations, mut retries) = (0, 0);
+    let mut last = String::new();
+    let mut first = Some(first);
+    for attempt in 0..3 {
+        let start: Option<Solution> = match attempt {
+            0 => first.take().flatten(),
+            1 => nearest(),
+            _ => None,
+        };
+        if attempt == 1 && start.is_none() {
+            continue;
+        }
+        let sol = model
+            .solve(Interaction::HardWall, load, opts, start.as_ref())
+            .map_err(|e| CriticalError::Solver {
+                load,
+                detail: e.to_string(),
+            })?;
+        iterations += sol.stats.iterations;
+        if sol.stats.converged {
+            return Ok((sol, iterations, retries));
+        }
+        retries += 1;
+        last = format!(
+            "not converged after {} iterations (violation {:.3e} > tol_gap {:.1e}): {}",
+            sol.stats.iterations,
+            sol.stats.max_violation,
+            opts.tol_gap,
+            sol.stats
+                .reason
+                .as_ref()
+                .map(|r| r.to_string())
+                .unwrap_or_default()
+        );
+    }
+    Err(CriticalError::Solver {
+        load,
+        detail: format!("{last} (also from the nearest solution and from a cold start)"),
     })
 }
