@@ -4,30 +4,11 @@
 use ndarray::Array2;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use store::{ArtefactReader, ArtefactWriter};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_saddleflow"))
-}
+mod common;
 
-/// Runs the binary; returns (success, parsed stdout JSON or Null, stderr).
-fn run(args: &[&str]) -> (bool, Value, String) {
-    let out = bin().args(args).output().expect("binary runs");
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    let json = if out.status.success() {
-        assert_eq!(
-            stdout.trim().lines().count(),
-            1,
-            "exactly one JSON line on stdout, got:\n{stdout}"
-        );
-        serde_json::from_str(stdout.trim()).expect("stdout is JSON")
-    } else {
-        Value::Null
-    };
-    (out.status.success(), json, stderr)
-}
+use common::run;
 
 fn flow(file: &Path, extra: &[&str]) -> (bool, Value, String) {
     let mut args = vec!["flow", "--gap", file.to_str().unwrap()];

@@ -2,7 +2,9 @@
 //! declarative files (`pipeline/*.toml`, `params/*.toml`, `params/cluster/*.toml`).
 #![allow(dead_code)]
 
+use serde_json::Value;
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 /// The repository's root.
 pub fn project_root() -> PathBuf {
@@ -26,4 +28,27 @@ pub fn project() -> tempfile::TempDir {
         copy_tomls(&root.join(sub), &dir.path().join(sub));
     }
     dir
+}
+
+/// The `saddleflow` binary under test.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_saddleflow"))
+}
+
+/// Runs the binary; returns (success, parsed stdout JSON or Null, stderr).
+pub fn run(args: &[&str]) -> (bool, Value, String) {
+    let out = bin().args(args).output().expect("binary runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    let json = if out.status.success() {
+        assert_eq!(
+            stdout.trim().lines().count(),
+            1,
+            "exactly one JSON line on stdout, got:\n{stdout}"
+        );
+        serde_json::from_str(stdout.trim()).expect("stdout is JSON")
+    } else {
+        Value::Null
+    };
+    (out.status.success(), json, stderr)
 }
