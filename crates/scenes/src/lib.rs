@@ -16,6 +16,7 @@ pub mod fig4;
 pub mod fig5;
 pub mod fig6;
 pub mod jumptable;
+pub mod running;
 pub mod scene;
 pub mod tradeoff;
 
@@ -30,6 +31,7 @@ pub const SCENES: &[&dyn scene::Scene] = &[
     &fig4::Fig4,
     &convergence::Convergence,
     &fig5::Fig5,
+    &running::Running,
     &fig6::Fig6,
 ];
 

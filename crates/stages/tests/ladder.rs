@@ -27,6 +27,10 @@ inputs = { ladder = ["lad"] }
 [stages.fig5]
 kind = "fig5"
 inputs = { ladder = ["lad"], exponents = "ex" }
+
+[stages.run]
+kind = "running"
+inputs = { ladder = ["lad"] }
 "#;
 
 #[test]
@@ -92,6 +96,34 @@ fn the_ladder_sits_at_its_reduced_loads_around_the_critical_stage() {
     assert_eq!(points[0].distance, vec![0.01, 0.02]);
     assert_eq!(points[0].flux[1], 1.0);
     assert!((points[0].flux[0] - below[1].flux / below[0].flux).abs() < 1e-12);
+
+    // the running exponents: ζ between l = −0.02 and −0.01 is the local slope of the saddle
+    // gap on the finest level, its grid error the difference to the coarser level's slope
+    let t = tables::read_csv(
+        &dir.path().join("results/tables/running_exponents.csv"),
+        &[],
+    )
+    .unwrap();
+    let (ex, v, ge) = (
+        t.str("exponent").unwrap(),
+        t.f64("value").unwrap(),
+        t.f64("grid_error").unwrap(),
+    );
+    let k = (0..t.n_rows()).find(|&k| ex[k] == "zeta").expect("a ζ row");
+    let slope = |lv: &stages::kinds::ladder::LadderLevel| {
+        let g = |l: f64| {
+            lv.rungs
+                .iter()
+                .find(|r| r.l == l)
+                .unwrap()
+                .window
+                .saddle_gap()
+        };
+        (g(-0.01) / g(-0.02)).ln() / (0.01f64 / 0.02).ln()
+    };
+    let (fine, coarse) = (slope(&d.levels[1]), slope(&d.levels[0]));
+    assert!((v[k] - fine).abs() < 1e-12, "{} vs {fine}", v[k]);
+    assert!((ge[k] - (fine - coarse).abs()).abs() < 1e-12);
 }
 
 #[test]
