@@ -331,12 +331,14 @@ impl ArtefactWriter {
         // bytes before handing them to the HDF5 library (which can crash on corrupt metadata)
         let sum = crate::digest::file_checksum(&self.tmp, crate::clock::Purpose::Publish)
             .with_context(|| format!("cannot hash `{}`", self.tmp.display()))?;
+        let head = crate::digest::head_checksum(&self.tmp)
+            .with_context(|| format!("cannot hash `{}`", self.tmp.display()))?;
         let len = std::fs::metadata(&self.tmp)
             .with_context(|| format!("cannot stat `{}`", self.tmp.display()))?
             .len();
         fsutil::write_atomic(
             &crate::digest::checksum_path(&self.final_path),
-            format!("{sum} {len}").as_bytes(),
+            format!("{sum} {len} {head}").as_bytes(),
         )?;
         fsutil::commit_rename(&self.tmp, &self.final_path)?;
         Ok(self.final_path.clone())

@@ -258,11 +258,23 @@ pub fn check(path: &Path, expected_key: &str) -> Integrity {
 }
 
 /// The whole-file checksum beside an artefact: `<file>.b3`, the BLAKE3 hex of the file's bytes
-/// as published and their number (`<hex> <bytes>`).
+/// as published, their number, and the BLAKE3 hex of the first [`HEAD_BYTES`]
+/// (`<hex> <bytes> <head hex>`; the head tells a truncated copy from another file).
 pub fn checksum_path(path: &Path) -> std::path::PathBuf {
     let mut s = path.as_os_str().to_owned();
     s.push(".b3");
     std::path::PathBuf::from(s)
+}
+
+/// How many leading bytes [`head_checksum`] covers.
+pub const HEAD_BYTES: u64 = 4096;
+
+/// BLAKE3 hex of a file's first [`HEAD_BYTES`] bytes (fewer if it is shorter).
+pub fn head_checksum(path: &Path) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut h = blake3::Hasher::new();
+    std::io::copy(&mut std::fs::File::open(path)?.take(HEAD_BYTES), &mut h)?;
+    Ok(h.finalize().to_hex().to_string())
 }
 
 /// BLAKE3 hex of a file's bytes, its time counted under `purpose`.
@@ -283,10 +295,13 @@ fn file_checksum_matches(path: &Path) -> Result<bool, Integrity> {
         return Ok(false);
     };
     let mut parts = want.split_whitespace();
-    let (hash, size) = (parts.next().unwrap_or(""), parts.next());
+    let (hash, size, head) = (parts.next().unwrap_or(""), parts.next(), parts.next());
     let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    // shorter than published with the published first bytes (HDF5's superblock, which records
+    // the file's end): a truncated copy of this entry, not another file
     if let Some(size) = size.and_then(|s| s.parse::<u64>().ok())
         && len < size
+        && head.is_some_and(|h| head_checksum(path).is_ok_and(|got| got == h))
     {
         return Err(Integrity::Invalid(format!(
             "`{}` is truncated: {len} of the {size} bytes published",
