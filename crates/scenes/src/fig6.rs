@@ -29,7 +29,7 @@ use orchestrator::{ParamSpec, ParamType, Params, StageContext};
 use serde_json::{Value, json};
 use store::ArtefactWriter;
 
-/// The `flow` input (all the table kind takes).
+/// The `flow` input (the one the tables need).
 pub fn flow_input() -> InputSpec {
     InputSpec::many("flow", &["flow"])
         .doc("flow stages along load paths (one curve each: model and γ0 from the artefact)")
@@ -298,9 +298,6 @@ fn current_map(r: &store::ArtefactReader, params: &Fig6Params) -> Result<Current
     })
 }
 
-/// The CSV files of Figure 6's data (relative to the table kind's `output_dir`).
-pub const TABLE_FILES: [&str; 2] = ["fig6.csv", "fig6_stops.csv"];
-
 /// Figure 6's tables:
 /// - `fig6.csv`, one row per flow point of every input: `lattice`, `gamma0`, `branch`, `load`
 ///   (E* h0/λ), `load_over_p_fc`, `contact_area`, `conductivity`, `flux`, `percolating`,
@@ -310,7 +307,7 @@ pub const TABLE_FILES: [&str; 2] = ["fig6.csv", "fig6_stops.csv"];
 ///   of a path: `lattice`, `gamma0`, `branch`, `load_flowing`, `load_blocked` (E* h0/λ),
 ///   `load_flowing_over_p_fc`, `load_blocked_over_p_fc`, `conductivity_flowing`,
 ///   `contact_area_flowing`, `contact_area_blocked`.
-pub fn tables(inputs: &Inputs) -> Result<Vec<tables::Table>> {
+pub fn tables(inputs: &Inputs) -> Result<(tables::Table, tables::Table)> {
     use tables::Table;
     // points, column by column
     let (mut lat, mut g0, mut branch) = (vec![], vec![], vec![]);
@@ -401,7 +398,7 @@ pub fn tables(inputs: &Inputs) -> Result<Vec<tables::Table>> {
         .with_f64("conductivity_flowing", s_k)
         .with_f64("contact_area_flowing", s_af)
         .with_f64("contact_area_blocked", s_ab);
-    Ok(vec![points, stops])
+    Ok((points, stops))
 }
 
 /// The `fig6` scene: flux (effective conductivity) against load for the three models, hard
@@ -463,8 +460,8 @@ impl Scene for Fig6 {
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
         vec![
             OutputSpec::figure("figure", "fig6"),
-            OutputSpec::table("points", TABLE_FILES[0]),
-            OutputSpec::table("stops", TABLE_FILES[1]),
+            OutputSpec::table("points", "fig6.csv"),
+            OutputSpec::table("stops", "fig6_stops.csv"),
         ]
     }
     fn render(
@@ -479,11 +476,7 @@ impl Scene for Fig6 {
         let plotted: usize = data.flow.iter().map(|c| c.load.len()).sum();
         out.set_attr("points_plotted", plotted as i64)?;
         out.set_attr("curves", stats.clone())?;
-        let mut t = tables(inputs)?.into_iter();
-        let (points, stops) = (t.next(), t.next());
-        let (Some(points), Some(stops)) = (points, stops) else {
-            anyhow::bail!("Figure 6's tables: expected points and stops");
-        };
+        let (points, stops) = tables(inputs)?;
         Ok(Outputs::new()
             .figure("figure", figures::scenes::fig6::figure(&data)?)
             .table("points", points)
