@@ -71,6 +71,13 @@ pub enum Command {
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
+        /// List what the cached stages cost when they were computed (wall time, peak memory),
+        /// most expensive first, with per-scene sums and the critical path.
+        #[arg(long)]
+        costs: bool,
+        /// With `--costs`: how many stages to list (0: all).
+        #[arg(long, default_value_t = 15, requires = "costs")]
+        top: usize,
     },
     /// Delete cache entries that no pipeline/*.toml × params/*.toml combination reaches.
     Gc {
@@ -172,6 +179,9 @@ pub fn run(cmd: Command) -> Result<()> {
             );
             let _ = to_run;
             eprintln!("{}", hashing_line(&summary));
+            if let Some(line) = expensive_line(&summary) {
+                eprintln!("{line}");
+            }
             // the summary first: a warning such as a full disk comes after the counts and
             // the failed stages, never instead of them
             let warnings: String = summary
@@ -231,8 +241,22 @@ pub fn run(cmd: Command) -> Result<()> {
             );
             Ok(())
         }
-        Command::Status { files, json } => {
+        Command::Status {
+            files,
+            json,
+            costs,
+            top,
+        } => {
             let (ws, plan) = load(&files)?;
+            if costs {
+                let report = ops::costs(&ws, &plan);
+                if json {
+                    println!("{}", serde_json::to_string_pretty(&report)?);
+                } else {
+                    print_costs(&plan, &report, top);
+                }
+                return Ok(());
+            }
             let st = ops::status(&ws, &plan);
             if json {
                 println!("{}", serde_json::to_string_pretty(&st)?);
@@ -415,6 +439,107 @@ fn print_decisions(plan: &Plan, decisions: &[orchestrator::Decision]) {
 
 /// One line on the cost of verification: hashing time (summed over threads) against the
 /// summed compute time of the stages that ran.
+/// The stages that ran, most expensive first (at most three), for the run's summary.
+fn expensive_line(summary: &orchestrator::RunSummary) -> Option<String> {
+    let mut ran: Vec<(&str, f64)> = summary
+        .events
+        .iter()
+        .filter_map(|e| match &e.what {
+            orchestrator::What::Ran { wall_s, .. } => Some((e.stage.as_str(), *wall_s)),
+            _ => None,
+        })
+        .collect();
+    if ran.len() < 2 {
+        return None;
+    }
+    ran.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let top: Vec<String> = ran
+        .iter()
+        .take(3)
+        .map(|(n, t)| format!("{n} {}", human_duration(*t)))
+        .collect();
+    Some(format!(
+        "summed stage time {}; most expensive: {} (`saddleflow status --costs` lists all)",
+        human_duration(summary.stage_s),
+        top.join(", ")
+    ))
+}
+
+/// The `status --costs` table.
+fn print_costs(plan: &orchestrator::Plan, r: &ops::CostReport, top: usize) {
+    println!(
+        "{} with {}: cost of each cached stage when it was computed (its provenance)",
+        plan.pipeline, plan.params
+    );
+    let jobs = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let shown = if top == 0 {
+        r.stages.len()
+    } else {
+        top.min(r.stages.len())
+    };
+    let w = r.stages[..shown]
+        .iter()
+        .map(|s| s.name.len())
+        .max()
+        .unwrap_or(5)
+        .max(5);
+    println!(
+        "  {:<w$} {:<10} {:>9} {:>6} {:>6} {:>9}  scenes",
+        "stage", "kind", "wall", "share", "cum.", "peak MiB"
+    );
+    let mut cum = 0.0;
+    for s in &r.stages[..shown] {
+        cum += s.wall_s;
+        let pct = |x: f64| {
+            if r.total_s > 0.0 {
+                format!("{:.1}%", 100.0 * x / r.total_s)
+            } else {
+                "-".into()
+            }
+        };
+        println!(
+            "  {:<w$} {:<10} {:>9} {:>6} {:>6} {:>9}  {}",
+            s.name,
+            s.kind,
+            human_duration(s.wall_s),
+            pct(s.wall_s),
+            pct(cum),
+            s.peak_rss_mib.map_or("-".into(), |m| format!("{m:.0}")),
+            s.scenes.join(", ")
+        );
+    }
+    if shown < r.stages.len() {
+        println!(
+            "  … {} cheaper stages (--top 0 lists all)",
+            r.stages.len() - shown
+        );
+    }
+    println!(
+        "summed stage time {} over {} cached stages; critical path {} ({}); a cold run takes at least {} with -j {jobs}",
+        human_duration(r.total_s),
+        r.stages.len(),
+        human_duration(r.critical_path_s),
+        r.critical_path.join(" → "),
+        human_duration(r.lower_bound_s(jobs)),
+    );
+    let scenes: Vec<String> = r
+        .scenes
+        .iter()
+        .map(|(n, t)| format!("{n} {}", human_duration(*t)))
+        .collect();
+    println!(
+        "per scene (shared stages count in each): {}",
+        scenes.join(", ")
+    );
+    if !r.uncached.is_empty() {
+        println!(
+            "{} stages not cached, cost unknown: {}",
+            r.uncached.len(),
+            r.uncached.join(", ")
+        );
+    }
+}
+
 fn hashing_line(summary: &orchestrator::RunSummary) -> String {
     let h = &summary.hashing;
     let share = if summary.stage_s > 0.0 {

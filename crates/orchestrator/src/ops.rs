@@ -33,11 +33,9 @@ pub struct StageStatus {
     pub code: std::collections::BTreeMap<String, String>,
 }
 
-/// Per-stage state of a plan's cache entries, in topological order.
-pub fn status(ws: &Workspace, plan: &Plan) -> Vec<StageStatus> {
-    let manifest = crate::workspace::Manifest::load(ws);
-    let scene_sets: Vec<(String, BTreeSet<usize>)> = plan
-        .scenes
+/// Each scene with the set of stages (plan indices) it needs.
+fn scene_sets(plan: &Plan) -> Vec<(String, BTreeSet<usize>)> {
+    plan.scenes
         .keys()
         .map(|s| {
             let set = plan
@@ -46,7 +44,13 @@ pub fn status(ws: &Workspace, plan: &Plan) -> Vec<StageStatus> {
                 .unwrap_or_default();
             (s.clone(), set)
         })
-        .collect();
+        .collect()
+}
+
+/// Per-stage state of a plan's cache entries, in topological order.
+pub fn status(ws: &Workspace, plan: &Plan) -> Vec<StageStatus> {
+    let manifest = crate::workspace::Manifest::load(ws);
+    let scene_sets = scene_sets(plan);
     plan.stages
         .iter()
         .enumerate()
@@ -81,6 +85,125 @@ pub fn status(ws: &Workspace, plan: &Plan) -> Vec<StageStatus> {
             }
         })
         .collect()
+}
+
+/// What one cached stage cost when it was computed, from its artefact's provenance.
+#[derive(Clone, Debug, Serialize)]
+pub struct StageCost {
+    /// Name.
+    pub name: String,
+    /// Kind.
+    pub kind: String,
+    /// Wall time of the stage's `run`, seconds.
+    pub wall_s: f64,
+    /// Peak resident memory of the process while the stage ran, MiB, when recorded.
+    pub peak_rss_mib: Option<f64>,
+    /// The scenes that need it.
+    pub scenes: Vec<String>,
+    /// The longest chain of stage times ending at this stage (its own included), seconds: no
+    /// number of cores computes it sooner.
+    pub chain_s: f64,
+}
+
+/// The measured cost of a plan's cached stages (`saddleflow status --costs`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct CostReport {
+    /// Cached stages, most expensive first.
+    pub stages: Vec<StageCost>,
+    /// Stages with no valid cache entry (their cost is unknown).
+    pub uncached: Vec<String>,
+    /// Summed wall time of the cached stages, seconds.
+    pub total_s: f64,
+    /// The longest chain of dependent stages, seconds, and its stages (upstream first): a lower
+    /// bound on the wall time of a cold run on any number of cores.
+    pub critical_path_s: f64,
+    /// The stages on that chain.
+    pub critical_path: Vec<String>,
+    /// Per scene: summed wall time of the stages it needs (a stage shared by several scenes
+    /// counts in each).
+    pub scenes: Vec<(String, f64)>,
+}
+
+impl CostReport {
+    /// A lower bound on a cold run's wall time with `jobs` parallel stages (each stage on one
+    /// core): the larger of the summed time over `jobs` and the critical path.
+    pub fn lower_bound_s(&self, jobs: usize) -> f64 {
+        (self.total_s / jobs.max(1) as f64).max(self.critical_path_s)
+    }
+}
+
+/// What each cached stage of `plan` cost when it was computed (wall time and peak memory from
+/// the provenance of its artefact), most expensive first, with the critical path and per-scene
+/// sums. Entries that are missing or not valid are listed, not guessed.
+pub fn costs(ws: &Workspace, plan: &Plan) -> CostReport {
+    let sets = scene_sets(plan);
+    let mut measured: Vec<Option<(f64, Option<f64>)>> = Vec::with_capacity(plan.stages.len());
+    for s in &plan.stages {
+        let prov = ws.open_entry(s).and_then(|r| r.provenance()).ok();
+        measured.push(prov.map(|p| {
+            let peak = p.stats.get("peak_rss_mib").and_then(|v| v.as_f64());
+            (p.wall_s, peak)
+        }));
+    }
+    // stages are in topological order: the longest chain ending at i is its own time plus the
+    // longest chain ending at any input
+    let mut chain = vec![0.0_f64; plan.stages.len()];
+    let mut via: Vec<Option<usize>> = vec![None; plan.stages.len()];
+    for (i, s) in plan.stages.iter().enumerate() {
+        let own = measured[i].map_or(0.0, |m| m.0);
+        let best = s
+            .inputs
+            .values()
+            .flatten()
+            .filter_map(|n| plan.index_of(n))
+            .max_by(|&a, &b| chain[a].total_cmp(&chain[b]));
+        chain[i] = own + best.map_or(0.0, |j| chain[j]);
+        via[i] = best;
+    }
+    let mut report = CostReport::default();
+    for (i, s) in plan.stages.iter().enumerate() {
+        match measured[i] {
+            Some((wall_s, peak_rss_mib)) => {
+                report.total_s += wall_s;
+                report.stages.push(StageCost {
+                    name: s.name.clone(),
+                    kind: s.kind.clone(),
+                    wall_s,
+                    peak_rss_mib,
+                    scenes: sets
+                        .iter()
+                        .filter(|(_, set)| set.contains(&i))
+                        .map(|(n, _)| n.clone())
+                        .collect(),
+                    chain_s: chain[i],
+                });
+            }
+            None => report.uncached.push(s.name.clone()),
+        }
+    }
+    report
+        .stages
+        .sort_by(|a, b| b.wall_s.total_cmp(&a.wall_s).then(a.name.cmp(&b.name)));
+    if let Some(end) = (0..chain.len()).max_by(|&a, &b| chain[a].total_cmp(&chain[b])) {
+        report.critical_path_s = chain[end];
+        let mut at = Some(end);
+        while let Some(i) = at {
+            report.critical_path.push(plan.stages[i].name.clone());
+            at = via[i];
+        }
+        report.critical_path.reverse();
+    }
+    report.scenes = sets
+        .iter()
+        .map(|(scene, set)| {
+            let sum = set.iter().filter_map(|&i| measured[i]).map(|m| m.0).sum();
+            (scene.clone(), sum)
+        })
+        .collect();
+    report
+        .scenes
+        .sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    report
 }
 
 /// What `gc` deleted (or would delete).

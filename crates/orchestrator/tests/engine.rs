@@ -390,6 +390,51 @@ fn graph_and_status() {
 }
 
 #[test]
+fn costs_list_cached_stages_by_their_recorded_wall_time() {
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let reg = registry(&add);
+    let plan = p.plan(&reg);
+    let cold = orchestrator::ops::costs(&p.ws(), &plan);
+    assert!(cold.stages.is_empty());
+    assert_eq!(cold.uncached.len(), plan.stages.len());
+    let s = p.run(&reg, &quiet());
+    assert!(s.ok());
+    let r = orchestrator::ops::costs(&p.ws(), &plan);
+    assert!(r.uncached.is_empty(), "{:?}", r.uncached);
+    assert_eq!(r.stages.len(), plan.stages.len());
+    // the recorded times are the ones the run's event log reported
+    for c in &r.stages {
+        let logged = s
+            .events
+            .iter()
+            .find_map(|e| match &e.what {
+                orchestrator::What::Ran { wall_s, .. } if e.stage == c.name => Some(*wall_s),
+                _ => None,
+            })
+            .unwrap();
+        assert_eq!(c.wall_s, logged, "{}", c.name);
+        assert!(c.chain_s >= c.wall_s);
+    }
+    assert!(r.stages.windows(2).all(|w| w[0].wall_s >= w[1].wall_s));
+    let total: f64 = r.stages.iter().map(|c| c.wall_s).sum();
+    assert!((r.total_s - total).abs() <= 1e-12 * total.max(1.0));
+    // the critical path is a chain of inputs ending at its last stage, and its time is the sum
+    // of its stages' times
+    let path_s: f64 = r
+        .critical_path
+        .iter()
+        .map(|n| r.stages.iter().find(|c| &c.name == n).unwrap().wall_s)
+        .sum();
+    assert!((r.critical_path_s - path_s).abs() <= 1e-9);
+    for w in r.critical_path.windows(2) {
+        let down = plan.stage(&w[1]).unwrap();
+        assert!(down.inputs.values().flatten().any(|n| n == &w[0]), "{w:?}");
+    }
+    assert!(r.lower_bound_s(2) >= r.critical_path_s && r.lower_bound_s(1) >= r.total_s - 1e-12);
+}
+
+#[test]
 fn a_concurrent_second_run_is_refused_or_waits_and_never_corrupts() {
     let slow = PIPELINE.replace(
         "params = { value = \"$ve\" }",
