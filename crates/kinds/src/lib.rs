@@ -15,8 +15,9 @@
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 //!
 //! Each kind lives in the module of its name and implements [`orchestrator::TypedKind`] (its
-//! parameters a serde struct, registered through [`orchestrator::Typed`]; `sweep` still
-//! [`orchestrator::StageKind`] directly); [`solver`] holds the shared contact-solver parameters; the
+//! parameters a serde struct, registered through [`orchestrator::Typed`]); a kind with a large
+//! artefact keeps its records in `<kind>_artefact` and its parameters in `<kind>_params` beside
+//! it; [`solver`] holds the shared contact-solver parameters; the
 //! readers of a kind's artefact live in its module too (the scenes read through them).
 //! [`headline`] is the shared record of headline numbers that kinds publish.
 
@@ -24,21 +25,25 @@ pub mod critical;
 pub mod exponents;
 pub mod extremes;
 pub mod flow;
+pub mod flow_artefact;
 pub mod flowmap;
 pub mod headline;
 pub mod ladder;
 pub mod mock;
+pub mod record_table;
 pub mod resolution;
 pub mod solver;
 pub mod surface;
 pub mod sweep;
+pub mod sweep_artefact;
+pub mod sweep_params;
 
 use orchestrator::{Registry, Typed};
 
 /// Registers every compute kind.
 pub fn register(r: &mut Registry) {
     r.register(Typed(surface::SurfaceKind));
-    r.register(sweep::SweepKind);
+    r.register(Typed(sweep::SweepKind));
     r.register(Typed(flow::FlowKind));
     r.register(Typed(flowmap::FlowMapKind));
     r.register(Typed(critical::CriticalKind));

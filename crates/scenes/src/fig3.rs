@@ -24,7 +24,7 @@ use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Result, bail};
 use figures::scenes::fig3::{Fig3Data, GammaBranch, ModelGammaPath};
 use figures::style::Model;
-use kinds::sweep::{Point, SweepData};
+use kinds::sweep::{Branch as PathBranch, Point, SweepData};
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{Params, StageContext};
 use store::ArtefactWriter;
@@ -180,7 +180,11 @@ fn fluid(p: &Point) -> bool {
 }
 
 /// The first step of `branch` (converged points) from a point without `what` to one with it.
-fn first_change(d: &SweepData, branch: &str, what: &dyn Fn(&Point) -> bool) -> Option<Transition> {
+fn first_change(
+    d: &SweepData,
+    branch: PathBranch,
+    what: &dyn Fn(&Point) -> bool,
+) -> Option<Transition> {
     let idx: Vec<usize> = d
         .branch_indices(branch)
         .into_iter()
@@ -200,10 +204,10 @@ pub fn thresholds(d: &SweepData) -> Thresholds {
     let coalesced = |p: &Point| p.contact_area > 0.0 && !fluid(p);
     let full = |p: &Point| p.contact_area >= 1.0;
     Thresholds {
-        coalescence: first_change(d, "loading", &coalesced),
-        full_contact: first_change(d, "loading", &full),
-        break_up: first_change(d, "unloading", &|p| !coalesced(p)),
-        trough_opening: first_change(d, "unloading", &|p| !full(p)),
+        coalescence: first_change(d, PathBranch::Loading, &coalesced),
+        full_contact: first_change(d, PathBranch::Loading, &full),
+        break_up: first_change(d, PathBranch::Unloading, &|p| !coalesced(p)),
+        trough_opening: first_change(d, PathBranch::Unloading, &|p| !full(p)),
         gamma_max: d.points.iter().map(|p| p.strength).fold(0.0, f64::max),
     }
 }
@@ -223,7 +227,7 @@ pub fn data(models: &[(String, Vec<GridSweep>)]) -> (Fig3Data, usize) {
     let mut left_out = 0;
     for (m, sweeps) in models {
         let d = &sweeps.last().expect("read() checks for one sweep").data;
-        let mut branch = |name: &str| {
+        let mut branch = |name: PathBranch| {
             let b = crate::fig2::converged_branch(d, name, &|p| p.strength);
             left_out += b.left_out;
             GammaBranch {
@@ -232,7 +236,7 @@ pub fn data(models: &[(String, Vec<GridSweep>)]) -> (Fig3Data, usize) {
                 jumps: b.jumps,
             }
         };
-        let (increasing, decreasing) = (branch("loading"), branch("unloading"));
+        let (increasing, decreasing) = (branch(PathBranch::Loading), branch(PathBranch::Unloading));
         let t = thresholds(d);
         paths.push(ModelGammaPath {
             model: model_of(m),
@@ -332,7 +336,7 @@ pub fn points_table(models: &[(String, Vec<GridSweep>)]) -> tables::Table {
             for (k, p) in d.points.iter().enumerate() {
                 model.push(m.clone());
                 n.push(d.n);
-                branch.push(p.branch.clone());
+                branch.push(p.branch.to_string());
                 step.push(p.step);
                 g.push(p.strength);
                 a.push(p.contact_area);
@@ -422,7 +426,7 @@ mod tests {
 
     fn point(branch: &str, g: f64, a: f64, fluid: bool) -> Point {
         Point {
-            branch: branch.into(),
+            branch: branch.parse().unwrap(),
             step: 0,
             load: 0.0,
             strength: g,

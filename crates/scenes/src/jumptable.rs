@@ -135,21 +135,24 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
             for j in &d.jumps {
                 push(
                     &mut rows,
-                    &j.branch,
+                    j.branch.name(),
                     &j.event,
-                    (s.x(j.load.0, j.strength.0), s.x(j.load.1, j.strength.1)),
-                    j.area,
-                    j.strength.0.max(j.strength.1),
+                    (
+                        s.x(j.load_before, j.strength_before),
+                        s.x(j.load_after, j.strength_after),
+                    ),
+                    j.area(),
+                    j.strength_before.max(j.strength_after),
                     j.ratio,
-                    &j.detector,
+                    &j.detector.to_string(),
                 );
                 control.push(d.control.clone());
             }
             for e in &d.ended {
-                let last = d.branch_indices(&e.branch).last().map(|&k| &d.points[k]);
+                let last = d.branch_indices(e.branch).last().map(|&k| &d.points[k]);
                 push(
                     &mut rows,
-                    &e.branch,
+                    e.branch.name(),
                     "pull-off",
                     (
                         last.map_or(f64::NAN, |p| s.x(p.load, p.strength)),
@@ -244,15 +247,18 @@ mod tests {
 
     fn jump(branch: &str, event: &str, x: (f64, f64), area: (f64, f64)) -> JumpRow {
         JumpRow {
-            branch: branch.into(),
+            branch: branch.parse().unwrap(),
             index: 0,
             index_after: 1,
-            load: (x.0 * 2.0, x.1 * 2.0),
-            strength: (0.2, 0.2),
-            area,
+            load_before: x.0 * 2.0,
+            load_after: x.1 * 2.0,
+            strength_before: 0.2,
+            strength_after: 0.2,
+            area_before: area.0,
+            area_after: area.1,
             ratio: 10.0,
             event: event.into(),
-            detector: "trend".into(),
+            detector: kinds::sweep::Detector::Trend,
         }
     }
 

@@ -5,7 +5,7 @@
 mod common;
 use common::{reader, try_run as run};
 
-use stages::kinds::sweep::SweepData;
+use stages::kinds::sweep::{Branch, SweepData};
 use stages::scenes::fig3::thresholds;
 
 /// Full contact under adhesion holds while the adhesive stress γ0/ρ can carry the largest
@@ -45,8 +45,8 @@ params = { interaction = \"adhesion\", rho = 0.04, control = \"strength\", load 
     // hysteresis: reached on the way up no earlier than it is lost on the way down, and the
     // decreasing branch keeps more contact than the increasing one somewhere
     assert!(fc.gamma.1 >= open.gamma.0, "{fc:?} {open:?}");
-    let up = d.branch_indices("loading");
-    let down = d.branch_indices("unloading");
+    let up = d.branch_indices(Branch::Loading);
+    let down = d.branch_indices(Branch::Unloading);
     // (γ0, area on the increasing branch, area on the decreasing branch) at common γ0
     let pairs: Vec<(f64, f64, f64)> = down
         .iter()
@@ -136,7 +136,7 @@ params = { figure_dir = \"out\", table_dir = \"out/tables\" }
         let at = d
             .points
             .iter()
-            .find(|p| p.branch == "loading" && (p.strength - 0.2).abs() < 1e-12)
+            .find(|p| p.branch == Branch::Loading && (p.strength - 0.2).abs() < 1e-12)
             .unwrap();
         assert_eq!(areas[k], at.contact_area, "{m}");
     }
