@@ -368,7 +368,7 @@ mod tests {
     }
 
     fn writer(dir: &std::path::Path) -> ArtefactWriter {
-        ArtefactWriter::create(&dir.join("a.h5")).unwrap()
+        ArtefactWriter::create(dir.join("a.h5")).unwrap()
     }
 
     #[test]

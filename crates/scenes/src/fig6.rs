@@ -24,7 +24,6 @@ use anyhow::{Result, bail};
 use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit};
 use figures::style::Model;
 use kinds::flow::FlowData;
-use kinds::flow_artefact::{FlowPoint, FlowStop};
 use kinds::sweep::Branch as PathBranch;
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{ParamSpec, ParamType, Params, StageContext};
@@ -301,90 +300,10 @@ fn current_map(r: &store::ArtefactReader, params: &Fig6Params) -> Result<Current
     })
 }
 
-/// Figure 6's tables:
-/// - `fig6.csv`, one row per flow point of every input: `lattice`, `gamma0`, `branch`, `load`
-///   (E* h0/λ), `load_over_p_fc`, `contact_area`, `conductivity`, `flux`, `percolating`,
-///   `converged` (flow), `contact_converged`, `termination`, `iterations`, `residual`,
-///   `conservation_error`, `axis`, `n`;
-/// - `fig6_stops.csv`, one row per place where the flow stops (or starts) between two points
-///   of a path: `lattice`, `gamma0`, `branch`, `load_flowing`, `load_blocked` (E* h0/λ),
-///   `load_flowing_over_p_fc`, `load_blocked_over_p_fc`, `conductivity_flowing`,
-///   `contact_area_flowing`, `contact_area_blocked`.
-pub fn tables(inputs: &Inputs) -> Result<(tables::Table, tables::Table)> {
-    use kinds::record_table::append;
-    use tables::Table;
-    let flows: Vec<FlowData> = inputs
-        .all("flow")
-        .iter()
-        .map(FlowData::read)
-        .collect::<Result<_>>()?;
-    // per row: the flow it belongs to
-    let of_points: Vec<&FlowData> = flows
-        .iter()
-        .flat_map(|d| d.points.iter().map(move |_| d))
-        .collect();
-    let of_stops: Vec<&FlowData> = flows
-        .iter()
-        .flat_map(|d| d.stops.iter().map(move |_| d))
-        .collect();
-    let points: Vec<FlowPoint> = flows.iter().flat_map(|d| d.points.clone()).collect();
-    let stops: Vec<FlowStop> = flows.iter().flat_map(|d| d.stops.clone()).collect();
-    let zip = |f: &dyn Fn(&FlowData, usize) -> f64, of: &[&FlowData]| -> Vec<f64> {
-        of.iter().enumerate().map(|(k, d)| f(d, k)).collect()
-    };
-    let t = Table::new()
-        .with_str("lattice", of_points.iter().map(|d| d.lattice.clone()))
-        .with_f64("gamma0", of_points.iter().map(|d| d.gamma0));
-    let t = append(t, &points, &["branch", "load"]).with_f64(
-        "load_over_p_fc",
-        zip(&|d, k| points[k].load / d.p_fc, &of_points),
-    );
-    let points_table = append(
-        t,
-        &points,
-        &[
-            "contact_area",
-            "conductivity",
-            "flux",
-            "percolating",
-            "converged",
-            "contact_converged",
-            "termination",
-            "iterations",
-            "residual",
-            "conservation_error",
-        ],
-    )
-    .with_str("axis", of_points.iter().map(|d| d.axis.clone()))
-    .with_i64("n", of_points.iter().map(|d| d.n));
-    let t = Table::new()
-        .with_str("lattice", of_stops.iter().map(|d| d.lattice.clone()))
-        .with_f64("gamma0", of_stops.iter().map(|d| d.gamma0));
-    let t = append(t, &stops, &["branch", "load_flowing", "load_blocked"])
-        .with_f64(
-            "load_flowing_over_p_fc",
-            zip(&|d, k| stops[k].load_flowing / d.p_fc, &of_stops),
-        )
-        .with_f64(
-            "load_blocked_over_p_fc",
-            zip(&|d, k| stops[k].load_blocked / d.p_fc, &of_stops),
-        );
-    let stops_table = append(
-        t,
-        &stops,
-        &[
-            "conductivity_flowing",
-            "contact_area_flowing",
-            "contact_area_blocked",
-        ],
-    );
-    Ok((points_table, stops_table))
-}
-
 /// The `fig6` scene: flux (effective conductivity) against load for the three models, hard
 /// wall solid and adhesion dashed with the point where its flow stops marked; the
 /// near-critical current density; the near-critical flux ladder when a `ladder` input provides
-/// it; and the tables `fig6.csv`, `fig6_stops.csv` ([`tables`]). Attributes `points_plotted`,
+/// it; and the tables `fig6.csv`, `fig6_stops.csv` ([`crate::flowtable::tables`]). Attributes `points_plotted`,
 /// `curves`.
 pub struct Fig6;
 
@@ -456,7 +375,7 @@ impl Scene for Fig6 {
         let plotted: usize = data.flow.iter().map(|c| c.load.len()).sum();
         out.set_attr("points_plotted", plotted as i64)?;
         out.set_attr("curves", stats.clone())?;
-        let (points, stops) = tables(inputs)?;
+        let (points, stops) = crate::flowtable::tables(inputs)?;
         Ok(Outputs::new()
             .figure("figure", figures::scenes::fig6::figure(&data)?)
             .table("points", points)
@@ -468,6 +387,7 @@ impl Scene for Fig6 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use kinds::flow_artefact::FlowPoint;
 
     /// The figure renders with the bottom-left panel empty (the near-critical study fills it
     /// later) and without a current map.
