@@ -60,6 +60,11 @@
 //!   (control values: loads in E* h0/λ or strengths), `max_area_difference`, `x_at_max`;
 //! - `ended/*`: `branch`, `load`, `strength`, `message` of each branch that ended early
 //!   (pull-off: the surfaces separated);
+//! - `thresholds/*` (strength paths only), one entry per threshold the path crosses
+//!   ([`analysis::hysteresis::Thresholds`] on the converged points: `coalescence` (γ_p) and
+//!   `full_contact` (γ_fc) on the loading branch, `break_up` and `trough_opening` on the
+//!   unloading one): `name`, `x_before`, `x_after` (strengths bracketing it), `area_before`,
+//!   `area_after`. Figure 3 and its headline numbers read them;
 //! - `fields/<branch>_<index>/{gap,displacement,pressure}` if `fields_at` asked for them.
 //!
 //! The records are declared once in [`crate::sweep_artefact`] (writer and reader); the
@@ -71,7 +76,7 @@
 use crate::surface::SurfaceInput;
 use crate::sweep_artefact::{self as artefact, Attrs, Sweep};
 use crate::sweep_params::{ControlKind, SweepParams};
-use analysis::hysteresis::{self, BranchState};
+use analysis::hysteresis::{self, BranchState, Thresholds};
 use anyhow::{Result, anyhow};
 pub use contact::path::Branch;
 use contact::path::{self, Control, PathPoint, PathSpec};
@@ -166,11 +171,13 @@ impl TypedKind for SweepKind {
         let mut jumps = trend_jumps(&points, &setup, params)?;
         let loops = loops_and_their_ends(&points, &setup, params.loop_tolerance, &mut jumps);
         let n_bad = warn_unconverged(ctx, &points, &ended, surface.p_fc);
+        let thresholds = thresholds(&points, &setup);
         let sweep = Sweep {
             points: &points,
             jumps: &jumps,
             loops: &loops,
             ended: &ended,
+            thresholds: thresholds.as_ref(),
         };
         let attrs = Attrs {
             params,
@@ -441,16 +448,11 @@ fn loops_and_their_ends(
         converged(points, Branch::Loading),
         converged(points, Branch::Unloading),
     );
-    let states = |idx: &[usize]| -> Vec<BranchState> {
-        idx.iter()
-            .map(|&k| BranchState {
-                x: setup.x_of(&points[k]),
-                area: points[k].contact_area,
-                fluid: points[k].fluid(),
-            })
-            .collect()
-    };
-    let (loops, ends) = hysteresis::find_loops(&states(&up), &states(&down), tolerance);
+    let (loops, ends) = hysteresis::find_loops(
+        &states(points, setup, &up),
+        &states(points, setup, &down),
+        tolerance,
+    );
     for end in ends {
         let idx = if end.forward { &up } else { &down };
         let (a, b) = (idx[end.before], idx[end.after]);
@@ -463,6 +465,26 @@ fn loops_and_their_ends(
     }
     jumps.sort_by_key(|j| (j.branch != Branch::Loading, j.index));
     loops
+}
+
+/// The points `idx` as the loop and threshold finders see them.
+fn states(points: &[Point], setup: &Setup, idx: &[usize]) -> Vec<BranchState> {
+    idx.iter()
+        .map(|&k| BranchState {
+            x: setup.x_of(&points[k]),
+            area: points[k].contact_area,
+            fluid: points[k].fluid(),
+        })
+        .collect()
+}
+
+/// A strength path's topological thresholds ([`Thresholds::of`] on the converged points: γ_p,
+/// γ_fc, break-up, trough opening); `None` on a load path.
+fn thresholds(points: &[Point], setup: &Setup) -> Option<Thresholds> {
+    setup.strength_path().then(|| {
+        let of = |b: Branch| states(points, setup, &converged(points, b));
+        Thresholds::of(&of(Branch::Loading), &of(Branch::Unloading))
+    })
 }
 
 /// Warns about non-converged points and a forward branch that ended early; returns the number

@@ -14,6 +14,7 @@ use store::{ArtefactReader, ArtefactWriter};
 /// A hysteresis loop between the branches: see [`analysis::hysteresis`]; `x` in control values
 /// (loads in E* h0/λ, or strengths).
 pub use analysis::hysteresis::Loop;
+pub use analysis::hysteresis::{Thresholds, Transition};
 
 formats::record! {
     /// One solved point (`points/*`).
@@ -193,6 +194,61 @@ formats::record! {
     }
 }
 
+formats::record! {
+    /// A topological threshold the path crosses (`thresholds/*`, strength paths).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct ThresholdRow {
+        /// One of [`Thresholds::NAMES`].
+        pub name: String,
+        /// Control value (strength) before.
+        pub x_before: f64,
+        /// Control value after.
+        pub x_after: f64,
+        /// Area before.
+        pub area_before: f64,
+        /// Area after.
+        pub area_after: f64,
+    }
+}
+
+/// The rows of the thresholds found.
+fn threshold_rows(t: &Thresholds) -> Vec<ThresholdRow> {
+    t.all()
+        .into_iter()
+        .filter_map(|(name, tr)| {
+            tr.map(|tr| ThresholdRow {
+                name: name.into(),
+                x_before: tr.x.0,
+                x_after: tr.x.1,
+                area_before: tr.area.0,
+                area_after: tr.area.1,
+            })
+        })
+        .collect()
+}
+
+/// The thresholds of `thresholds/*` (none if the artefact has none: a load path).
+fn read_thresholds(r: &ArtefactReader) -> Result<Thresholds> {
+    let mut t = Thresholds::default();
+    if !r.has_dataset("thresholds/name") {
+        return Ok(t);
+    }
+    for row in read_in::<ThresholdRow>(r, "thresholds")? {
+        let tr = Transition {
+            x: (row.x_before, row.x_after),
+            area: (row.area_before, row.area_after),
+        };
+        if !t.set(&row.name, tr) {
+            anyhow::bail!(
+                "`thresholds/name`: `{}`; allowed {}",
+                row.name,
+                Thresholds::NAMES.join(", ")
+            );
+        }
+    }
+    Ok(t)
+}
+
 /// A sweep artefact, read back (for the flow kind and the scenes).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SweepData {
@@ -214,6 +270,8 @@ pub struct SweepData {
     pub loops: Vec<Loop>,
     /// Branches that ended early.
     pub ended: Vec<Ended>,
+    /// A strength path's topological thresholds (none on a load path).
+    pub thresholds: Thresholds,
 }
 
 impl SweepData {
@@ -234,6 +292,7 @@ impl SweepData {
                     .map(Loop::from)
                     .collect(),
                 ended: read_in(r, "ended")?,
+                thresholds: read_thresholds(r)?,
             })
         })()
         .with_context(ctx)
@@ -284,6 +343,8 @@ pub struct Sweep<'a> {
     pub loops: &'a [Loop],
     /// Branches that ended early.
     pub ended: &'a [Ended],
+    /// A strength path's thresholds.
+    pub thresholds: Option<&'a Thresholds>,
 }
 
 /// The root attributes' values that the run computes.
@@ -330,6 +391,9 @@ pub fn write(out: &mut ArtefactWriter, a: &Attrs, s: &Sweep) -> Result<()> {
     let loops: Vec<LoopRow> = s.loops.iter().map(LoopRow::from).collect();
     LoopRow::write(&loops, out, "loops")?;
     Ended::write(s.ended, out, "ended")?;
+    if let Some(t) = s.thresholds {
+        ThresholdRow::write(&threshold_rows(t), out, "thresholds")?;
+    }
     Ok(())
 }
 

@@ -274,6 +274,7 @@ mod tests {
                 jumps,
                 loops,
                 ended: vec![],
+                thresholds: Default::default(),
             },
             rho: 0.04,
             dx: 1.0 / (1 << n) as f64,
