@@ -361,7 +361,7 @@ mod tests {
         );
     }
 
-    fn states(v: &[(f64, f64, bool)]) -> Vec<BranchState> {
+    fn branch_of(v: &[(f64, f64, bool)]) -> Vec<BranchState> {
         v.iter()
             .map(|&(x, area, fluid)| BranchState { x, area, fluid })
             .collect()
@@ -369,14 +369,14 @@ mod tests {
 
     #[test]
     fn thresholds_bracket_coalescence_and_full_contact() {
-        let up = states(&[
+        let up = branch_of(&[
             (0.1, 0.1, true),
             (0.2, 0.2, true),
             (0.3, 0.45, false),
             (0.4, 0.5, false),
             (0.5, 1.0, false),
         ]);
-        let down = states(&[
+        let down = branch_of(&[
             (0.4, 1.0, false),
             (0.3, 1.0, false),
             (0.2, 0.3, true),
@@ -403,7 +403,7 @@ mod tests {
 
     #[test]
     fn straight_to_full_contact_is_one_instability() {
-        let up = states(&[(0.1, 0.05, true), (0.2, 0.1, true), (0.3, 1.0, false)]);
+        let up = branch_of(&[(0.1, 0.05, true), (0.2, 0.1, true), (0.3, 1.0, false)]);
         let t = Thresholds::of(&up, &[]);
         assert_eq!(t.coalescence, t.full_contact);
         assert_eq!(t.ratio(), Some((1.0, 1.0, 1.0)));

@@ -168,37 +168,7 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
         }
     }
     let mid = |r: &Row| 0.5 * (r.x.0 + r.x.1);
-    let up = |r: &Row| r.area.1 > r.area.0;
-    // the matched jump on the next coarser grid of the group: the same event with the same
-    // ordinal on the same branch, else the nearest jump in the same direction on that branch
-    // (the event's name can differ between grids, e.g. `coalescence` on one and `area jump
-    // (up)` on a coarser one where the fluid still percolates along one axis)
-    let (change, matched): (Vec<f64>, Vec<String>) = rows
-        .iter()
-        .map(|r| {
-            let Some(nc) = rows
-                .iter()
-                .filter(|c| c.group == r.group && c.n < r.n)
-                .map(|c| c.n)
-                .max()
-            else {
-                return (f64::NAN, String::new());
-            };
-            let coarser = || {
-                rows.iter()
-                    .filter(move |c| c.group == r.group && c.n == nc && c.branch == r.branch)
-            };
-            if let Some(c) = coarser().find(|c| (&c.event, c.ordinal) == (&r.event, r.ordinal)) {
-                return (mid(r) - mid(c), "event".to_string());
-            }
-            coarser()
-                .filter(|c| up(c) == up(r) && c.event != "pull-off" && r.event != "pull-off")
-                .min_by(|a, b| (mid(a) - mid(r)).abs().total_cmp(&(mid(b) - mid(r)).abs()))
-                .map_or((f64::NAN, String::new()), |c| {
-                    (mid(r) - mid(c), format!("nearest: {}", c.event))
-                })
-        })
-        .unzip();
+    let (change, matched) = match_coarser(&rows);
     let col = |f: &dyn Fn(&Row) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
     let s = |f: &dyn Fn(&Row) -> String| rows.iter().map(f).collect::<Vec<String>>();
     Table::new()
@@ -238,6 +208,41 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
         )
         .with_f64("change_from_coarser", change)
         .with_str("matched", matched)
+}
+
+/// Per row, the matched jump on the next coarser grid of the group: the same event with the
+/// same ordinal on the same branch, else the nearest jump in the same direction on that branch
+/// (the event's name can differ between grids, e.g. `coalescence` on one and `area jump (up)`
+/// on a coarser one where the fluid still percolates along one axis). Returns x_mid minus the
+/// match's x_mid and how it matched.
+fn match_coarser(rows: &[Row]) -> (Vec<f64>, Vec<String>) {
+    let mid = |r: &Row| 0.5 * (r.x.0 + r.x.1);
+    let up = |r: &Row| r.area.1 > r.area.0;
+    rows.iter()
+        .map(|r| {
+            let Some(nc) = rows
+                .iter()
+                .filter(|c| c.group == r.group && c.n < r.n)
+                .map(|c| c.n)
+                .max()
+            else {
+                return (f64::NAN, String::new());
+            };
+            let coarser = || {
+                rows.iter()
+                    .filter(move |c| c.group == r.group && c.n == nc && c.branch == r.branch)
+            };
+            if let Some(c) = coarser().find(|c| (&c.event, c.ordinal) == (&r.event, r.ordinal)) {
+                return (mid(r) - mid(c), "event".to_string());
+            }
+            coarser()
+                .filter(|c| up(c) == up(r) && c.event != "pull-off" && r.event != "pull-off")
+                .min_by(|a, b| (mid(a) - mid(r)).abs().total_cmp(&(mid(b) - mid(r)).abs()))
+                .map_or((f64::NAN, String::new()), |c| {
+                    (mid(r) - mid(c), format!("nearest: {}", c.event))
+                })
+        })
+        .unzip()
 }
 
 #[cfg(test)]
