@@ -4,7 +4,7 @@
 //! | kind | what | inputs | output |
 //! |---|---|---|---|
 //! | `surface` | one of the three models on a 2^n × 2^n grid, statistics, critical points | – | `height`, `lx`, `ly`, `critical/*` |
-//! | `sweep` | quasi-static loading/unloading path (or γ path at fixed load): area, gap, energy, solver statistics per point, detected jumps, pull-off | `surface` | `points/*`, `jumps/*`, `ended/*`, optional `fields/*` |
+//! | `sweep` | quasi-static loading/unloading path (or γ path at fixed load): area, gap, energy, solver statistics per point, detected jumps, pull-off | `surface` | `points/*`, `jumps/*`, `loops/*`, `ended/*`, `thresholds/*` (γ paths), optional `fields/*` |
 //! | `flow` | Reynolds flow at every stored gap of a load path: flux, conductivity, percolation, where flow stops; optional current densities | `sweep` | `points/*`, `stops/*`, `currents/*` |
 //! | `flowmap` | current density at a near-critical hard-wall state l = (L − L_c)/L_c < 0 (L_c by bisection on the grid) | `surface` | `gap`, `pressure`, `current_x`, `current_y`, `bisection/*` |
 //! | `critical` | percolation threshold of the hard-wall contact on one or more grids (coarse to fine), averaged over sub-grid shifts: L_c brackets (x, y, any), a_p raw and corrected, sub-grid L_c and ζ from the saddle gap, the finest grid's near-critical fields | – | `level/<n>/*`, `gap`, `above/*` |
