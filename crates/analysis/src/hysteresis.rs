@@ -26,6 +26,103 @@ impl BranchState {
     }
 }
 
+/// A change of state between two consecutive states of a branch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transition {
+    /// Control values before and after.
+    pub x: (f64, f64),
+    /// Relative contact areas before and after.
+    pub area: (f64, f64),
+}
+
+impl Transition {
+    /// The midpoint of the bracket.
+    pub fn mid(&self) -> f64 {
+        0.5 * (self.x.0 + self.x.1)
+    }
+}
+
+/// The first step of `states` from a state without `what` to one with it.
+pub fn first_change(
+    states: &[BranchState],
+    what: impl Fn(&BranchState) -> bool,
+) -> Option<Transition> {
+    states.windows(2).find_map(|w| {
+        let (a, b) = (&w[0], &w[1]);
+        (!what(a) && what(b)).then_some(Transition {
+            x: (a.x, b.x),
+            area: (a.area, b.area),
+        })
+    })
+}
+
+/// The topological thresholds of a path (Figure 3's γ_p and γ_fc on a γ0 path): each a bracket
+/// between two consecutive states, the instability lying in between.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Thresholds {
+    /// Forward branch: the fluid stops percolating while in contact (contact percolation, γ_p).
+    pub coalescence: Option<Transition>,
+    /// Forward branch: the area reaches 1 (γ_fc).
+    pub full_contact: Option<Transition>,
+    /// Reverse branch: the fluid percolates again.
+    pub break_up: Option<Transition>,
+    /// Reverse branch: the area leaves 1.
+    pub trough_opening: Option<Transition>,
+}
+
+impl Thresholds {
+    /// The names of the thresholds, in [`Thresholds::all`]'s order.
+    pub const NAMES: [&'static str; 4] =
+        ["coalescence", "full_contact", "break_up", "trough_opening"];
+
+    /// The thresholds of the `forward` and `reverse` branches (their converged states, in path
+    /// order).
+    pub fn of(forward: &[BranchState], reverse: &[BranchState]) -> Self {
+        let coalesced = |s: &BranchState| s.area > 0.0 && !s.fluid;
+        let full = |s: &BranchState| s.area >= 1.0;
+        Thresholds {
+            coalescence: first_change(forward, coalesced),
+            full_contact: first_change(forward, full),
+            break_up: first_change(reverse, |s| !coalesced(s)),
+            trough_opening: first_change(reverse, |s| !full(s)),
+        }
+    }
+
+    /// Every threshold with its name ([`Thresholds::NAMES`]).
+    pub fn all(&self) -> [(&'static str, Option<Transition>); 4] {
+        let n = Self::NAMES;
+        [
+            (n[0], self.coalescence),
+            (n[1], self.full_contact),
+            (n[2], self.break_up),
+            (n[3], self.trough_opening),
+        ]
+    }
+
+    /// Sets the threshold called `name`; false for an unknown name.
+    pub fn set(&mut self, name: &str, t: Transition) -> bool {
+        let slot = match name {
+            "coalescence" => &mut self.coalescence,
+            "full_contact" => &mut self.full_contact,
+            "break_up" => &mut self.break_up,
+            "trough_opening" => &mut self.trough_opening,
+            _ => return false,
+        };
+        *slot = Some(t);
+        true
+    }
+
+    /// full_contact/coalescence (γ_fc/γ_p) with its bracket (lower, upper): exactly 1 if both
+    /// are the same step (one instability).
+    pub fn ratio(&self) -> Option<(f64, f64, f64)> {
+        let (p, fc) = (self.coalescence?, self.full_contact?);
+        if p == fc {
+            return Some((1.0, 1.0, 1.0));
+        }
+        Some((fc.mid() / p.mid(), fc.x.0 / p.x.1, fc.x.1 / p.x.0))
+    }
+}
+
 /// A hysteresis loop between the branches.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Loop {
@@ -262,5 +359,56 @@ mod tests {
                 after: 2
             }]
         );
+    }
+
+    fn branch_of(v: &[(f64, f64, bool)]) -> Vec<BranchState> {
+        v.iter()
+            .map(|&(x, area, fluid)| BranchState { x, area, fluid })
+            .collect()
+    }
+
+    #[test]
+    fn thresholds_bracket_coalescence_and_full_contact() {
+        let up = branch_of(&[
+            (0.1, 0.1, true),
+            (0.2, 0.2, true),
+            (0.3, 0.45, false),
+            (0.4, 0.5, false),
+            (0.5, 1.0, false),
+        ]);
+        let down = branch_of(&[
+            (0.4, 1.0, false),
+            (0.3, 1.0, false),
+            (0.2, 0.3, true),
+            (0.1, 0.1, true),
+        ]);
+        let t = Thresholds::of(&up, &down);
+        assert_eq!(t.coalescence.unwrap().x, (0.2, 0.3));
+        assert_eq!(t.coalescence.unwrap().area, (0.2, 0.45));
+        assert_eq!(t.full_contact.unwrap().x, (0.4, 0.5));
+        // decreasing: full contact is left and the fluid percolates again in the same step
+        assert_eq!(t.trough_opening.unwrap().x, (0.3, 0.2));
+        assert_eq!(t.break_up.unwrap().x, (0.3, 0.2));
+        let (r, lo, hi) = t.ratio().unwrap();
+        assert!((r - 0.45 / 0.25).abs() < 1e-12);
+        assert!((lo - 0.4 / 0.3).abs() < 1e-12 && (hi - 0.5 / 0.2).abs() < 1e-12);
+        // set() by name rebuilds the same thresholds
+        let mut back = Thresholds::default();
+        for (name, tr) in t.all() {
+            assert!(back.set(name, tr.unwrap()));
+        }
+        assert_eq!(back, t);
+        assert!(!back.set("coalesence", t.coalescence.unwrap()));
+    }
+
+    #[test]
+    fn straight_to_full_contact_is_one_instability() {
+        let up = branch_of(&[(0.1, 0.05, true), (0.2, 0.1, true), (0.3, 1.0, false)]);
+        let t = Thresholds::of(&up, &[]);
+        assert_eq!(t.coalescence, t.full_contact);
+        assert_eq!(t.ratio(), Some((1.0, 1.0, 1.0)));
+        // nothing on a branch that never coalesces
+        let t = Thresholds::of(&up[..2], &[]);
+        assert!(t.coalescence.is_none() && t.full_contact.is_none() && t.ratio().is_none());
     }
 }

@@ -33,6 +33,16 @@ impl fmt::Display for Branch {
     }
 }
 
+impl std::str::FromStr for Branch {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        [Branch::Loading, Branch::Unloading]
+            .into_iter()
+            .find(|b| b.name() == s)
+            .ok_or_else(|| format!("branch `{s}`: allowed loading, unloading"))
+    }
+}
+
 /// What a path varies.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Control {

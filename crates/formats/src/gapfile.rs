@@ -54,6 +54,28 @@ pub fn termination_name(t: Termination) -> &'static str {
     }
 }
 
+/// Every termination, in [`termination_name`]'s order.
+pub const TERMINATIONS: [Termination; 7] = [
+    Termination::Converged,
+    Termination::RoundoffLimited,
+    Termination::NotPercolating,
+    Termination::IterationCap,
+    Termination::Stagnation,
+    Termination::ResidualGrowth,
+    Termination::Breakdown,
+];
+
+/// The termination of a [`termination_name`].
+pub fn parse_termination(s: &str) -> Result<Termination> {
+    TERMINATIONS
+        .into_iter()
+        .find(|&t| termination_name(t) == s)
+        .ok_or_else(|| {
+            let names: Vec<&str> = TERMINATIONS.into_iter().map(termination_name).collect();
+            anyhow::anyhow!("termination `{s}`: allowed {}", names.join(", "))
+        })
+}
+
 /// Reads a numeric root attribute that must be a finite number > 0 (a scalar or a one-element
 /// array).
 fn cell_attr(r: &ArtefactReader, name: &str) -> Result<f64> {

@@ -31,6 +31,7 @@
 pub mod gapfile;
 pub mod h5;
 pub mod npy;
+pub mod records;
 pub mod solution;
 pub mod text;
 

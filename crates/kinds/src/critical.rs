@@ -36,6 +36,7 @@ use critical::{
     Criterion, CriticalOptions, CriticalResult, LevelSummary, ResolutionOptions,
     default_saddle_loads, resolution_study_with,
 };
+use formats::records::Record;
 use ndarray::Array2;
 use orchestrator::{
     Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageReport, TypedKind,
@@ -288,6 +289,108 @@ impl TypedKind for CriticalKind {
     }
 }
 
+formats::record! {
+    /// One shift's bracket of a criterion's transition (`level/<n>/<criterion>/*`).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct TransitionRow {
+        /// Highest load bisected as percolating.
+        pub lo: f64,
+        /// Lowest load bisected as blocked.
+        pub hi: f64,
+        /// Raw contact area at `lo`.
+        pub a_p_raw: f64,
+        /// Perimeter-corrected contact area at `lo`.
+        pub a_p_corrected: f64,
+        /// Contact nodes at `lo`.
+        pub contact_lo: usize,
+        /// Contact nodes at `hi`.
+        pub contact_hi: usize,
+        /// Perimeter edges at `lo`.
+        pub perimeter_lo: usize,
+        /// Perimeter edges at `hi`.
+        pub perimeter_hi: usize,
+    }
+}
+
+impl TransitionRow {
+    fn of(t: &critical::Transition) -> Self {
+        TransitionRow {
+            lo: t.bracket.lo,
+            hi: t.bracket.hi,
+            a_p_raw: t.a_p_raw(),
+            a_p_corrected: t.a_p_corrected(),
+            contact_lo: t.area_lo.n_contact,
+            contact_hi: t.area_hi.n_contact,
+            perimeter_lo: t.area_lo.n_perimeter_edges,
+            perimeter_hi: t.area_hi.n_perimeter_edges,
+        }
+    }
+}
+
+formats::record! {
+    /// One sub-grid shift of a level (`level/<n>/shifts/*`).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct ShiftRow {
+        /// Shift along x (grid spacings).
+        pub sx: f64,
+        /// Shift along y.
+        pub sy: f64,
+        /// Full-contact pressure of the shifted grid.
+        pub p_fc: f64,
+        /// Wall time (s).
+        pub wall_s: f64,
+        /// Contact solves of the bisection.
+        pub probes: usize,
+        /// Polonsky–Keer iterations.
+        pub iterations: usize,
+    }
+}
+
+impl ShiftRow {
+    fn of(r: &CriticalResult) -> Self {
+        ShiftRow {
+            sx: r.grid.shift.0,
+            sy: r.grid.shift.1,
+            p_fc: r.p_fc,
+            wall_s: r.wall_s,
+            probes: r.probes,
+            iterations: r.iterations,
+        }
+    }
+}
+
+formats::record! {
+    /// The sub-grid fit of one saddle direction (`level/<n>/subgrid/*`).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct SubgridFit {
+        /// Direction (degrees).
+        pub angle_deg: f64,
+        /// Sub-grid L_c.
+        pub l_c: f64,
+        /// Its error.
+        pub l_c_error: f64,
+        /// ζ from the saddle gap.
+        pub zeta: f64,
+        /// Its error.
+        pub zeta_error: f64,
+        /// Points in the fit.
+        pub points: usize,
+    }
+}
+
+impl SubgridFit {
+    fn of(f: &critical::SaddleFit) -> Self {
+        SubgridFit {
+            angle_deg: f.angle_deg,
+            l_c: f.l_c.0,
+            l_c_error: f.l_c.1,
+            zeta: f.zeta.0,
+            zeta_error: f.zeta.1,
+            points: f.points,
+        }
+    }
+}
+
 fn write_level(out: &mut ArtefactWriter, at: &str, l: &LevelSummary) -> Result<()> {
     let results = &l.results;
     let av = &l.average;
@@ -310,48 +413,16 @@ fn write_level(out: &mut ArtefactWriter, at: &str, l: &LevelSummary) -> Result<(
             attr(out, &format!("{name}{sfx}"), s.mean)?;
             attr(out, &format!("{name}{sfx}_sem"), s.sem)?;
         }
-        let name = c.name();
-        let col = |f: &dyn Fn(&CriticalResult) -> f64| results.iter().map(f).collect::<Vec<_>>();
-        let coli = |f: &dyn Fn(&CriticalResult) -> usize| {
-            results.iter().map(|r| f(r) as i64).collect::<Vec<_>>()
-        };
-        let tr = |r: &CriticalResult| r.transition(c).clone();
-        out.write_f64_1d(&format!("{at}/{name}/lo"), &col(&|r| tr(r).bracket.lo))?;
-        out.write_f64_1d(&format!("{at}/{name}/hi"), &col(&|r| tr(r).bracket.hi))?;
-        out.write_f64_1d(&format!("{at}/{name}/a_p_raw"), &col(&|r| tr(r).a_p_raw()))?;
-        out.write_f64_1d(
-            &format!("{at}/{name}/a_p_corrected"),
-            &col(&|r| tr(r).a_p_corrected()),
-        )?;
-        out.write_i64_1d(
-            &format!("{at}/{name}/contact_lo"),
-            &coli(&|r| tr(r).area_lo.n_contact),
-        )?;
-        out.write_i64_1d(
-            &format!("{at}/{name}/contact_hi"),
-            &coli(&|r| tr(r).area_hi.n_contact),
-        )?;
-        out.write_i64_1d(
-            &format!("{at}/{name}/perimeter_lo"),
-            &coli(&|r| tr(r).area_lo.n_perimeter_edges),
-        )?;
-        out.write_i64_1d(
-            &format!("{at}/{name}/perimeter_hi"),
-            &coli(&|r| tr(r).area_hi.n_perimeter_edges),
-        )?;
+        let rows: Vec<TransitionRow> = results
+            .iter()
+            .map(|r| TransitionRow::of(r.transition(c)))
+            .collect();
+        TransitionRow::write(&rows, out, &format!("{at}/{}", c.name()))?;
     }
     attr(out, "p_fc_over_l_c", av.p_fc_over_l_c.mean)?;
     attr(out, "p_fc_over_l_c_sem", av.p_fc_over_l_c.sem)?;
-    let col = |f: &dyn Fn(&CriticalResult) -> f64| results.iter().map(f).collect::<Vec<_>>();
-    let coli = |f: &dyn Fn(&CriticalResult) -> usize| {
-        results.iter().map(|r| f(r) as i64).collect::<Vec<_>>()
-    };
-    out.write_f64_1d(&format!("{at}/shifts/sx"), &col(&|r| r.grid.shift.0))?;
-    out.write_f64_1d(&format!("{at}/shifts/sy"), &col(&|r| r.grid.shift.1))?;
-    out.write_f64_1d(&format!("{at}/shifts/p_fc"), &col(&|r| r.p_fc))?;
-    out.write_f64_1d(&format!("{at}/shifts/wall_s"), &col(&|r| r.wall_s))?;
-    out.write_i64_1d(&format!("{at}/shifts/probes"), &coli(&|r| r.probes))?;
-    out.write_i64_1d(&format!("{at}/shifts/iterations"), &coli(&|r| r.iterations))?;
+    let shifts: Vec<ShiftRow> = results.iter().map(ShiftRow::of).collect();
+    ShiftRow::write(&shifts, out, &format!("{at}/shifts"))?;
     out.set_attr_at(
         at,
         "probes",
@@ -393,16 +464,8 @@ fn write_level(out: &mut ArtefactWriter, at: &str, l: &LevelSummary) -> Result<(
         .as_ref()
         .map(|s| s.fits.clone())
         .unwrap_or_default();
-    let fcol = |f: &dyn Fn(&critical::SaddleFit) -> f64| fits.iter().map(f).collect::<Vec<_>>();
-    out.write_f64_1d(&format!("{at}/subgrid/angle_deg"), &fcol(&|f| f.angle_deg))?;
-    out.write_f64_1d(&format!("{at}/subgrid/l_c"), &fcol(&|f| f.l_c.0))?;
-    out.write_f64_1d(&format!("{at}/subgrid/l_c_error"), &fcol(&|f| f.l_c.1))?;
-    out.write_f64_1d(&format!("{at}/subgrid/zeta"), &fcol(&|f| f.zeta.0))?;
-    out.write_f64_1d(&format!("{at}/subgrid/zeta_error"), &fcol(&|f| f.zeta.1))?;
-    out.write_i64_1d(
-        &format!("{at}/subgrid/points"),
-        &fits.iter().map(|f| f.points as i64).collect::<Vec<_>>(),
-    )?;
+    let fits: Vec<SubgridFit> = fits.iter().map(SubgridFit::of).collect();
+    SubgridFit::write(&fits, out, &format!("{at}/subgrid"))?;
     let sub = r0.subgrid.as_ref();
     attr(out, "l_c_subgrid", sub.map_or(f64::NAN, |s| s.l_c))?;
     attr(

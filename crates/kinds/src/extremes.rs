@@ -172,10 +172,7 @@ impl TypedKind for ExtremesKind {
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
         let lattice = params.lattice;
-        let tol = params.tol_gap;
-        let (n_largest, n_loads) = (params.n_largest, params.n);
-        let ls = &params.ls;
-        if let Some(l) = ls.iter().find(|l| **l == 0.0) {
+        if let Some(l) = params.ls.iter().find(|l| **l == 0.0) {
             bail!("ls: {l} — the reduced loads must be non-zero (at l = 0 the check has no side)");
         }
         let crit = inputs.one("critical")?;
@@ -194,188 +191,225 @@ impl TypedKind for ExtremesKind {
             .get("l_c")
             .map(|v| v.0)
             .ok_or_else(|| anyhow!("{}: no l_c", crit.path().display()))?;
-        let mut cases = Vec::new();
-        let timed = |f: &mut dyn FnMut() -> Result<Solution>| -> Result<(Solution, f64)> {
-            let t0 = std::time::Instant::now();
-            let s = f()?;
-            Ok((s, t0.elapsed().as_secs_f64()))
-        };
-        let conv = |s: &Solution| -> String {
-            match &s.stats.reason {
-                None if s.stats.converged => String::new(),
-                Some(r) => format!(" — not converged: {r}"),
-                None => " — not converged".into(),
-            }
-        };
-
-        // Largest grid and the next coarser one (only the scalars are kept: at 2^13 a solution
-        // holds 1.6 GB).
-        ctx.progress(0.0, &format!("largest grid n = {n_largest}"));
-        let mut runs = Vec::new();
-        for n in [n_largest - 1, n_largest] {
-            let s = Surface::new(lattice, n)?;
-            let (load, dx) = (0.3 * s.p_fc_grid(), s.grid.dx());
-            let mut model = Model::new(&s)?;
-            drop(s);
-            let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
-            runs.push((n, dx, load, wall, sol.contact_area, conv(&sol), sol.stats));
-        }
-        let ((n_c, dx_c, _, _, a_c, _, st_c), (n_f, _, load, wall, a_f, why, st_f)) =
-            (&runs[0], &runs[1]);
-        let bound = 8.0 * dx_c;
-        cases.push(Case {
-            case: format!("largest grid: contact area at 0.3 p_fc{why}"),
-            n: *n_f,
-            load: *load,
-            value: *a_f,
-            reference: *a_c,
-            bound,
-            passed: st_f.converged && st_c.converged && (a_f - a_c).abs() <= bound,
-            iterations: st_f.iterations,
-            wall_s: *wall,
-            check: format!("converged on 2^{n_f} and 2^{n_c}; |a − a(2^{n_c})| ≤ 8 dx(2^{n_c})"),
-        });
-
-        // Load extremes on 2^n.
-        ctx.progress(0.5, &format!("load extremes, n = {n_loads}"));
-        let s = Surface::new(lattice, n_loads)?;
-        let p_fc = s.p_fc_grid();
-        let h_max = s.heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let nodes = s.heights.len() as f64;
-        let mut model = Model::new(&s)?;
-        let load = 1e-8 * p_fc;
-        let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
-        let depth = sol
-            .pressure
-            .iter()
-            .zip(s.heights.iter())
-            .filter(|(p, _)| **p > 0.0)
-            .map(|(_, h)| h_max - h)
-            .fold(0.0, f64::max);
-        let touching = sol.contact_area * nodes;
-        cases.push(Case {
-            case: format!("1e-8 p_fc: depth of the lowest contact node below the highest{}", conv(&sol)),
-            n: n_loads,
-            load,
-            value: depth,
-            reference: touching,
-            bound: 1e-3,
-            passed: sol.stats.converged && touching >= 1.0 && depth <= 1e-3,
-            iterations: sol.stats.iterations,
-            wall_s: wall,
-            check: "converged; contact (reference: contact nodes) only within 1e-3 h0 of the highest node".into(),
-        });
-        for (sign, what) in [(-1.0, "below"), (1.0, "above")] {
-            let load = p_fc * (1.0 + sign * 1e-9);
-            let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
-            let open = (1.0 - sol.contact_area) * nodes;
-            let ok = if sign < 0.0 { open >= 1.0 } else { open == 0.0 };
-            cases.push(Case {
-                case: format!(
-                    "p_fc(1 {} 1e-9): open nodes{}",
-                    if sign < 0.0 { "−" } else { "+" },
-                    conv(&sol)
-                ),
-                n: n_loads,
-                load,
-                value: open,
-                reference: f64::NAN,
-                bound: f64::NAN,
-                passed: sol.stats.converged && ok,
-                iterations: sol.stats.iterations,
-                wall_s: wall,
-                check: format!(
-                    "converged; {} full contact: {}",
-                    what,
-                    if sign < 0.0 {
-                        "some node open"
-                    } else {
-                        "no node open"
-                    }
-                ),
-            });
-        }
-        drop(model);
-        drop(s);
-
-        // Near-critical loads on the critical input's finest grid.
+        ctx.progress(0.0, &format!("largest grid n = {}", params.n_largest));
+        let mut cases = vec![largest_grid(params)?];
+        ctx.progress(0.5, &format!("load extremes, n = {}", params.n));
+        cases.extend(load_extremes(params)?);
         ctx.progress(0.75, &format!("near-critical loads, n = {}", level.n));
-        let s = Surface::new(lattice, level.n)?;
-        let (lx, ly) = (s.grid.lx, s.grid.ly);
-        let mut model = Model::new(&s)?;
-        let mut ls = ls.clone();
-        ls.sort_by(f64::total_cmp);
-        for l in ls {
-            let load = l_c * (1.0 + l);
-            let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
-            let st = critical::FlowState::of_gap(sol.gap.view())
-                .with_context(|| format!("percolation at l = {l:e}"))?;
-            let below = l < 0.0;
-            let axis = if st.fluid_x { FlowAxis::X } else { FlowAxis::Y };
-            let flow = reynolds::solve(sol.gap.view(), lx, ly, axis, &FlowOptions::default())
-                .with_context(|| format!("Reynolds flow at l = {l:e}"))?;
-            let ok = if below {
-                st.fluid_any() && flow.converged && flow.flux.is_finite() && flow.flux > 0.0
-            } else {
-                !st.fluid_any() && !flow.percolating && flow.flux == 0.0
-            };
-            cases.push(Case {
-                case: format!(
-                    "L_c(1 {} {:e}): Reynolds flux{}",
-                    if below { "−" } else { "+" },
-                    l.abs(),
-                    conv(&sol)
-                ),
-                n: level.n,
-                load,
-                value: flow.flux,
-                reference: l_c,
-                bound: f64::NAN,
-                passed: sol.stats.converged && ok,
-                iterations: sol.stats.iterations,
-                wall_s: wall,
-                check: if below {
-                    "converged; the fluid percolates; the flux converges, finite and > 0".into()
-                } else {
-                    "converged; the fluid does not percolate; the flux is exactly 0".into()
-                },
-            });
-        }
-
-        let t = table(&cases);
-        let f = |k: &str| t.f64(k).map(|v| v.to_vec());
-        for k in ["load", "value", "reference", "bound", "wall_s"] {
-            out.write_f64_1d(&format!("cases/{k}"), &f(k)?)?;
-        }
-        for k in ["n", "iterations"] {
-            out.write_i64_1d(&format!("cases/{k}"), t.i64(k)?)?;
-        }
-        let passed: Vec<u8> = cases.iter().map(|c| c.passed as u8).collect();
-        out.write_u8_1d("cases/passed", &passed)?;
-        out.write_strings("cases/case", t.str("case")?)?;
-        out.write_strings("cases/check", t.str("check")?)?;
-        out.set_attr("lattice", lattice.name())?;
-        out.set_attr("l_c", l_c)?;
-        ctx.emit_file(TABLE, tables::csv_bytes(&t)?);
-        let failed: Vec<String> = cases
-            .iter()
-            .filter(|c| !c.passed)
-            .map(|c| {
-                format!(
-                    "{} (n = {}, value {:e}; check: {})",
-                    c.case, c.n, c.value, c.check
-                )
-            })
-            .collect();
-        if !failed.is_empty() {
-            bail!(
-                "extreme cases failed their checks:\n  {}",
-                failed.join("\n  ")
-            );
-        }
+        cases.extend(near_critical(params, level.n, l_c)?);
+        write_cases(ctx, out, &cases, lattice, l_c)?;
         Ok(StageReport::with_stats(json!({
             "cases": cases.len(),
-            "largest_nodes": 4f64.powi(n_largest as i32),
+            "largest_nodes": 4f64.powi(params.n_largest as i32),
         })))
     }
+}
+
+/// A solve and its wall time (s).
+fn timed(f: &mut dyn FnMut() -> Result<Solution>) -> Result<(Solution, f64)> {
+    let t0 = std::time::Instant::now();
+    let s = f()?;
+    Ok((s, t0.elapsed().as_secs_f64()))
+}
+
+/// "" for a converged solve, else why not (appended to the case's name).
+fn conv(s: &Solution) -> String {
+    match &s.stats.reason {
+        None if s.stats.converged => String::new(),
+        Some(r) => format!(" — not converged: {r}"),
+        None => " — not converged".into(),
+    }
+}
+
+/// The largest grid and the next coarser one (only the scalars are kept: at 2^13 a solution
+/// holds 1.6 GB).
+fn largest_grid(params: &ExtremesParams) -> Result<Case> {
+    let (lattice, tol, n_largest) = (params.lattice, params.tol_gap, params.n_largest);
+    // Largest grid and the next coarser one (only the scalars are kept: at 2^13 a solution
+    // holds 1.6 GB).
+    let mut runs = Vec::new();
+    for n in [n_largest - 1, n_largest] {
+        let s = Surface::new(lattice, n)?;
+        let (load, dx) = (0.3 * s.p_fc_grid(), s.grid.dx());
+        let mut model = Model::new(&s)?;
+        drop(s);
+        let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
+        runs.push((n, dx, load, wall, sol.contact_area, conv(&sol), sol.stats));
+    }
+    let ((n_c, dx_c, _, _, a_c, _, st_c), (n_f, _, load, wall, a_f, why, st_f)) =
+        (&runs[0], &runs[1]);
+    let bound = 8.0 * dx_c;
+    Ok(Case {
+        case: format!("largest grid: contact area at 0.3 p_fc{why}"),
+        n: *n_f,
+        load: *load,
+        value: *a_f,
+        reference: *a_c,
+        bound,
+        passed: st_f.converged && st_c.converged && (a_f - a_c).abs() <= bound,
+        iterations: st_f.iterations,
+        wall_s: *wall,
+        check: format!("converged on 2^{n_f} and 2^{n_c}; |a − a(2^{n_c})| ≤ 8 dx(2^{n_c})"),
+    })
+}
+
+/// 1e-8 p_fc and p_fc(1 ∓ 1e-9) on 2^n.
+fn load_extremes(params: &ExtremesParams) -> Result<Vec<Case>> {
+    let (lattice, tol, n_loads) = (params.lattice, params.tol_gap, params.n);
+    let mut cases = Vec::new();
+    let s = Surface::new(lattice, n_loads)?;
+    let p_fc = s.p_fc_grid();
+    let h_max = s.heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let nodes = s.heights.len() as f64;
+    let mut model = Model::new(&s)?;
+    let load = 1e-8 * p_fc;
+    let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
+    let depth = sol
+        .pressure
+        .iter()
+        .zip(s.heights.iter())
+        .filter(|(p, _)| **p > 0.0)
+        .map(|(_, h)| h_max - h)
+        .fold(0.0, f64::max);
+    let touching = sol.contact_area * nodes;
+    cases.push(Case {
+        case: format!(
+            "1e-8 p_fc: depth of the lowest contact node below the highest{}",
+            conv(&sol)
+        ),
+        n: n_loads,
+        load,
+        value: depth,
+        reference: touching,
+        bound: 1e-3,
+        passed: sol.stats.converged && touching >= 1.0 && depth <= 1e-3,
+        iterations: sol.stats.iterations,
+        wall_s: wall,
+        check:
+            "converged; contact (reference: contact nodes) only within 1e-3 h0 of the highest node"
+                .into(),
+    });
+    for (sign, what) in [(-1.0, "below"), (1.0, "above")] {
+        let load = p_fc * (1.0 + sign * 1e-9);
+        let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
+        let open = (1.0 - sol.contact_area) * nodes;
+        let ok = if sign < 0.0 { open >= 1.0 } else { open == 0.0 };
+        cases.push(Case {
+            case: format!(
+                "p_fc(1 {} 1e-9): open nodes{}",
+                if sign < 0.0 { "−" } else { "+" },
+                conv(&sol)
+            ),
+            n: n_loads,
+            load,
+            value: open,
+            reference: f64::NAN,
+            bound: f64::NAN,
+            passed: sol.stats.converged && ok,
+            iterations: sol.stats.iterations,
+            wall_s: wall,
+            check: format!(
+                "converged; {} full contact: {}",
+                what,
+                if sign < 0.0 {
+                    "some node open"
+                } else {
+                    "no node open"
+                }
+            ),
+        });
+    }
+    drop(model);
+    drop(s);
+    Ok(cases)
+}
+
+/// L_c(1 + l) for each l of `ls` on the critical input's finest grid 2^`n`.
+fn near_critical(params: &ExtremesParams, n: u32, l_c: f64) -> Result<Vec<Case>> {
+    let (lattice, tol) = (params.lattice, params.tol_gap);
+    let mut cases = Vec::new();
+    let s = Surface::new(lattice, n)?;
+    let (lx, ly) = (s.grid.lx, s.grid.ly);
+    let mut model = Model::new(&s)?;
+    let mut ls = params.ls.clone();
+    ls.sort_by(f64::total_cmp);
+    for l in ls {
+        let load = l_c * (1.0 + l);
+        let (sol, wall) = timed(&mut || solve(&mut model, load, tol))?;
+        let st = critical::FlowState::of_gap(sol.gap.view())
+            .with_context(|| format!("percolation at l = {l:e}"))?;
+        let below = l < 0.0;
+        let axis = if st.fluid_x { FlowAxis::X } else { FlowAxis::Y };
+        let flow = reynolds::solve(sol.gap.view(), lx, ly, axis, &FlowOptions::default())
+            .with_context(|| format!("Reynolds flow at l = {l:e}"))?;
+        let ok = if below {
+            st.fluid_any() && flow.converged && flow.flux.is_finite() && flow.flux > 0.0
+        } else {
+            !st.fluid_any() && !flow.percolating && flow.flux == 0.0
+        };
+        cases.push(Case {
+            case: format!(
+                "L_c(1 {} {:e}): Reynolds flux{}",
+                if below { "−" } else { "+" },
+                l.abs(),
+                conv(&sol)
+            ),
+            n,
+            load,
+            value: flow.flux,
+            reference: l_c,
+            bound: f64::NAN,
+            passed: sol.stats.converged && ok,
+            iterations: sol.stats.iterations,
+            wall_s: wall,
+            check: if below {
+                "converged; the fluid percolates; the flux converges, finite and > 0".into()
+            } else {
+                "converged; the fluid does not percolate; the flux is exactly 0".into()
+            },
+        });
+    }
+    Ok(cases)
+}
+
+/// `cases/*`, the attributes and the table; fails naming every failed case.
+fn write_cases(
+    ctx: &mut StageContext,
+    out: &mut ArtefactWriter,
+    cases: &[Case],
+    lattice: Lattice,
+    l_c: f64,
+) -> Result<()> {
+    let t = table(cases);
+    let f = |k: &str| t.f64(k).map(|v| v.to_vec());
+    for k in ["load", "value", "reference", "bound", "wall_s"] {
+        out.write_f64_1d(&format!("cases/{k}"), &f(k)?)?;
+    }
+    for k in ["n", "iterations"] {
+        out.write_i64_1d(&format!("cases/{k}"), t.i64(k)?)?;
+    }
+    let passed: Vec<u8> = cases.iter().map(|c| c.passed as u8).collect();
+    out.write_u8_1d("cases/passed", &passed)?;
+    out.write_strings("cases/case", t.str("case")?)?;
+    out.write_strings("cases/check", t.str("check")?)?;
+    out.set_attr("lattice", lattice.name())?;
+    out.set_attr("l_c", l_c)?;
+    ctx.emit_file(TABLE, tables::csv_bytes(&t)?);
+    let failed: Vec<String> = cases
+        .iter()
+        .filter(|c| !c.passed)
+        .map(|c| {
+            format!(
+                "{} (n = {}, value {:e}; check: {})",
+                c.case, c.n, c.value, c.check
+            )
+        })
+        .collect();
+    if !failed.is_empty() {
+        bail!(
+            "extreme cases failed their checks:\n  {}",
+            failed.join("\n  ")
+        );
+    }
+    Ok(())
 }

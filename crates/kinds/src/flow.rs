@@ -36,99 +36,32 @@
 //!   NaN in contact and in removed pools) with attributes `load`, `strength`, `flux`,
 //!   `conductivity`, `contact_area`, `sweep_index`.
 //!
+//! The records are declared once in [`crate::flow_artefact`] (writer and reader).
+//!
 //! A flow solve that does not converge is never used silently: it is kept with `converged = 0`
 //! and its termination, listed in the stage's warnings, and the figure leaves it out. A point
 //! whose contact solve did not converge is flagged likewise (`contact_converged = 0`).
 
+use crate::flow_artefact::{FlowPoint, FlowStop, find_stops};
+use crate::sweep::{Point, SweepData};
+use crate::sweep_artefact::fields_group;
 use anyhow::{Context, Result, anyhow, bail};
+use contact::path::Branch;
 use formats::gapfile;
+use formats::records::Record;
 use orchestrator::{InputSpec, Inputs, ParamSpec, ParamType, StageContext, StageReport, TypedKind};
-use reynolds::{FlowAxis, FlowOptions, FlowResult};
+use reynolds::{FlowAxis, FlowOptions};
 use serde::Deserialize;
 use serde_json::{Value, json};
 use store::{ArtefactReader, ArtefactWriter, fields};
+
+pub use crate::flow_artefact::FlowData;
 
 /// The `flow` stage kind.
 pub struct FlowKind;
 
 /// Bump when the artefact's content changes for the same parameters.
 pub const CODE_VERSION: u64 = 5;
-
-/// The group of a sweep point's fields.
-pub fn fields_group(branch: &str, index: usize) -> String {
-    format!("fields/{branch}_{index}")
-}
-
-/// The points of a sweep artefact that the flow stage needs.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SweepPoints {
-    /// "loading" or "unloading".
-    pub branch: Vec<String>,
-    /// Step in the planned path.
-    pub step: Vec<i64>,
-    /// Mean pressure (E* h0/λ).
-    pub load: Vec<f64>,
-    /// γ0 or γr (0 for the hard wall).
-    pub strength: Vec<f64>,
-    /// Relative contact area.
-    pub contact_area: Vec<f64>,
-    /// The contact solve converged.
-    pub converged: Vec<bool>,
-}
-
-impl SweepPoints {
-    /// Reads `points/*` of a sweep artefact.
-    pub fn read(r: &ArtefactReader) -> Result<Self> {
-        let ctx = || {
-            format!(
-                "reading the points of sweep artefact `{}`",
-                r.path().display()
-            )
-        };
-        (|| -> Result<Self> {
-            let p = SweepPoints {
-                branch: r.read_strings("points/branch")?,
-                step: r.read_i64_1d("points/step")?,
-                load: r.read_f64_1d("points/load")?,
-                strength: r.read_f64_1d("points/strength")?,
-                contact_area: r.read_f64_1d("points/contact_area")?,
-                converged: r
-                    .read_u8_1d("points/converged")?
-                    .into_iter()
-                    .map(|c| c != 0)
-                    .collect(),
-            };
-            let n = p.branch.len();
-            for (k, len) in [
-                ("step", p.step.len()),
-                ("load", p.load.len()),
-                ("strength", p.strength.len()),
-                ("contact_area", p.contact_area.len()),
-                ("converged", p.converged.len()),
-            ] {
-                if len != n {
-                    bail!("points/{k} has {len} entries, points/branch has {n}");
-                }
-            }
-            Ok(p)
-        })()
-        .with_context(ctx)
-    }
-    /// Number of points.
-    pub fn len(&self) -> usize {
-        self.branch.len()
-    }
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.branch.is_empty()
-    }
-}
-
-/// One solved point.
-struct Row {
-    sweep_index: usize,
-    res: FlowResult,
-}
 
 /// Deserialises a flow axis (`"x"`, `"y"`) through [`gapfile::parse_axis`].
 pub(crate) fn de_axis<'de, D: serde::Deserializer<'de>>(d: D) -> Result<FlowAxis, D::Error> {
@@ -158,8 +91,8 @@ pub struct FlowParams {
 }
 
 impl FlowParams {
-    fn wanted_branch(&self, branch: &str) -> bool {
-        self.branches == "both" || self.branches == branch
+    fn wanted_branch(&self, branch: Branch) -> bool {
+        self.branches == "both" || self.branches == branch.name()
     }
 }
 
@@ -250,34 +183,112 @@ impl TypedKind for FlowKind {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let sweep = inputs.one("sweep")?;
-        let sweep_file = sweep.path().display().to_string();
-        let axis = params.axis;
+        let src = Source::open(inputs.one("sweep")?)?;
         let opts = FlowOptions {
             tolerance: params.tol,
             max_iterations: params.max_iter,
             return_fields: false,
             ..Default::default()
         };
-        let pts = SweepPoints::read(sweep)?;
-        let (lx, ly) = sweep.cell()?;
-        let unit_scale = sweep.attr_f64("unit_scale").unwrap_or(1.0);
-        let control = sweep.attr_str("control").unwrap_or_else(|_| "load".into());
+        let (with_gap, skipped) = src.points_with_gap(ctx, params)?;
+        let (points, (nx, ny)) = solve_points(ctx, &src, &with_gap, params.axis, &opts)?;
+        let n_bad = warn_unconverged(ctx, &points);
+        let contact_bad = points.iter().filter(|p| !p.contact_converged).count();
+        if contact_bad > 0 {
+            ctx.warn(format!(
+                "{contact_bad} of {} points come from contact solves that did not converge \
+                 (flagged contact_converged = 0)",
+                points.len()
+            ));
+        }
+        let stops = find_stops(&points);
+        let current = current_points(params, &src, &points, &stops);
+        for &i in &current {
+            write_current(out, &src, &points[i], params.axis, &opts)?;
+        }
 
-        // which points have a stored gap
-        let selected: Vec<usize> = (0..pts.len())
-            .filter(|&k| params.wanted_branch(&pts.branch[k]))
+        // artefact
+        src.copy_attrs(out)?;
+        out.set_attr("axis", gapfile::axis_name(params.axis))?;
+        out.set_attr("tol", opts.tolerance)?;
+        src.copy_more_attrs(out)?;
+        for (k, v) in [
+            ("nx", nx),
+            ("ny", ny),
+            ("n_points", points.len()),
+            ("n_skipped", skipped),
+            ("n_unconverged", n_bad),
+            ("n_contact_unconverged", contact_bad),
+        ] {
+            out.set_attr(k, v as i64)?;
+        }
+        FlowPoint::write(&points, out, "points")?;
+        FlowStop::write(&stops, out, "stops")?;
+        let heads = headlines(ctx, params, &src, &points);
+        crate::headline::write(out, &heads)?;
+        Ok(report(
+            &points,
+            &stops,
+            skipped,
+            n_bad,
+            contact_bad,
+            current.len(),
+        ))
+    }
+}
+
+/// The input sweep: its points and what the flow needs of its attributes.
+struct Source<'a> {
+    r: &'a ArtefactReader,
+    file: String,
+    points: Vec<Point>,
+    cell: (f64, f64),
+    unit_scale: f64,
+    strength_path: bool,
+}
+
+impl<'a> Source<'a> {
+    fn open(r: &'a ArtefactReader) -> Result<Self> {
+        Ok(Source {
+            r,
+            file: r.path().display().to_string(),
+            points: SweepData::read_points(r)?,
+            cell: r.cell()?,
+            unit_scale: r.attr_f64("unit_scale").unwrap_or(1.0),
+            strength_path: r.attr_str("control").is_ok_and(|c| c == "strength"),
+        })
+    }
+
+    /// The sweep point's control value in the sweep's unit (what `currents_at` is given in).
+    fn control_value(&self, k: usize) -> f64 {
+        let p = &self.points[k];
+        if self.strength_path {
+            p.strength
+        } else {
+            p.load / self.unit_scale
+        }
+    }
+
+    /// The points of the selected branches that have a stored gap, and how many do not.
+    fn points_with_gap(
+        &self,
+        ctx: &mut StageContext,
+        params: &FlowParams,
+    ) -> Result<(Vec<usize>, usize)> {
+        let selected: Vec<usize> = (0..self.points.len())
+            .filter(|&k| params.wanted_branch(self.points[k].branch))
             .collect();
         let with_gap: Vec<usize> = selected
             .iter()
             .copied()
-            .filter(|&k| sweep.has_dataset(&format!("{}/gap", fields_group(&pts.branch[k], k))))
+            .filter(|&k| self.r.has_dataset(&format!("{}/gap", self.group(k))))
             .collect();
         if with_gap.is_empty() {
             bail!(
-                "sweep artefact `{sweep_file}` holds no gap fields for the {} points of the \
+                "sweep artefact `{}` holds no gap fields for the {} points of the \
                  selected branches ({}); set `fields_all = true` (every point) or `fields_at` \
                  (chosen loads) on the sweep stage",
+                self.file,
                 selected.len(),
                 params.branches
             );
@@ -291,416 +302,271 @@ impl TypedKind for FlowKind {
                 selected.len()
             ));
         }
+        Ok((with_gap, skipped))
+    }
 
-        // solve
-        let mut rows: Vec<Row> = Vec::with_capacity(with_gap.len());
-        let (mut nx, mut ny) = (0usize, 0usize);
-        for (done, &k) in with_gap.iter().enumerate() {
-            let group = fields_group(&pts.branch[k], k);
-            let gap = sweep
-                .read_f64_2d(&format!("{group}/gap"))
-                .with_context(|| format!("`{sweep_file}`: reading `{group}/gap`"))?;
-            gapfile::check_gap_values(&gap)
-                .map_err(|m| anyhow!("`{sweep_file}`: dataset `/{group}/gap`: {m}"))?;
-            (nx, ny) = gap.dim();
-            let res = reynolds::solve(gap.view(), lx, ly, axis, &opts)
-                .map_err(|e| anyhow!("`{sweep_file}`: `{group}/gap`: {e}"))?;
-            ctx.progress(
-                (done + 1) as f64 / with_gap.len() as f64,
-                &format!(
-                    "{} load {:.5}: K = {:.3e}",
-                    pts.branch[k], pts.load[k], res.conductivity
-                ),
-            );
-            rows.push(Row {
-                sweep_index: k,
-                res,
-            });
-        }
+    fn group(&self, k: usize) -> String {
+        fields_group(self.points[k].branch, k)
+    }
 
-        // flags
-        let bad: Vec<&Row> = rows.iter().filter(|r| !r.res.converged).collect();
-        if !bad.is_empty() {
-            let list: Vec<String> = bad
-                .iter()
-                .take(10)
-                .map(|r| {
-                    format!(
-                        "{} load {:.6}: {} after {} iterations (residual {:.2e}, conservation \
-                         error {:.2e})",
-                        pts.branch[r.sweep_index],
-                        pts.load[r.sweep_index],
-                        gapfile::termination_name(r.res.termination),
-                        r.res.iterations,
-                        r.res.relative_residual,
-                        r.res.conservation_error
-                    )
-                })
-                .collect();
-            ctx.warn(format!(
-                "{} of {} flow solves did not converge (flagged converged = 0, left out of \
-                 figures){}: {}",
-                bad.len(),
-                rows.len(),
-                if bad.len() > 10 { "; the first 10" } else { "" },
-                list.join("; ")
-            ));
-        }
-        let contact_bad = rows
-            .iter()
-            .filter(|r| !pts.converged[r.sweep_index])
-            .count();
-        if contact_bad > 0 {
-            ctx.warn(format!(
-                "{contact_bad} of {} points come from contact solves that did not converge \
-                 (flagged contact_converged = 0)",
-                rows.len()
-            ));
-        }
+    /// The stored gap of sweep point `k`, checked.
+    fn gap(&self, k: usize) -> Result<ndarray::Array2<f64>> {
+        let group = self.group(k);
+        let gap = self
+            .r
+            .read_f64_2d(&format!("{group}/gap"))
+            .with_context(|| format!("`{}`: reading `{group}/gap`", self.file))?;
+        gapfile::check_gap_values(&gap)
+            .map_err(|m| anyhow!("`{}`: dataset `/{group}/gap`: {m}", self.file))?;
+        Ok(gap)
+    }
 
-        // where the flow stops or starts along each branch (between consecutive solved points)
-        let mut stops: Vec<(String, usize, usize)> = Vec::new(); // (branch, flowing, blocked)
-        for br in ["loading", "unloading"] {
-            let idx: Vec<usize> = (0..rows.len())
-                .filter(|&i| pts.branch[rows[i].sweep_index] == br)
-                .collect();
-            for w in idx.windows(2) {
-                let (a, b) = (&rows[w[0]].res, &rows[w[1]].res);
-                if a.percolating != b.percolating {
-                    let (f, bl) = if a.percolating {
-                        (w[0], w[1])
-                    } else {
-                        (w[1], w[0])
-                    };
-                    stops.push((br.to_string(), f, bl));
-                }
-            }
-        }
+    fn solve(
+        &self,
+        k: usize,
+        gap: &ndarray::Array2<f64>,
+        axis: FlowAxis,
+        opts: &FlowOptions,
+    ) -> Result<reynolds::FlowResult> {
+        let (lx, ly) = self.cell;
+        reynolds::solve(gap.view(), lx, ly, axis, opts)
+            .map_err(|e| anyhow!("`{}`: `{}/gap`: {e}", self.file, self.group(k)))
+    }
 
-        // current densities
-        let mut current_rows: Vec<usize> = Vec::new();
-        for &target in &params.currents_at {
-            for br in ["loading", "unloading"] {
-                if let Some(i) = (0..rows.len())
-                    .filter(|&i| pts.branch[rows[i].sweep_index] == br)
-                    .min_by(|&a, &b| {
-                        let d = |i: usize| {
-                            let k = rows[i].sweep_index;
-                            let v = if control == "strength" {
-                                pts.strength[k]
-                            } else {
-                                pts.load[k] / unit_scale
-                            };
-                            (v - target).abs()
-                        };
-                        d(a).total_cmp(&d(b))
-                    })
-                {
-                    current_rows.push(i);
-                }
-            }
-        }
-        if params.current_last_flowing {
-            for br in ["loading", "unloading"] {
-                let idx: Vec<usize> = (0..rows.len())
-                    .filter(|&i| pts.branch[rows[i].sweep_index] == br)
-                    .collect();
-                // the flowing point next to a stop, or the last flowing point of the branch
-                let mut chosen: Vec<usize> =
-                    stops.iter().filter(|s| s.0 == br).map(|s| s.1).collect();
-                if chosen.is_empty()
-                    && let Some(&i) = idx.iter().rev().find(|&&i| rows[i].res.percolating)
-                {
-                    chosen.push(i);
-                }
-                current_rows.extend(chosen);
-            }
-        }
-        current_rows.sort_unstable();
-        current_rows.dedup();
-        let copts = FlowOptions {
-            return_fields: true,
-            ..opts.clone()
-        };
-        for &i in &current_rows {
-            let k = rows[i].sweep_index;
-            let src = fields_group(&pts.branch[k], k);
-            let gap = sweep.read_f64_2d(&format!("{src}/gap"))?;
-            let res = reynolds::solve(gap.view(), lx, ly, axis, &copts)
-                .map_err(|e| anyhow!("`{sweep_file}`: `{src}/gap`: {e}"))?;
-            let f = res.fields.as_ref().expect("fields requested");
-            let g = format!("currents/{}_{}", pts.branch[k], k);
-            out.write_f64_2d(&format!("{g}/{}", fields::GAP), gap.view())?;
-            out.write_f64_2d(&format!("{g}/{}", fields::PRESSURE), f.pressure.view())?;
-            out.write_f64_2d(&format!("{g}/{}", fields::CURRENT_X), f.current_x.view())?;
-            out.write_f64_2d(&format!("{g}/{}", fields::CURRENT_Y), f.current_y.view())?;
-            out.set_attr_at(&g, "load", pts.load[k])?;
-            out.set_attr_at(&g, "strength", pts.strength[k])?;
-            out.set_attr_at(&g, "flux", res.flux)?;
-            out.set_attr_at(&g, "conductivity", res.conductivity)?;
-            out.set_attr_at(&g, "converged", res.converged)?;
-            out.set_attr_at(&g, "contact_area", pts.contact_area[k])?;
-            out.set_attr_at(&g, "sweep_index", k as i64)?;
-        }
+    /// The cell and the sweep's description, copied (written before `axis`).
+    fn copy_attrs(&self, out: &mut ArtefactWriter) -> Result<()> {
+        out.set_cell(self.cell.0, self.cell.1)
+    }
 
-        // artefact
-        out.set_cell(lx, ly)?;
-        out.set_attr("axis", gapfile::axis_name(axis))?;
-        out.set_attr("tol", opts.tolerance)?;
+    /// The sweep's description, copied (written after `axis` and `tol`).
+    fn copy_more_attrs(&self, out: &mut ArtefactWriter) -> Result<()> {
+        let r = self.r;
         for key in ["lattice", "interaction", "control"] {
-            if let Ok(v) = sweep.attr_str(key) {
+            if let Ok(v) = r.attr_str(key) {
                 out.set_attr(key, v)?;
             }
         }
         for key in ["p_fc", "rho"] {
-            if let Ok(v) = sweep.attr_f64(key) {
+            if let Ok(v) = r.attr_f64(key) {
                 out.set_attr(key, v)?;
             }
         }
-        out.set_attr("gamma0", sweep.attr_f64("gamma0").unwrap_or(0.0))?;
-        out.set_attr("unit_scale", unit_scale)?;
-        if let Ok(n) = sweep.attr_i64("n") {
+        out.set_attr("gamma0", r.attr_f64("gamma0").unwrap_or(0.0))?;
+        out.set_attr("unit_scale", self.unit_scale)?;
+        if let Ok(n) = r.attr_i64("n") {
             out.set_attr("n", n)?;
         }
-        out.set_attr("nx", nx as i64)?;
-        out.set_attr("ny", ny as i64)?;
-        out.set_attr("n_points", rows.len() as i64)?;
-        out.set_attr("n_skipped", skipped as i64)?;
-        out.set_attr("n_unconverged", bad.len() as i64)?;
-        out.set_attr("n_contact_unconverged", contact_bad as i64)?;
-        write_rows(out, &rows, &pts)?;
-        let sel = |f: &dyn Fn(&(String, usize, usize)) -> f64| -> Vec<f64> {
-            stops.iter().map(f).collect()
-        };
-        out.write_strings(
-            "stops/branch",
-            &stops.iter().map(|s| s.0.as_str()).collect::<Vec<_>>(),
-        )?;
-        out.write_i64_1d(
-            "stops/index_flowing",
-            &stops.iter().map(|s| s.1 as i64).collect::<Vec<_>>(),
-        )?;
-        out.write_i64_1d(
-            "stops/index_blocked",
-            &stops.iter().map(|s| s.2 as i64).collect::<Vec<_>>(),
-        )?;
-        let load_of = |i: usize| pts.load[rows[i].sweep_index];
-        let area_of = |i: usize| pts.contact_area[rows[i].sweep_index];
-        out.write_f64_1d("stops/load_flowing", &sel(&|s| load_of(s.1)))?;
-        out.write_f64_1d("stops/load_blocked", &sel(&|s| load_of(s.2)))?;
-        out.write_f64_1d(
-            "stops/conductivity_flowing",
-            &sel(&|s| rows[s.1].res.conductivity),
-        )?;
-        out.write_f64_1d("stops/contact_area_flowing", &sel(&|s| area_of(s.1)))?;
-        out.write_f64_1d("stops/contact_area_blocked", &sel(&|s| area_of(s.2)))?;
-
-        // headline numbers: the loading branch's conductivity at given loads
-        let mut heads = Vec::new();
-        let lattice = sweep.attr_str("lattice").unwrap_or_default();
-        let inter = sweep.attr_str("interaction").unwrap_or_default();
-        for &x in &params.headline_at {
-            let curve: Vec<(f64, f64)> = rows
-                .iter()
-                .filter(|r| pts.branch[r.sweep_index] == "loading" && r.res.converged)
-                .map(|r| (pts.load[r.sweep_index] / unit_scale, r.res.conductivity))
-                .collect();
-            match curve
-                .windows(2)
-                .find(|w| w[0].0 <= x && x <= w[1].0 && w[0].1 > 0.0 && w[1].1 > 0.0)
-            {
-                Some(w) => {
-                    let t = if w[1].0 > w[0].0 {
-                        (x - w[0].0) / (w[1].0 - w[0].0)
-                    } else {
-                        0.0
-                    };
-                    let k = (w[0].1.ln() * (1.0 - t) + w[1].1.ln() * t).exp();
-                    heads.push(crate::headline::Headline::new(
-                        format!("K {lattice} {inter} at {x} p_fc"),
-                        k,
-                        f64::NAN,
-                    ));
-                }
-                None => ctx.warn(format!(
-                    "headline_at {x}: no two converged, flowing loading points bracket it; no headline"
-                )),
-            }
-        }
-        crate::headline::write(out, &heads)?;
-
-        let iters: Vec<usize> = rows.iter().map(|r| r.res.iterations).collect();
-        Ok(StageReport::with_stats(json!({
-            "points": rows.len(),
-            "skipped": skipped,
-            "unconverged": bad.len(),
-            "contact_unconverged": contact_bad,
-            "iterations_total": iters.iter().sum::<usize>(),
-            "iterations_max": iters.iter().copied().max().unwrap_or(0),
-            "residual_max": rows.iter().map(|r| r.res.relative_residual).fold(0.0, f64::max),
-            "conservation_error_max": rows
-                .iter()
-                .map(|r| r.res.conservation_error)
-                .fold(0.0, f64::max),
-            "solve_wall_s": rows.iter().map(|r| r.res.wall_seconds).sum::<f64>(),
-            "stops": stops.iter().map(|s| json!({
-                "branch": s.0,
-                "load_flowing": load_of(s.1),
-                "load_blocked": load_of(s.2),
-                "conductivity_flowing": rows[s.1].res.conductivity,
-                "contact_area": [area_of(s.1), area_of(s.2)],
-            })).collect::<Vec<Value>>(),
-            "currents": current_rows.len(),
-        })))
+        Ok(())
     }
 }
 
-fn write_rows(out: &mut ArtefactWriter, rows: &[Row], pts: &SweepPoints) -> Result<()> {
-    let f = |out: &mut ArtefactWriter, k: &str, g: &dyn Fn(&Row) -> f64| {
-        out.write_f64_1d(
-            &format!("points/{k}"),
-            &rows.iter().map(g).collect::<Vec<_>>(),
-        )
-    };
-    let i = |out: &mut ArtefactWriter, k: &str, g: &dyn Fn(&Row) -> i64| {
-        out.write_i64_1d(
-            &format!("points/{k}"),
-            &rows.iter().map(g).collect::<Vec<_>>(),
-        )
-    };
-    let b = |out: &mut ArtefactWriter, k: &str, g: &dyn Fn(&Row) -> bool| {
-        out.write_u8_1d(
-            &format!("points/{k}"),
-            &rows.iter().map(|r| g(r) as u8).collect::<Vec<_>>(),
-        )
-    };
-    i(out, "sweep_index", &|r| r.sweep_index as i64)?;
-    out.write_strings(
-        "points/branch",
-        &rows
+/// One flow solve per sweep point with a gap; the grid of the last gap.
+fn solve_points(
+    ctx: &mut StageContext,
+    src: &Source,
+    with_gap: &[usize],
+    axis: FlowAxis,
+    opts: &FlowOptions,
+) -> Result<(Vec<FlowPoint>, (usize, usize))> {
+    let mut points = Vec::with_capacity(with_gap.len());
+    let mut dim = (0, 0);
+    for (done, &k) in with_gap.iter().enumerate() {
+        let gap = src.gap(k)?;
+        dim = gap.dim();
+        let res = src.solve(k, &gap, axis, opts)?;
+        let p = &src.points[k];
+        ctx.progress(
+            (done + 1) as f64 / with_gap.len() as f64,
+            &format!(
+                "{} load {:.5}: K = {:.3e}",
+                p.branch, p.load, res.conductivity
+            ),
+        );
+        points.push(FlowPoint::new(k, p, &res));
+    }
+    Ok((points, dim))
+}
+
+/// Warns about flow solves that did not converge; returns how many.
+fn warn_unconverged(ctx: &mut StageContext, points: &[FlowPoint]) -> usize {
+    let bad: Vec<&FlowPoint> = points.iter().filter(|p| !p.converged).collect();
+    if !bad.is_empty() {
+        let list: Vec<String> = bad
             .iter()
-            .map(|r| pts.branch[r.sweep_index].as_str())
-            .collect::<Vec<_>>(),
-    )?;
-    i(out, "step", &|r| pts.step[r.sweep_index])?;
-    f(out, "load", &|r| pts.load[r.sweep_index])?;
-    f(out, "strength", &|r| pts.strength[r.sweep_index])?;
-    f(out, "contact_area", &|r| pts.contact_area[r.sweep_index])?;
-    b(out, "contact_converged", &|r| pts.converged[r.sweep_index])?;
-    f(out, "flux", &|r| r.res.flux)?;
-    f(out, "conductivity", &|r| r.res.conductivity)?;
-    b(out, "percolating", &|r| r.res.percolating)?;
-    b(out, "converged", &|r| r.res.converged)?;
-    out.write_strings(
-        "points/termination",
-        &rows
-            .iter()
-            .map(|r| gapfile::termination_name(r.res.termination))
-            .collect::<Vec<_>>(),
-    )?;
-    i(out, "iterations", &|r| r.res.iterations as i64)?;
-    f(out, "residual", &|r| r.res.relative_residual)?;
-    f(out, "residual_floor", &|r| r.res.residual_floor)?;
-    f(out, "flux_rounding_error", &|r| r.res.flux_rounding_error)?;
-    f(out, "conservation_error", &|r| r.res.conservation_error)?;
-    f(out, "flux_error_estimate", &|r| r.res.flux_error_estimate)?;
-    i(out, "flowing_nodes", &|r| r.res.flowing_nodes as i64)?;
-    i(out, "removed_nodes", &|r| r.res.removed_nodes as i64)?;
-    f(out, "wall_s", &|r| r.res.wall_seconds)?;
+            .take(10)
+            .map(|p| {
+                format!(
+                    "{} load {:.6}: {} after {} iterations (residual {:.2e}, conservation \
+                     error {:.2e})",
+                    p.branch,
+                    p.load,
+                    gapfile::termination_name(p.termination),
+                    p.iterations,
+                    p.residual,
+                    p.conservation_error
+                )
+            })
+            .collect();
+        ctx.warn(format!(
+            "{} of {} flow solves did not converge (flagged converged = 0, left out of \
+             figures){}: {}",
+            bad.len(),
+            points.len(),
+            if bad.len() > 10 { "; the first 10" } else { "" },
+            list.join("; ")
+        ));
+    }
+    bad.len()
+}
+
+/// The points whose current density is stored: per branch the one nearest to each of
+/// `currents_at`, and with `current_last_flowing` the flowing point next to each stop (or the
+/// branch's last flowing point); sorted, without repeats.
+fn current_points(
+    params: &FlowParams,
+    src: &Source,
+    points: &[FlowPoint],
+    stops: &[FlowStop],
+) -> Vec<usize> {
+    let branches = [Branch::Loading, Branch::Unloading];
+    let of = |br: Branch| -> Vec<usize> {
+        (0..points.len())
+            .filter(|&i| points[i].branch == br)
+            .collect()
+    };
+    let mut chosen: Vec<usize> = Vec::new();
+    for &target in &params.currents_at {
+        for br in branches {
+            let d = |i: usize| (src.control_value(points[i].sweep_index) - target).abs();
+            if let Some(i) = of(br).into_iter().min_by(|&a, &b| d(a).total_cmp(&d(b))) {
+                chosen.push(i);
+            }
+        }
+    }
+    if params.current_last_flowing {
+        for br in branches {
+            let mut at_stops: Vec<usize> = stops
+                .iter()
+                .filter(|s| s.branch == br)
+                .map(|s| s.index_flowing)
+                .collect();
+            if at_stops.is_empty()
+                && let Some(&i) = of(br).iter().rev().find(|&&i| points[i].percolating)
+            {
+                at_stops.push(i);
+            }
+            chosen.extend(at_stops);
+        }
+    }
+    chosen.sort_unstable();
+    chosen.dedup();
+    chosen
+}
+
+/// `currents/<branch>_<index>/{gap,pressure,current_x,current_y}` of one point, solved again
+/// with the fields returned.
+fn write_current(
+    out: &mut ArtefactWriter,
+    src: &Source,
+    p: &FlowPoint,
+    axis: FlowAxis,
+    opts: &FlowOptions,
+) -> Result<()> {
+    let k = p.sweep_index;
+    let src_group = src.group(k);
+    let gap = src.r.read_f64_2d(&format!("{src_group}/gap"))?;
+    let copts = FlowOptions {
+        return_fields: true,
+        ..opts.clone()
+    };
+    let res = src.solve(k, &gap, axis, &copts)?;
+    let f = res.fields.as_ref().expect("fields requested");
+    let g = format!("currents/{}_{}", p.branch, k);
+    out.write_f64_2d(&format!("{g}/{}", fields::GAP), gap.view())?;
+    out.write_f64_2d(&format!("{g}/{}", fields::PRESSURE), f.pressure.view())?;
+    out.write_f64_2d(&format!("{g}/{}", fields::CURRENT_X), f.current_x.view())?;
+    out.write_f64_2d(&format!("{g}/{}", fields::CURRENT_Y), f.current_y.view())?;
+    out.set_attr_at(&g, "load", p.load)?;
+    out.set_attr_at(&g, "strength", p.strength)?;
+    out.set_attr_at(&g, "flux", res.flux)?;
+    out.set_attr_at(&g, "conductivity", res.conductivity)?;
+    out.set_attr_at(&g, "converged", res.converged)?;
+    out.set_attr_at(&g, "contact_area", p.contact_area)?;
+    out.set_attr_at(&g, "sweep_index", k as i64)?;
     Ok(())
 }
 
-/// A `flow` artefact, read back (for the figure and table kinds).
-#[derive(Clone, Debug, PartialEq)]
-pub struct FlowData {
-    /// Surface model.
-    pub lattice: String,
-    /// hardwall, adhesion or repulsion.
-    pub interaction: String,
-    /// γ0 (0 unless adhesion).
-    pub gamma0: f64,
-    /// Full-contact pressure of the grid.
-    pub p_fc: f64,
-    /// Flow axis.
-    pub axis: String,
-    /// Grid exponent.
-    pub n: i64,
-    /// Branch of each point.
-    pub branch: Vec<String>,
-    /// Mean pressure (E* h0/λ).
-    pub load: Vec<f64>,
-    /// Effective conductivity.
-    pub conductivity: Vec<f64>,
-    /// Flux for a unit pressure drop.
-    pub flux: Vec<f64>,
-    /// Fluid winds along the axis.
-    pub percolating: Vec<bool>,
-    /// Flow solve converged.
-    pub converged: Vec<bool>,
-    /// Contact solve converged.
-    pub contact_converged: Vec<bool>,
-    /// Relative contact area.
-    pub contact_area: Vec<f64>,
+/// The loading branch's conductivity at each of `headline_at` (log-linear between the
+/// converged, flowing points that bracket it); a warning where none do.
+fn headlines(
+    ctx: &mut StageContext,
+    params: &FlowParams,
+    src: &Source,
+    points: &[FlowPoint],
+) -> Vec<crate::headline::Headline> {
+    let lattice = src.r.attr_str("lattice").unwrap_or_default();
+    let inter = src.r.attr_str("interaction").unwrap_or_default();
+    let curve: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| p.branch == Branch::Loading && p.converged)
+        .map(|p| (p.load / src.unit_scale, p.conductivity))
+        .collect();
+    let mut heads = Vec::new();
+    for &x in &params.headline_at {
+        match curve
+            .windows(2)
+            .find(|w| w[0].0 <= x && x <= w[1].0 && w[0].1 > 0.0 && w[1].1 > 0.0)
+        {
+            Some(w) => {
+                let t = if w[1].0 > w[0].0 {
+                    (x - w[0].0) / (w[1].0 - w[0].0)
+                } else {
+                    0.0
+                };
+                let k = (w[0].1.ln() * (1.0 - t) + w[1].1.ln() * t).exp();
+                heads.push(crate::headline::Headline::new(
+                    format!("K {lattice} {inter} at {x} p_fc"),
+                    k,
+                    f64::NAN,
+                ));
+            }
+            None => ctx.warn(format!(
+                "headline_at {x}: no two converged, flowing loading points bracket it; no headline"
+            )),
+        }
+    }
+    heads
 }
 
-impl FlowData {
-    /// Reads a `flow` artefact.
-    pub fn read(r: &ArtefactReader) -> Result<Self> {
-        let ctx = || format!("reading flow artefact `{}`", r.path().display());
-        (|| -> Result<Self> {
-            let b = |k: &str| -> Result<Vec<bool>> {
-                Ok(r.read_u8_1d(&format!("points/{k}"))?
-                    .into_iter()
-                    .map(|x| x != 0)
-                    .collect())
-            };
-            let d = FlowData {
-                lattice: r.attr_str("lattice")?,
-                interaction: r.attr_str("interaction")?,
-                gamma0: r.attr_f64("gamma0")?,
-                p_fc: r.attr_f64("p_fc")?,
-                axis: r.attr_str("axis")?,
-                n: r.attr_i64("n")?,
-                branch: r.read_strings("points/branch")?,
-                load: r.read_f64_1d("points/load")?,
-                conductivity: r.read_f64_1d("points/conductivity")?,
-                flux: r.read_f64_1d("points/flux")?,
-                percolating: b("percolating")?,
-                converged: b("converged")?,
-                contact_converged: b("contact_converged")?,
-                contact_area: r.read_f64_1d("points/contact_area")?,
-            };
-            let n = d.branch.len();
-            for (k, len) in [
-                ("load", d.load.len()),
-                ("conductivity", d.conductivity.len()),
-                ("flux", d.flux.len()),
-                ("percolating", d.percolating.len()),
-                ("converged", d.converged.len()),
-                ("contact_converged", d.contact_converged.len()),
-                ("contact_area", d.contact_area.len()),
-            ] {
-                if len != n {
-                    bail!("points/{k} has {len} entries, points/branch has {n}");
-                }
-            }
-            Ok(d)
-        })()
-        .with_context(ctx)
-    }
-
-    /// Indices of the points of `branch` whose flow and contact solves converged, in path
-    /// order; and how many of the branch's points were left out.
-    pub fn usable(&self, branch: &str) -> (Vec<usize>, usize) {
-        let all: Vec<usize> = (0..self.branch.len())
-            .filter(|&k| self.branch[k] == branch)
-            .collect();
-        let ok: Vec<usize> = all
+fn report(
+    points: &[FlowPoint],
+    stops: &[FlowStop],
+    skipped: usize,
+    n_bad: usize,
+    contact_bad: usize,
+    currents: usize,
+) -> StageReport {
+    let iters: Vec<usize> = points.iter().map(|p| p.iterations).collect();
+    StageReport::with_stats(json!({
+        "points": points.len(),
+        "skipped": skipped,
+        "unconverged": n_bad,
+        "contact_unconverged": contact_bad,
+        "iterations_total": iters.iter().sum::<usize>(),
+        "iterations_max": iters.iter().copied().max().unwrap_or(0),
+        "residual_max": points.iter().map(|p| p.residual).fold(0.0, f64::max),
+        "conservation_error_max": points
             .iter()
-            .copied()
-            .filter(|&k| self.converged[k] && self.contact_converged[k])
-            .collect();
-        let left_out = all.len() - ok.len();
-        (ok, left_out)
-    }
+            .map(|p| p.conservation_error)
+            .fold(0.0, f64::max),
+        "solve_wall_s": points.iter().map(|p| p.wall_s).sum::<f64>(),
+        "stops": stops.iter().map(|s| json!({
+            "branch": s.branch.name(),
+            "load_flowing": s.load_flowing,
+            "load_blocked": s.load_blocked,
+            "conductivity_flowing": s.conductivity_flowing,
+            "contact_area": [s.contact_area_flowing, s.contact_area_blocked],
+        })).collect::<Vec<Value>>(),
+        "currents": currents,
+    }))
 }

@@ -31,6 +31,7 @@ use crate::solver::{self, SolverParams};
 use anyhow::{Result, anyhow, bail};
 use contact::{Interaction, Method, Solution};
 use formats::gapfile;
+use formats::records::Record;
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, StageContext, StageReport, TypedKind,
 };
@@ -55,12 +56,21 @@ pub fn fluid_flows(gap: &ndarray::Array2<f64>, axis: FlowAxis) -> bool {
     })
 }
 
-struct Probe {
-    load: f64,
-    flows: bool,
-    area: f64,
-    iterations: usize,
-    converged: bool,
+formats::record! {
+    /// One contact solve of the bisection (`bisection/*`).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct Probe {
+        /// Mean pressure (E* h0/λ).
+        pub load: f64,
+        /// The fluid winds along the axis.
+        pub flows: bool,
+        /// Relative contact area.
+        pub contact_area: f64,
+        /// Minimiser iterations.
+        pub iterations: usize,
+        /// The contact solve converged.
+        pub converged: bool,
+    }
 }
 
 /// The `flowmap` kind's parameters.
@@ -183,183 +193,224 @@ impl TypedKind for FlowMapKind {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let crate::surface::SurfaceInput {
-            mut model,
-            lx,
-            ly,
-            nx,
-            ny,
-            p_fc,
-            lattice,
-            n: n_exp,
-        } = crate::surface::SurfaceInput::read(inputs.one("surface")?)?;
-        let (axis, l, rel_width) = (params.axis, params.l, params.rel_width);
-        let copts = params.solver().options();
-        let mut probes: Vec<Probe> = Vec::new();
-        let mut solve = |load: f64, warm: Option<&Solution>| -> Result<Solution> {
-            model
-                .solve(Interaction::HardWall, load, &copts, warm)
-                .map_err(|e| anyhow!("hard-wall contact at mean pressure {load}: {e}"))
-        };
-        let record = |probes: &mut Vec<Probe>, load: f64, s: &Solution| -> bool {
-            let flows = fluid_flows(&s.gap, axis);
-            probes.push(Probe {
-                load,
-                flows,
-                area: s.contact_area,
-                iterations: s.stats.iterations,
-                converged: s.stats.converged,
-            });
-            flows
-        };
-
-        // bracket
-        let mut lo = params.lo_over_p_fc * p_fc;
-        let mut hi = p_fc;
-        let mut lo_state = solve(lo, None)?;
-        if !record(&mut probes, lo, &lo_state) {
-            bail!(
-                "{lattice} n = {n_exp}: the fluid does not flow along {} even at the bracket's \
-                 lower end {lo} (lo_over_p_fc = {}); lower `lo_over_p_fc`",
-                gapfile::axis_name(axis),
-                params.lo_over_p_fc
-            );
-        }
-        let hi_state = solve(hi, Some(&lo_state))?;
-        if record(&mut probes, hi, &hi_state) {
-            bail!(
-                "{lattice} n = {n_exp}: the fluid still flows along {} at the full-contact \
-                 pressure p_fc = {p_fc}; no critical load below it",
-                gapfile::axis_name(axis)
-            );
-        }
-        drop(hi_state);
-        let steps = ((1.0 / rel_width).log2().ceil() as usize).max(1) + 2;
-        let mut k = 0;
-        while (hi - lo) > rel_width * hi {
-            let mid = 0.5 * (lo + hi);
-            let s = solve(mid, Some(&lo_state))?;
-            if record(&mut probes, mid, &s) {
-                lo = mid;
-                lo_state = s;
-            } else {
-                hi = mid;
-            }
-            k += 1;
-            ctx.progress(
-                (k as f64 / steps as f64).min(0.9),
-                &format!("L_c in [{lo:.6}, {hi:.6}]"),
-            );
-        }
-        let l_c = 0.5 * (lo + hi);
-        let unconverged = probes.iter().filter(|p| !p.converged).count();
+        let mut surface = crate::surface::SurfaceInput::read(inputs.one("surface")?)?;
+        let b = bisect(ctx, &mut surface, params)?;
+        let l_c = 0.5 * (b.lo + b.hi);
+        let unconverged = b.probes.iter().filter(|p| !p.converged).count();
         if unconverged > 0 {
             ctx.warn(format!(
                 "{unconverged} of {} contact solves of the bisection did not converge: L_c may \
                  be off",
-                probes.len()
+                b.probes.len()
             ));
         }
 
         // the state and its flow
-        let load = l_c * (1.0 + l);
-        let state = solve(load, Some(&lo_state))?;
+        let load = l_c * (1.0 + params.l);
+        let state = solve(&mut surface.model, params, load, Some(&b.lo_state))?;
         if !state.stats.converged {
             ctx.warn(format!(
                 "the contact solve at L = {load} did not converge ({} iterations)",
                 state.stats.iterations
             ));
         }
-        let fopts = FlowOptions {
-            tolerance: params.tol,
-            max_iterations: params.max_iter,
-            return_fields: true,
-            ..Default::default()
-        };
-        let res = reynolds::solve(state.gap.view(), lx, ly, axis, &fopts)
-            .map_err(|e| anyhow!("flow at L = {load}: {e}"))?;
-        if !res.converged {
-            ctx.warn(format!(
-                "the flow solve at L = {load} did not converge ({} after {} iterations, \
-                 residual {:.2e}): the map is flagged converged = false",
-                gapfile::termination_name(res.termination),
-                res.iterations,
-                res.relative_residual
-            ));
-        }
-        if !res.percolating {
-            ctx.warn(format!(
-                "the fluid does not flow at L = {load} (l = {l}), below the bisection's L_c = \
-                 {l_c}: the flow is not monotonic in the load on this grid"
-            ));
-        }
-        let f = res.fields.as_ref().expect("fields requested");
+        let res = flow_at(ctx, &surface, params, &state, load, l_c)?;
         ctx.progress(0.95, "writing");
-
-        out.set_cell(lx, ly)?;
-        out.write_f64_2d(fields::GAP, state.gap.view())?;
-        out.write_f64_2d("contact_pressure", state.pressure.view())?;
-        out.write_f64_2d(fields::PRESSURE, f.pressure.view())?;
-        out.write_f64_2d(fields::CURRENT_X, f.current_x.view())?;
-        out.write_f64_2d(fields::CURRENT_Y, f.current_y.view())?;
-        out.set_attr("lattice", lattice.as_str())?;
-        out.set_attr("n", n_exp)?;
-        out.set_attr("nx", nx as i64)?;
-        out.set_attr("ny", ny as i64)?;
-        out.set_attr("p_fc", p_fc)?;
-        out.set_attr("axis", gapfile::axis_name(axis))?;
-        out.set_attr("l_c", l_c)?;
-        out.set_attr("l_c_lo", lo)?;
-        out.set_attr("l_c_hi", hi)?;
-        out.set_attr("l_c_source", "bisection")?;
-        out.set_attr("l", l)?;
-        out.set_attr("l_actual", (load - l_c) / l_c)?;
-        out.set_attr("load", load)?;
-        out.set_attr("contact_area", state.contact_area)?;
-        out.set_attr("contact_converged", state.stats.converged)?;
-        for (k, v) in gapfile::flow_json(&res).as_object().expect("object") {
-            match v {
-                serde_json::Value::Bool(b) => out.set_attr(k, *b)?,
-                serde_json::Value::String(s) => out.set_attr(k, s.as_str())?,
-                serde_json::Value::Number(x) if x.is_f64() => {
-                    out.set_attr(k, x.as_f64().unwrap_or(f64::NAN))?
-                }
-                serde_json::Value::Number(x) => out.set_attr(k, x.as_i64().unwrap_or_default())?,
-                _ => {}
-            }
-        }
-        out.write_f64_1d(
-            "bisection/load",
-            &probes.iter().map(|p| p.load).collect::<Vec<_>>(),
-        )?;
-        out.write_u8_1d(
-            "bisection/flows",
-            &probes.iter().map(|p| p.flows as u8).collect::<Vec<_>>(),
-        )?;
-        out.write_f64_1d(
-            "bisection/contact_area",
-            &probes.iter().map(|p| p.area).collect::<Vec<_>>(),
-        )?;
-        out.write_i64_1d(
-            "bisection/iterations",
-            &probes
-                .iter()
-                .map(|p| p.iterations as i64)
-                .collect::<Vec<_>>(),
-        )?;
-        out.write_u8_1d(
-            "bisection/converged",
-            &probes.iter().map(|p| p.converged as u8).collect::<Vec<_>>(),
-        )?;
+        write_artefact(out, &surface, params, &b, (load, &state), &res)?;
         Ok(StageReport::with_stats(json!({
             "l_c": l_c,
-            "l_c_over_p_fc": l_c / p_fc,
-            "l_c_bracket": [lo, hi],
+            "l_c_over_p_fc": l_c / surface.p_fc,
+            "l_c_bracket": [b.lo, b.hi],
             "l_c_source": "bisection",
-            "probes": probes.len(),
-            "contact_iterations_total": probes.iter().map(|p| p.iterations).sum::<usize>(),
+            "probes": b.probes.len(),
+            "contact_iterations_total": b.probes.iter().map(|p| p.iterations).sum::<usize>(),
             "load": load,
             "flow": gapfile::flow_json(&res),
         })))
     }
+}
+
+/// A hard-wall solve at mean pressure `load`, warm-started from `warm`.
+fn solve(
+    model: &mut contact::Model,
+    params: &FlowMapParams,
+    load: f64,
+    warm: Option<&Solution>,
+) -> Result<Solution> {
+    model
+        .solve(
+            Interaction::HardWall,
+            load,
+            &params.solver().options(),
+            warm,
+        )
+        .map_err(|e| anyhow!("hard-wall contact at mean pressure {load}: {e}"))
+}
+
+/// The final bracket [lo, hi] of L_c, the state at `lo` (flowing) and every probe.
+struct Bisection {
+    lo: f64,
+    hi: f64,
+    lo_state: Solution,
+    probes: Vec<Probe>,
+}
+
+/// L_c by bisection between `lo_over_p_fc` p_fc (the fluid must flow) and p_fc (it must not),
+/// each probe warm-started from the last flowing state.
+fn bisect(
+    ctx: &mut StageContext,
+    surface: &mut crate::surface::SurfaceInput,
+    params: &FlowMapParams,
+) -> Result<Bisection> {
+    let (lattice, n_exp, p_fc, axis) = (
+        surface.lattice.clone(),
+        surface.n,
+        surface.p_fc,
+        params.axis,
+    );
+    let model = &mut surface.model;
+    let mut probes: Vec<Probe> = Vec::new();
+    let record = |probes: &mut Vec<Probe>, load: f64, s: &Solution| -> bool {
+        let flows = fluid_flows(&s.gap, axis);
+        probes.push(Probe {
+            load,
+            flows,
+            contact_area: s.contact_area,
+            iterations: s.stats.iterations,
+            converged: s.stats.converged,
+        });
+        flows
+    };
+    let mut lo = params.lo_over_p_fc * p_fc;
+    let mut hi = p_fc;
+    let mut lo_state = solve(model, params, lo, None)?;
+    if !record(&mut probes, lo, &lo_state) {
+        bail!(
+            "{lattice} n = {n_exp}: the fluid does not flow along {} even at the bracket's \
+             lower end {lo} (lo_over_p_fc = {}); lower `lo_over_p_fc`",
+            gapfile::axis_name(axis),
+            params.lo_over_p_fc
+        );
+    }
+    let hi_state = solve(model, params, hi, Some(&lo_state))?;
+    if record(&mut probes, hi, &hi_state) {
+        bail!(
+            "{lattice} n = {n_exp}: the fluid still flows along {} at the full-contact \
+             pressure p_fc = {p_fc}; no critical load below it",
+            gapfile::axis_name(axis)
+        );
+    }
+    drop(hi_state);
+    let steps = ((1.0 / params.rel_width).log2().ceil() as usize).max(1) + 2;
+    let mut k = 0;
+    while (hi - lo) > params.rel_width * hi {
+        let mid = 0.5 * (lo + hi);
+        let s = solve(model, params, mid, Some(&lo_state))?;
+        if record(&mut probes, mid, &s) {
+            lo = mid;
+            lo_state = s;
+        } else {
+            hi = mid;
+        }
+        k += 1;
+        ctx.progress(
+            (k as f64 / steps as f64).min(0.9),
+            &format!("L_c in [{lo:.6}, {hi:.6}]"),
+        );
+    }
+    Ok(Bisection {
+        lo,
+        hi,
+        lo_state,
+        probes,
+    })
+}
+
+/// The flow through the state's gap, with its fields; warnings when it did not converge or
+/// does not flow.
+fn flow_at(
+    ctx: &mut StageContext,
+    surface: &crate::surface::SurfaceInput,
+    params: &FlowMapParams,
+    state: &Solution,
+    load: f64,
+    l_c: f64,
+) -> Result<reynolds::FlowResult> {
+    let fopts = FlowOptions {
+        tolerance: params.tol,
+        max_iterations: params.max_iter,
+        return_fields: true,
+        ..Default::default()
+    };
+    let res = reynolds::solve(
+        state.gap.view(),
+        surface.lx,
+        surface.ly,
+        params.axis,
+        &fopts,
+    )
+    .map_err(|e| anyhow!("flow at L = {load}: {e}"))?;
+    if !res.converged {
+        ctx.warn(format!(
+            "the flow solve at L = {load} did not converge ({} after {} iterations, \
+             residual {:.2e}): the map is flagged converged = false",
+            gapfile::termination_name(res.termination),
+            res.iterations,
+            res.relative_residual
+        ));
+    }
+    if !res.percolating {
+        let l = params.l;
+        ctx.warn(format!(
+            "the fluid does not flow at L = {load} (l = {l}), below the bisection's L_c = \
+             {l_c}: the flow is not monotonic in the load on this grid"
+        ));
+    }
+    Ok(res)
+}
+
+/// The fields, the attributes and the bisection's probes.
+fn write_artefact(
+    out: &mut ArtefactWriter,
+    surface: &crate::surface::SurfaceInput,
+    params: &FlowMapParams,
+    b: &Bisection,
+    (load, state): (f64, &Solution),
+    res: &reynolds::FlowResult,
+) -> Result<()> {
+    let f = res.fields.as_ref().expect("fields requested");
+    let l_c = 0.5 * (b.lo + b.hi);
+    out.set_cell(surface.lx, surface.ly)?;
+    out.write_f64_2d(fields::GAP, state.gap.view())?;
+    out.write_f64_2d("contact_pressure", state.pressure.view())?;
+    out.write_f64_2d(fields::PRESSURE, f.pressure.view())?;
+    out.write_f64_2d(fields::CURRENT_X, f.current_x.view())?;
+    out.write_f64_2d(fields::CURRENT_Y, f.current_y.view())?;
+    out.set_attr("lattice", surface.lattice.as_str())?;
+    out.set_attr("n", surface.n)?;
+    out.set_attr("nx", surface.nx as i64)?;
+    out.set_attr("ny", surface.ny as i64)?;
+    out.set_attr("p_fc", surface.p_fc)?;
+    out.set_attr("axis", gapfile::axis_name(params.axis))?;
+    out.set_attr("l_c", l_c)?;
+    out.set_attr("l_c_lo", b.lo)?;
+    out.set_attr("l_c_hi", b.hi)?;
+    out.set_attr("l_c_source", "bisection")?;
+    out.set_attr("l", params.l)?;
+    out.set_attr("l_actual", (load - l_c) / l_c)?;
+    out.set_attr("load", load)?;
+    out.set_attr("contact_area", state.contact_area)?;
+    out.set_attr("contact_converged", state.stats.converged)?;
+    for (k, v) in gapfile::flow_json(res).as_object().expect("object") {
+        match v {
+            serde_json::Value::Bool(b) => out.set_attr(k, *b)?,
+            serde_json::Value::String(s) => out.set_attr(k, s.as_str())?,
+            serde_json::Value::Number(x) if x.is_f64() => {
+                out.set_attr(k, x.as_f64().unwrap_or(f64::NAN))?
+            }
+            serde_json::Value::Number(x) => out.set_attr(k, x.as_i64().unwrap_or_default())?,
+            _ => {}
+        }
+    }
+    Probe::write(&b.probes, out, "bisection")
 }

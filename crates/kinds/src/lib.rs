@@ -4,7 +4,7 @@
 //! | kind | what | inputs | output |
 //! |---|---|---|---|
 //! | `surface` | one of the three models on a 2^n × 2^n grid, statistics, critical points | – | `height`, `lx`, `ly`, `critical/*` |
-//! | `sweep` | quasi-static loading/unloading path (or γ path at fixed load): area, gap, energy, solver statistics per point, detected jumps, pull-off | `surface` | `points/*`, `jumps/*`, `ended/*`, optional `fields/*` |
+//! | `sweep` | quasi-static loading/unloading path (or γ path at fixed load): area, gap, energy, solver statistics per point, detected jumps, pull-off | `surface` | `points/*`, `jumps/*`, `loops/*`, `ended/*`, `thresholds/*` (γ paths), optional `fields/*` |
 //! | `flow` | Reynolds flow at every stored gap of a load path: flux, conductivity, percolation, where flow stops; optional current densities | `sweep` | `points/*`, `stops/*`, `currents/*` |
 //! | `flowmap` | current density at a near-critical hard-wall state l = (L − L_c)/L_c < 0 (L_c by bisection on the grid) | `surface` | `gap`, `pressure`, `current_x`, `current_y`, `bisection/*` |
 //! | `critical` | percolation threshold of the hard-wall contact on one or more grids (coarse to fine), averaged over sub-grid shifts: L_c brackets (x, y, any), a_p raw and corrected, sub-grid L_c and ζ from the saddle gap, the finest grid's near-critical fields | – | `level/<n>/*`, `gap`, `above/*` |
@@ -15,8 +15,9 @@
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 //!
 //! Each kind lives in the module of its name and implements [`orchestrator::TypedKind`] (its
-//! parameters a serde struct, registered through [`orchestrator::Typed`]; `sweep` still
-//! [`orchestrator::StageKind`] directly); [`solver`] holds the shared contact-solver parameters; the
+//! parameters a serde struct, registered through [`orchestrator::Typed`]); a kind with a large
+//! artefact keeps its records in `<kind>_artefact` and its parameters in `<kind>_params` beside
+//! it; [`solver`] holds the shared contact-solver parameters; the
 //! readers of a kind's artefact live in its module too (the scenes read through them).
 //! [`headline`] is the shared record of headline numbers that kinds publish.
 
@@ -24,21 +25,25 @@ pub mod critical;
 pub mod exponents;
 pub mod extremes;
 pub mod flow;
+pub mod flow_artefact;
 pub mod flowmap;
 pub mod headline;
 pub mod ladder;
 pub mod mock;
+pub mod record_table;
 pub mod resolution;
 pub mod solver;
 pub mod surface;
 pub mod sweep;
+pub mod sweep_artefact;
+pub mod sweep_params;
 
 use orchestrator::{Registry, Typed};
 
 /// Registers every compute kind.
 pub fn register(r: &mut Registry) {
     r.register(Typed(surface::SurfaceKind));
-    r.register(sweep::SweepKind);
+    r.register(Typed(sweep::SweepKind));
     r.register(Typed(flow::FlowKind));
     r.register(Typed(flowmap::FlowMapKind));
     r.register(Typed(critical::CriticalKind));

@@ -28,7 +28,7 @@ use crate::jumptable::GridSweep;
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Result, bail};
 use figures::scenes::fig2::{Branch, Fig2Data, LoadLoop};
-use kinds::sweep::SweepData;
+use kinds::sweep::{Branch as PathBranch, SweepData};
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
 use tables::Table;
@@ -236,7 +236,7 @@ pub struct ConvergedBranch {
 /// converged points, the jumps re-indexed to them, and how many points were left out.
 pub fn converged_branch(
     d: &SweepData,
-    name: &str,
+    name: PathBranch,
     x: &dyn Fn(&kinds::sweep::Point) -> f64,
 ) -> ConvergedBranch {
     let all = d.branch_indices(name);
@@ -263,7 +263,7 @@ pub fn converged_branch(
 }
 
 /// One load branch of a sweep for Figure 2.
-fn branch(d: &SweepData, name: &str) -> (Branch, usize) {
+fn branch(d: &SweepData, name: PathBranch) -> (Branch, usize) {
     let b = converged_branch(d, name, &|p| p.load);
     (
         Branch {
@@ -276,8 +276,8 @@ fn branch(d: &SweepData, name: &str) -> (Branch, usize) {
 }
 
 fn load_loop(d: &SweepData) -> (LoadLoop, usize) {
-    let (loading, a) = branch(d, "loading");
-    let (unloading, b) = branch(d, "unloading");
+    let (loading, a) = branch(d, PathBranch::Loading);
+    let (unloading, b) = branch(d, PathBranch::Unloading);
     (LoadLoop { loading, unloading }, a + b)
 }
 
@@ -300,7 +300,7 @@ fn tables(sweeps: &[SweepData]) -> (Table, Table, Table) {
     for d in sweeps {
         for (k, p) in d.points.iter().enumerate() {
             inter.push(d.interaction.clone());
-            branch.push(p.branch.clone());
+            branch.push(p.branch.to_string());
             step.push(p.step);
             load.push(p.load);
             load_r.push(p.load / d.p_fc);
@@ -317,15 +317,15 @@ fn tables(sweeps: &[SweepData]) -> (Table, Table, Table) {
         }
         for j in &d.jumps {
             j_inter.push(d.interaction.clone());
-            j_branch.push(j.branch.clone());
+            j_branch.push(j.branch.to_string());
             j_event.push(j.event.clone());
-            j_lb.push(j.load.0);
-            j_la.push(j.load.1);
-            j_ab.push(j.area.0);
-            j_aa.push(j.area.1);
+            j_lb.push(j.load_before);
+            j_la.push(j.load_after);
+            j_ab.push(j.area_before);
+            j_aa.push(j.area_after);
             j_ratio.push(j.ratio);
             j_p_fc.push(d.p_fc);
-            j_det.push(j.detector.clone());
+            j_det.push(j.detector.to_string());
         }
         for l in &d.loops {
             l_inter.push(d.interaction.clone());
@@ -337,9 +337,9 @@ fn tables(sweeps: &[SweepData]) -> (Table, Table, Table) {
         }
         for e in &d.ended {
             // the last point of the branch before it ended
-            let last = d.branch_indices(&e.branch).last().map(|&k| &d.points[k]);
+            let last = d.branch_indices(e.branch).last().map(|&k| &d.points[k]);
             j_inter.push(d.interaction.clone());
-            j_branch.push(e.branch.clone());
+            j_branch.push(e.branch.to_string());
             j_event.push("pull-off".to_string());
             j_lb.push(last.map_or(f64::NAN, |p| p.load));
             j_la.push(e.load);

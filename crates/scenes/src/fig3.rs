@@ -6,7 +6,7 @@
 //! `interaction = "adhesion"`, `control = "strength"` and zero load, on one or more grids (the
 //! figure shows the finest; the tables list every grid, which is the resolution check).
 //!
-//! # Thresholds ([`thresholds`])
+//! # Thresholds (computed by the `sweep` kind: its `thresholds/*`, [`SweepData::thresholds`])
 //! On the increasing-γ0 branch:
 //! - γ_p (coalescence, contact percolation): the first point at which the non-contact region
 //!   percolates along neither axis (contact patches have merged around every fluid pool);
@@ -21,10 +21,11 @@
 
 use crate::jumptable::GridSweep;
 use crate::scene::{OutputSpec, Outputs, Scene};
+use analysis::hysteresis::Transition;
 use anyhow::{Result, bail};
 use figures::scenes::fig3::{Fig3Data, GammaBranch, ModelGammaPath};
 use figures::style::Model;
-use kinds::sweep::{Point, SweepData};
+use kinds::sweep::{Branch as PathBranch, SweepData};
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{Params, StageContext};
 use store::ArtefactWriter;
@@ -48,8 +49,8 @@ pub fn headlines(models: &[(String, Vec<GridSweep>)]) -> Vec<kinds::headline::He
     let mut out = Vec::new();
     for (m, grids) in models {
         let Some(finest) = grids.last() else { continue };
-        let t = thresholds(&finest.data);
-        let half = |tr: &Transition| 0.5 * (tr.gamma.1 - tr.gamma.0).abs();
+        let t = &finest.data.thresholds;
+        let half = |tr: &Transition| 0.5 * (tr.x.1 - tr.x.0).abs();
         if let Some(p) = &t.coalescence {
             out.push(Headline::new(format!("gamma_p {m}"), p.mid(), half(p)));
         }
@@ -129,85 +130,6 @@ pub fn read(inputs: &Inputs) -> Result<Vec<(String, Vec<GridSweep>)>> {
     Ok(out)
 }
 
-/// A change of state between two consecutive converged points of a branch.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Transition {
-    /// γ0 before and after.
-    pub gamma: (f64, f64),
-    /// Relative contact area before and after.
-    pub area: (f64, f64),
-}
-
-impl Transition {
-    /// The midpoint of the bracket.
-    pub fn mid(&self) -> f64 {
-        0.5 * (self.gamma.0 + self.gamma.1)
-    }
-}
-
-/// The thresholds of one sweep (see the module docs).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Thresholds {
-    /// Increasing γ0: the fluid stops percolating.
-    pub coalescence: Option<Transition>,
-    /// Increasing γ0: the area reaches 1.
-    pub full_contact: Option<Transition>,
-    /// Decreasing γ0: the fluid percolates again.
-    pub break_up: Option<Transition>,
-    /// Decreasing γ0: the area leaves 1.
-    pub trough_opening: Option<Transition>,
-    /// Largest γ0 of the path.
-    pub gamma_max: f64,
-}
-
-impl Thresholds {
-    /// γ_fc/γ_p with its bracket (lower, upper): exactly 1 if both are the same step.
-    pub fn ratio(&self) -> Option<(f64, f64, f64)> {
-        let (p, fc) = (self.coalescence?, self.full_contact?);
-        if p == fc {
-            return Some((1.0, 1.0, 1.0));
-        }
-        Some((
-            fc.mid() / p.mid(),
-            fc.gamma.0 / p.gamma.1,
-            fc.gamma.1 / p.gamma.0,
-        ))
-    }
-}
-
-fn fluid(p: &Point) -> bool {
-    p.fluid_percolates_x || p.fluid_percolates_y
-}
-
-/// The first step of `branch` (converged points) from a point without `what` to one with it.
-fn first_change(d: &SweepData, branch: &str, what: &dyn Fn(&Point) -> bool) -> Option<Transition> {
-    let idx: Vec<usize> = d
-        .branch_indices(branch)
-        .into_iter()
-        .filter(|&k| d.points[k].converged)
-        .collect();
-    idx.windows(2).find_map(|w| {
-        let (a, b) = (&d.points[w[0]], &d.points[w[1]]);
-        (!what(a) && what(b)).then_some(Transition {
-            gamma: (a.strength, b.strength),
-            area: (a.contact_area, b.contact_area),
-        })
-    })
-}
-
-/// The thresholds of a zero-load γ0 sweep.
-pub fn thresholds(d: &SweepData) -> Thresholds {
-    let coalesced = |p: &Point| p.contact_area > 0.0 && !fluid(p);
-    let full = |p: &Point| p.contact_area >= 1.0;
-    Thresholds {
-        coalescence: first_change(d, "loading", &coalesced),
-        full_contact: first_change(d, "loading", &full),
-        break_up: first_change(d, "unloading", &|p| !coalesced(p)),
-        trough_opening: first_change(d, "unloading", &|p| !full(p)),
-        gamma_max: d.points.iter().map(|p| p.strength).fold(0.0, f64::max),
-    }
-}
-
 fn model_of(name: &str) -> Model {
     match name {
         "hexagonal" => Model::Hexagonal,
@@ -223,7 +145,7 @@ pub fn data(models: &[(String, Vec<GridSweep>)]) -> (Fig3Data, usize) {
     let mut left_out = 0;
     for (m, sweeps) in models {
         let d = &sweeps.last().expect("read() checks for one sweep").data;
-        let mut branch = |name: &str| {
+        let mut branch = |name: PathBranch| {
             let b = crate::fig2::converged_branch(d, name, &|p| p.strength);
             left_out += b.left_out;
             GammaBranch {
@@ -232,8 +154,8 @@ pub fn data(models: &[(String, Vec<GridSweep>)]) -> (Fig3Data, usize) {
                 jumps: b.jumps,
             }
         };
-        let (increasing, decreasing) = (branch("loading"), branch("unloading"));
-        let t = thresholds(d);
+        let (increasing, decreasing) = (branch(PathBranch::Loading), branch(PathBranch::Unloading));
+        let t = &d.thresholds;
         paths.push(ModelGammaPath {
             model: model_of(m),
             increasing,
@@ -269,11 +191,11 @@ pub fn thresholds_table(models: &[(String, Vec<GridSweep>)]) -> tables::Table {
     };
     for (m, sweeps) in models {
         for s in sweeps {
-            let th = thresholds(&s.data);
+            let th = &s.data.thresholds;
             model.push(m.clone());
             n.push(s.data.n);
             dx.push(s.dx);
-            gmax.push(th.gamma_max);
+            gmax.push(s.data.points.iter().map(|p| p.strength).fold(0.0, f64::max));
             for (name, tr, zone) in [
                 ("gamma_p", th.coalescence, true),
                 ("gamma_fc", th.full_contact, true),
@@ -281,7 +203,7 @@ pub fn thresholds_table(models: &[(String, Vec<GridSweep>)]) -> tables::Table {
                 ("gamma_trough_opening", th.trough_opening, false),
             ] {
                 let nan = f64::NAN;
-                let g = tr.map_or((nan, nan), |t| t.gamma);
+                let g = tr.map_or((nan, nan), |t| t.x);
                 let a = tr.map_or((nan, nan), |t| t.area);
                 push(format!("{name}_before"), g.0, &mut cols);
                 push(format!("{name}_after"), g.1, &mut cols);
@@ -332,14 +254,14 @@ pub fn points_table(models: &[(String, Vec<GridSweep>)]) -> tables::Table {
             for (k, p) in d.points.iter().enumerate() {
                 model.push(m.clone());
                 n.push(d.n);
-                branch.push(p.branch.clone());
+                branch.push(p.branch.to_string());
                 step.push(p.step);
                 g.push(p.strength);
                 a.push(p.contact_area);
                 ac.push(p.contact_area_corrected);
                 gap.push(p.mean_gap);
                 cl.push(p.contact_clusters);
-                fl.push(fluid(p));
+                fl.push(p.fluid());
                 conv.push(p.converged);
                 it.push(p.iterations);
                 fr.push(p.force_residual);
@@ -413,99 +335,5 @@ impl Scene for Fig3 {
             .table("points", points_table(&models))
             .table("thresholds", thresholds_table(&models))
             .table("jumps", crate::jumptable::table(&models)))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn point(branch: &str, g: f64, a: f64, fluid: bool) -> Point {
-        Point {
-            branch: branch.into(),
-            step: 0,
-            load: 0.0,
-            strength: g,
-            contact_area: a,
-            contact_area_corrected: a,
-            mean_gap: 0.0,
-            mean_displacement: 0.0,
-            energy: 0.0,
-            iterations: 1,
-            max_violation: 0.0,
-            force_residual: 0.0,
-            converged: true,
-            stop_reason: String::new(),
-            wall_s: 0.0,
-            contact_clusters: 1,
-            fluid_percolates_x: fluid,
-            fluid_percolates_y: fluid,
-        }
-    }
-
-    fn sweep(points: Vec<Point>) -> SweepData {
-        SweepData {
-            interaction: "adhesion".into(),
-            control: "strength".into(),
-            p_fc: 1.0,
-            lattice: "square".into(),
-            n: 4,
-            points,
-            jumps: vec![],
-            loops: vec![],
-            ended: vec![],
-        }
-    }
-
-    #[test]
-    fn thresholds_bracket_coalescence_and_full_contact() {
-        let up = [
-            (0.1, 0.1, true),
-            (0.2, 0.2, true),
-            (0.3, 0.45, false),
-            (0.4, 0.5, false),
-            (0.5, 1.0, false),
-        ];
-        let down = [
-            (0.4, 1.0, false),
-            (0.3, 1.0, false),
-            (0.2, 0.3, true),
-            (0.1, 0.1, true),
-        ];
-        let mut p: Vec<Point> = up
-            .iter()
-            .map(|&(g, a, f)| point("loading", g, a, f))
-            .collect();
-        p.extend(down.iter().map(|&(g, a, f)| point("unloading", g, a, f)));
-        let t = thresholds(&sweep(p));
-        assert_eq!(t.coalescence.unwrap().gamma, (0.2, 0.3));
-        assert_eq!(t.coalescence.unwrap().area, (0.2, 0.45));
-        assert_eq!(t.full_contact.unwrap().gamma, (0.4, 0.5));
-        // decreasing: full contact is left and the fluid percolates again in the same step
-        assert_eq!(t.trough_opening.unwrap().gamma, (0.3, 0.2));
-        assert_eq!(t.break_up.unwrap().gamma, (0.3, 0.2));
-        let (r, lo, hi) = t.ratio().unwrap();
-        assert!((r - 0.45 / 0.25).abs() < 1e-12);
-        assert!((lo - 0.4 / 0.3).abs() < 1e-12 && (hi - 0.5 / 0.2).abs() < 1e-12);
-        assert_eq!(t.gamma_max, 0.5);
-    }
-
-    #[test]
-    fn straight_to_full_contact_is_one_instability() {
-        let p = vec![
-            point("loading", 0.1, 0.05, true),
-            point("loading", 0.2, 0.1, true),
-            point("loading", 0.3, 1.0, false),
-        ];
-        let t = thresholds(&sweep(p));
-        assert_eq!(t.coalescence, t.full_contact);
-        assert_eq!(t.ratio(), Some((1.0, 1.0, 1.0)));
-        // nothing on a branch that never coalesces
-        let q = vec![
-            point("loading", 0.1, 0.05, true),
-            point("loading", 0.2, 0.1, true),
-        ];
-        let t = thresholds(&sweep(q));
-        assert!(t.coalescence.is_none() && t.full_contact.is_none() && t.ratio().is_none());
     }
 }

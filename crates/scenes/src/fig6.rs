@@ -24,6 +24,7 @@ use anyhow::{Result, bail};
 use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit};
 use figures::style::Model;
 use kinds::flow::FlowData;
+use kinds::sweep::Branch as PathBranch;
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{ParamSpec, ParamType, Params, StageContext};
 use serde_json::{Value, json};
@@ -153,11 +154,11 @@ pub struct Curve {
 
 /// The curve of one flow artefact's loading branch.
 pub fn curve(d: &FlowData) -> Curve {
-    let (usable, left_out) = d.usable("loading");
+    let (usable, left_out) = d.usable(PathBranch::Loading);
     let mut idx = Vec::new();
     let mut blocked = None;
     for &k in &usable {
-        if d.percolating[k] {
+        if d.points[k].percolating {
             if blocked.is_some() {
                 // the fluid flows again after a blocked point: keep the first flowing stretch
                 break;
@@ -213,30 +214,31 @@ pub fn data(
             ctx.warn(format!("{what}: no flowing point to draw"));
             continue;
         }
+        let p = &d.points;
         let scale = |k: usize| {
             if unit == "p_fc" {
-                d.load[k] / d.p_fc
+                p[k].load / d.p_fc
             } else {
-                d.load[k]
+                p[k].load
             }
         };
         let last = *c.idx.last().expect("non-empty");
         stats.push(json!({
             "lattice": d.lattice, "gamma0": d.gamma0, "n": d.n, "axis": d.axis,
             "points": c.idx.len(), "left_out": c.left_out,
-            "load_last_flowing": d.load[last],
-            "load_first_blocked": c.blocked.map(|k| d.load[k]),
-            "conductivity_first": d.conductivity[c.idx[0]],
-            "conductivity_last_flowing": d.conductivity[last],
-            "contact_area_last_flowing": d.contact_area[last],
-            "contact_area_first_blocked": c.blocked.map(|k| d.contact_area[k]),
+            "load_last_flowing": p[last].load,
+            "load_first_blocked": c.blocked.map(|k| p[k].load),
+            "conductivity_first": p[c.idx[0]].conductivity,
+            "conductivity_last_flowing": p[last].conductivity,
+            "contact_area_last_flowing": p[last].contact_area,
+            "contact_area_first_blocked": c.blocked.map(|k| p[k].contact_area),
             "p_fc": d.p_fc,
         }));
         curves.push(FlowCurve {
             model: m,
             gamma0: d.gamma0,
             load: c.idx.iter().map(|&k| scale(k)).collect(),
-            flux: c.idx.iter().map(|&k| d.conductivity[k]).collect(),
+            flux: c.idx.iter().map(|&k| p[k].conductivity).collect(),
             mark_end: d.gamma0 != 0.0 && c.stops,
         });
     }
@@ -298,113 +300,10 @@ fn current_map(r: &store::ArtefactReader, params: &Fig6Params) -> Result<Current
     })
 }
 
-/// Figure 6's tables:
-/// - `fig6.csv`, one row per flow point of every input: `lattice`, `gamma0`, `branch`, `load`
-///   (E* h0/λ), `load_over_p_fc`, `contact_area`, `conductivity`, `flux`, `percolating`,
-///   `converged` (flow), `contact_converged`, `termination`, `iterations`, `residual`,
-///   `conservation_error`, `axis`, `n`;
-/// - `fig6_stops.csv`, one row per place where the flow stops (or starts) between two points
-///   of a path: `lattice`, `gamma0`, `branch`, `load_flowing`, `load_blocked` (E* h0/λ),
-///   `load_flowing_over_p_fc`, `load_blocked_over_p_fc`, `conductivity_flowing`,
-///   `contact_area_flowing`, `contact_area_blocked`.
-pub fn tables(inputs: &Inputs) -> Result<(tables::Table, tables::Table)> {
-    use tables::Table;
-    // points, column by column
-    let (mut lat, mut g0, mut branch) = (vec![], vec![], vec![]);
-    let (mut load, mut load_r, mut area, mut cond, mut flux) =
-        (vec![], vec![], vec![], vec![], vec![]);
-    let (mut perc, mut conv, mut cconv, mut term) = (vec![], vec![], vec![], vec![]);
-    let (mut iters, mut resid, mut cons, mut axis, mut n) =
-        (vec![], vec![], vec![], vec![], vec![]);
-    let (mut s_lat, mut s_g, mut s_br) = (vec![], vec![], vec![]);
-    let (mut s_lf, mut s_lb, mut s_lfr, mut s_lbr, mut s_k, mut s_af, mut s_ab) =
-        (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
-    for r in inputs.all("flow") {
-        let d = FlowData::read(r)?;
-        term.extend(r.read_strings("points/termination")?);
-        iters.extend(r.read_i64_1d("points/iterations")?);
-        resid.extend(r.read_f64_1d("points/residual")?);
-        cons.extend(r.read_f64_1d("points/conservation_error")?);
-        for k in 0..d.load.len() {
-            lat.push(d.lattice.clone());
-            g0.push(d.gamma0);
-            branch.push(d.branch[k].clone());
-            load.push(d.load[k]);
-            load_r.push(d.load[k] / d.p_fc);
-            area.push(d.contact_area[k]);
-            cond.push(d.conductivity[k]);
-            flux.push(d.flux[k]);
-            perc.push(d.percolating[k]);
-            conv.push(d.converged[k]);
-            cconv.push(d.contact_converged[k]);
-            axis.push(d.axis.clone());
-            n.push(d.n);
-        }
-        if [term.len(), iters.len(), resid.len(), cons.len()]
-            .iter()
-            .any(|&l| l != lat.len())
-        {
-            bail!(
-                "`{}`: points/termination, iterations, residual, conservation_error and load \
-                 differ in length",
-                r.path().display()
-            );
-        }
-        let br = r.read_strings("stops/branch")?;
-        let lf = r.read_f64_1d("stops/load_flowing")?;
-        let lb = r.read_f64_1d("stops/load_blocked")?;
-        let kf = r.read_f64_1d("stops/conductivity_flowing")?;
-        let af = r.read_f64_1d("stops/contact_area_flowing")?;
-        let ab = r.read_f64_1d("stops/contact_area_blocked")?;
-        for k in 0..br.len() {
-            s_lat.push(d.lattice.clone());
-            s_g.push(d.gamma0);
-            s_br.push(br[k].clone());
-            s_lf.push(lf[k]);
-            s_lb.push(lb[k]);
-            s_lfr.push(lf[k] / d.p_fc);
-            s_lbr.push(lb[k] / d.p_fc);
-            s_k.push(kf[k]);
-            s_af.push(af[k]);
-            s_ab.push(ab[k]);
-        }
-    }
-    let points = Table::new()
-        .with_str("lattice", lat)
-        .with_f64("gamma0", g0)
-        .with_str("branch", branch)
-        .with_f64("load", load)
-        .with_f64("load_over_p_fc", load_r)
-        .with_f64("contact_area", area)
-        .with_f64("conductivity", cond)
-        .with_f64("flux", flux)
-        .with_bool("percolating", perc)
-        .with_bool("converged", conv)
-        .with_bool("contact_converged", cconv)
-        .with_str("termination", term)
-        .with_i64("iterations", iters)
-        .with_f64("residual", resid)
-        .with_f64("conservation_error", cons)
-        .with_str("axis", axis)
-        .with_i64("n", n);
-    let stops = Table::new()
-        .with_str("lattice", s_lat)
-        .with_f64("gamma0", s_g)
-        .with_str("branch", s_br)
-        .with_f64("load_flowing", s_lf)
-        .with_f64("load_blocked", s_lb)
-        .with_f64("load_flowing_over_p_fc", s_lfr)
-        .with_f64("load_blocked_over_p_fc", s_lbr)
-        .with_f64("conductivity_flowing", s_k)
-        .with_f64("contact_area_flowing", s_af)
-        .with_f64("contact_area_blocked", s_ab);
-    Ok((points, stops))
-}
-
 /// The `fig6` scene: flux (effective conductivity) against load for the three models, hard
 /// wall solid and adhesion dashed with the point where its flow stops marked; the
 /// near-critical current density; the near-critical flux ladder when a `ladder` input provides
-/// it; and the tables `fig6.csv`, `fig6_stops.csv` ([`tables`]). Attributes `points_plotted`,
+/// it; and the tables `fig6.csv`, `fig6_stops.csv` ([`crate::flowtable::tables`]). Attributes `points_plotted`,
 /// `curves`.
 pub struct Fig6;
 
@@ -476,7 +375,7 @@ impl Scene for Fig6 {
         let plotted: usize = data.flow.iter().map(|c| c.load.len()).sum();
         out.set_attr("points_plotted", plotted as i64)?;
         out.set_attr("curves", stats.clone())?;
-        let (points, stops) = tables(inputs)?;
+        let (points, stops) = crate::flowtable::tables(inputs)?;
         Ok(Outputs::new()
             .figure("figure", figures::scenes::fig6::figure(&data)?)
             .table("points", points)
@@ -488,6 +387,7 @@ impl Scene for Fig6 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use kinds::flow_artefact::FlowPoint;
 
     /// The figure renders with the bottom-left panel empty (the near-critical study fills it
     /// later) and without a current map.
@@ -594,6 +494,29 @@ mod tests {
 
     #[test]
     fn curves_stop_at_the_first_blocked_point() {
+        let point = |load: f64, k: f64, percolating: bool, converged: bool| FlowPoint {
+            sweep_index: 0,
+            branch: PathBranch::Loading,
+            step: 0,
+            load,
+            strength: 0.05,
+            contact_area: load,
+            contact_converged: true,
+            flux: k,
+            conductivity: k,
+            percolating,
+            converged,
+            termination: kinds::flow_artefact::Termination::Converged,
+            iterations: 1,
+            residual: 0.0,
+            residual_floor: 0.0,
+            flux_rounding_error: 0.0,
+            conservation_error: 0.0,
+            flux_error_estimate: 0.0,
+            flowing_nodes: 1,
+            removed_nodes: 0,
+            wall_s: 0.0,
+        };
         let d = FlowData {
             lattice: "square".into(),
             interaction: "adhesion".into(),
@@ -601,14 +524,15 @@ mod tests {
             p_fc: std::f64::consts::TAU,
             axis: "x".into(),
             n: 5,
-            branch: vec!["loading".into(); 6],
-            load: vec![0.0, 0.1, 0.2, 0.3, 0.4, 0.5],
-            conductivity: vec![3.0, 2.0, 1.0, 0.5, 0.0, 0.0],
-            flux: vec![3.0, 2.0, 1.0, 0.5, 0.0, 0.0],
-            percolating: vec![true, true, true, true, false, false],
-            converged: vec![true, true, false, true, true, true],
-            contact_converged: vec![true; 6],
-            contact_area: vec![0.1, 0.2, 0.3, 0.35, 0.4, 0.5],
+            points: vec![
+                point(0.0, 3.0, true, true),
+                point(0.1, 2.0, true, true),
+                point(0.2, 1.0, true, false),
+                point(0.3, 0.5, true, true),
+                point(0.4, 0.0, false, true),
+                point(0.5, 0.0, false, true),
+            ],
+            stops: vec![],
         };
         let c = curve(&d);
         assert_eq!(c.idx, [0, 1, 3]);

@@ -135,21 +135,24 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
             for j in &d.jumps {
                 push(
                     &mut rows,
-                    &j.branch,
+                    j.branch.name(),
                     &j.event,
-                    (s.x(j.load.0, j.strength.0), s.x(j.load.1, j.strength.1)),
-                    j.area,
-                    j.strength.0.max(j.strength.1),
+                    (
+                        s.x(j.load_before, j.strength_before),
+                        s.x(j.load_after, j.strength_after),
+                    ),
+                    j.area(),
+                    j.strength_before.max(j.strength_after),
                     j.ratio,
-                    &j.detector,
+                    &j.detector.to_string(),
                 );
                 control.push(d.control.clone());
             }
             for e in &d.ended {
-                let last = d.branch_indices(&e.branch).last().map(|&k| &d.points[k]);
+                let last = d.branch_indices(e.branch).last().map(|&k| &d.points[k]);
                 push(
                     &mut rows,
-                    &e.branch,
+                    e.branch.name(),
                     "pull-off",
                     (
                         last.map_or(f64::NAN, |p| s.x(p.load, p.strength)),
@@ -165,37 +168,7 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
         }
     }
     let mid = |r: &Row| 0.5 * (r.x.0 + r.x.1);
-    let up = |r: &Row| r.area.1 > r.area.0;
-    // the matched jump on the next coarser grid of the group: the same event with the same
-    // ordinal on the same branch, else the nearest jump in the same direction on that branch
-    // (the event's name can differ between grids, e.g. `coalescence` on one and `area jump
-    // (up)` on a coarser one where the fluid still percolates along one axis)
-    let (change, matched): (Vec<f64>, Vec<String>) = rows
-        .iter()
-        .map(|r| {
-            let Some(nc) = rows
-                .iter()
-                .filter(|c| c.group == r.group && c.n < r.n)
-                .map(|c| c.n)
-                .max()
-            else {
-                return (f64::NAN, String::new());
-            };
-            let coarser = || {
-                rows.iter()
-                    .filter(move |c| c.group == r.group && c.n == nc && c.branch == r.branch)
-            };
-            if let Some(c) = coarser().find(|c| (&c.event, c.ordinal) == (&r.event, r.ordinal)) {
-                return (mid(r) - mid(c), "event".to_string());
-            }
-            coarser()
-                .filter(|c| up(c) == up(r) && c.event != "pull-off" && r.event != "pull-off")
-                .min_by(|a, b| (mid(a) - mid(r)).abs().total_cmp(&(mid(b) - mid(r)).abs()))
-                .map_or((f64::NAN, String::new()), |c| {
-                    (mid(r) - mid(c), format!("nearest: {}", c.event))
-                })
-        })
-        .unzip();
+    let (change, matched) = match_coarser(&rows);
     let col = |f: &dyn Fn(&Row) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
     let s = |f: &dyn Fn(&Row) -> String| rows.iter().map(f).collect::<Vec<String>>();
     Table::new()
@@ -237,6 +210,41 @@ pub fn table(groups: &[(String, Vec<GridSweep>)]) -> Table {
         .with_str("matched", matched)
 }
 
+/// Per row, the matched jump on the next coarser grid of the group: the same event with the
+/// same ordinal on the same branch, else the nearest jump in the same direction on that branch
+/// (the event's name can differ between grids, e.g. `coalescence` on one and `area jump (up)`
+/// on a coarser one where the fluid still percolates along one axis). Returns x_mid minus the
+/// match's x_mid and how it matched.
+fn match_coarser(rows: &[Row]) -> (Vec<f64>, Vec<String>) {
+    let mid = |r: &Row| 0.5 * (r.x.0 + r.x.1);
+    let up = |r: &Row| r.area.1 > r.area.0;
+    rows.iter()
+        .map(|r| {
+            let Some(nc) = rows
+                .iter()
+                .filter(|c| c.group == r.group && c.n < r.n)
+                .map(|c| c.n)
+                .max()
+            else {
+                return (f64::NAN, String::new());
+            };
+            let coarser = || {
+                rows.iter()
+                    .filter(move |c| c.group == r.group && c.n == nc && c.branch == r.branch)
+            };
+            if let Some(c) = coarser().find(|c| (&c.event, c.ordinal) == (&r.event, r.ordinal)) {
+                return (mid(r) - mid(c), "event".to_string());
+            }
+            coarser()
+                .filter(|c| up(c) == up(r) && c.event != "pull-off" && r.event != "pull-off")
+                .min_by(|a, b| (mid(a) - mid(r)).abs().total_cmp(&(mid(b) - mid(r)).abs()))
+                .map_or((f64::NAN, String::new()), |c| {
+                    (mid(r) - mid(c), format!("nearest: {}", c.event))
+                })
+        })
+        .unzip()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -244,15 +252,18 @@ mod tests {
 
     fn jump(branch: &str, event: &str, x: (f64, f64), area: (f64, f64)) -> JumpRow {
         JumpRow {
-            branch: branch.into(),
+            branch: branch.parse().unwrap(),
             index: 0,
             index_after: 1,
-            load: (x.0 * 2.0, x.1 * 2.0),
-            strength: (0.2, 0.2),
-            area,
+            load_before: x.0 * 2.0,
+            load_after: x.1 * 2.0,
+            strength_before: 0.2,
+            strength_after: 0.2,
+            area_before: area.0,
+            area_after: area.1,
             ratio: 10.0,
             event: event.into(),
-            detector: "trend".into(),
+            detector: kinds::sweep::Detector::Trend,
         }
     }
 
@@ -268,6 +279,7 @@ mod tests {
                 jumps,
                 loops,
                 ended: vec![],
+                thresholds: Default::default(),
             },
             rho: 0.04,
             dx: 1.0 / (1 << n) as f64,

@@ -15,6 +15,7 @@ pub mod fig3;
 pub mod fig4;
 pub mod fig5;
 pub mod fig6;
+pub mod flowtable;
 pub mod jumptable;
 pub mod running;
 pub mod scene;

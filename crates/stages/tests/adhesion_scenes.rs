@@ -5,8 +5,7 @@
 mod common;
 use common::{reader, try_run as run};
 
-use stages::kinds::sweep::SweepData;
-use stages::scenes::fig3::thresholds;
+use stages::kinds::sweep::{Branch, SweepData};
 
 /// Full contact under adhesion holds while the adhesive stress γ0/ρ can carry the largest
 /// tension of the full-contact state, p_fc − p̄ at the trough (exact on the grid: the square
@@ -29,7 +28,8 @@ params = { interaction = \"adhesion\", rho = 0.04, control = \"strength\", load 
     let (plan, ws) = run(dir.path(), p).unwrap();
     let d = SweepData::read(&reader(&plan, &ws, "g")).unwrap();
     assert!(d.points.iter().all(|p| p.converged));
-    let t = thresholds(&d);
+    // computed by the sweep kind and stored in its artefact (thresholds/*)
+    let t = d.thresholds;
     let fc = t
         .full_contact
         .expect("full contact on the increasing branch");
@@ -38,15 +38,15 @@ params = { interaction = \"adhesion\", rho = 0.04, control = \"strength\", load 
         .expect("the trough opens on the decreasing branch");
     let limit = 0.04 * (1.0 - 0.8) * d.p_fc;
     assert!(
-        open.gamma.1 < limit && limit <= open.gamma.0,
+        open.x.1 < limit && limit <= open.x.0,
         "trough opens between γ0 = {:?}, exact limit {limit}",
-        open.gamma
+        open.x
     );
     // hysteresis: reached on the way up no earlier than it is lost on the way down, and the
     // decreasing branch keeps more contact than the increasing one somewhere
-    assert!(fc.gamma.1 >= open.gamma.0, "{fc:?} {open:?}");
-    let up = d.branch_indices("loading");
-    let down = d.branch_indices("unloading");
+    assert!(fc.x.1 >= open.x.0, "{fc:?} {open:?}");
+    let up = d.branch_indices(Branch::Loading);
+    let down = d.branch_indices(Branch::Unloading);
     // (γ0, area on the increasing branch, area on the decreasing branch) at common γ0
     let pairs: Vec<(f64, f64, f64)> = down
         .iter()
@@ -136,7 +136,7 @@ params = { figure_dir = \"out\", table_dir = \"out/tables\" }
         let at = d
             .points
             .iter()
-            .find(|p| p.branch == "loading" && (p.strength - 0.2).abs() < 1e-12)
+            .find(|p| p.branch == Branch::Loading && (p.strength - 0.2).abs() < 1e-12)
             .unwrap();
         assert_eq!(areas[k], at.contact_area, "{m}");
     }

@@ -5,6 +5,7 @@ mod common;
 use common::{reader, run};
 
 use stages::kinds::flow::FlowData;
+use stages::kinds::flow_artefact::FlowPoint;
 use stages::orchestrator::{Plan, ProgressMode, RunOptions, Workspace};
 
 /// A hard-wall loading path on the 16² square model, gaps stored at every point, past full
@@ -32,17 +33,27 @@ fn hard_wall_flux_decreases_with_load_and_vanishes_before_full_contact() {
     let (plan, ws) = run(dir.path(), HARD_WALL);
     let r = reader(&plan, &ws, "hw_flow");
     let d = FlowData::read(&r).unwrap();
-    assert_eq!(d.load.len(), 11);
+    // the records as columns
+    let col = |f: fn(&FlowPoint) -> f64| -> Vec<f64> { d.points.iter().map(f).collect() };
+    let (load, conductivity, flux, contact_area) = (
+        col(|p| p.load),
+        col(|p| p.conductivity),
+        col(|p| p.flux),
+        col(|p| p.contact_area),
+    );
+    let percolating: Vec<bool> = d.points.iter().map(|p| p.percolating).collect();
+    let converged: Vec<bool> = d.points.iter().map(|p| p.converged).collect();
+    assert_eq!(load.len(), 11);
     assert_eq!(r.attr_i64("n_skipped").unwrap(), 0);
     assert_eq!(
         (d.lattice.as_str(), d.interaction.as_str()),
         ("square", "hardwall")
     );
-    assert!(d.converged.iter().all(|&c| c), "every flow solve converged");
+    assert!(converged.iter().all(|&c| c), "every flow solve converged");
     let p_fc = d.p_fc;
     // flux strictly decreasing while the fluid percolates, then exactly 0
-    let flowing: Vec<usize> = (0..d.load.len()).filter(|&k| d.percolating[k]).collect();
-    assert!(flowing.len() >= 3, "{:?}", d.conductivity);
+    let flowing: Vec<usize> = (0..load.len()).filter(|&k| percolating[k]).collect();
+    assert!(flowing.len() >= 3, "{:?}", conductivity);
     assert_eq!(
         flowing,
         (0..flowing.len()).collect::<Vec<_>>(),
@@ -50,34 +61,34 @@ fn hard_wall_flux_decreases_with_load_and_vanishes_before_full_contact() {
     );
     for w in flowing.windows(2) {
         assert!(
-            d.conductivity[w[1]] < d.conductivity[w[0]],
+            conductivity[w[1]] < conductivity[w[0]],
             "{:?}",
-            d.conductivity
+            conductivity
         );
     }
-    for k in flowing.len()..d.load.len() {
-        assert_eq!(d.flux[k], 0.0);
-        assert_eq!(d.conductivity[k], 0.0);
+    for k in flowing.len()..load.len() {
+        assert_eq!(flux[k], 0.0);
+        assert_eq!(conductivity[k], 0.0);
     }
     // at and above full contact, certainly nothing flows
-    let full: Vec<usize> = (0..d.load.len())
-        .filter(|&k| d.load[k] >= p_fc * (1.0 - 1e-12))
+    let full: Vec<usize> = (0..load.len())
+        .filter(|&k| load[k] >= p_fc * (1.0 - 1e-12))
         .collect();
     assert_eq!(full.len(), 2);
     for &k in &full {
-        assert_eq!(d.contact_area[k], 1.0);
-        assert!(!d.percolating[k] && d.flux[k] == 0.0);
+        assert_eq!(contact_area[k], 1.0);
+        assert!(!percolating[k] && flux[k] == 0.0);
     }
     // on the unit square cell the flux equals the conductivity
-    for k in 0..d.load.len() {
-        assert!((d.flux[k] - d.conductivity[k]).abs() <= 1e-14 * d.flux[k].abs());
+    for k in 0..load.len() {
+        assert!((flux[k] - conductivity[k]).abs() <= 1e-14 * flux[k].abs());
     }
     // the stop is recorded between the last flowing and the first blocked point
     let lf = r.read_f64_1d("stops/load_flowing").unwrap();
     let lb = r.read_f64_1d("stops/load_blocked").unwrap();
     assert_eq!((lf.len(), lb.len()), (1, 1));
-    assert_eq!(lf[0], d.load[flowing.len() - 1]);
-    assert_eq!(lb[0], d.load[flowing.len()]);
+    assert_eq!(lf[0], load[flowing.len() - 1]);
+    assert_eq!(lb[0], load[flowing.len()]);
     // the stop lies near the square model's L_c ≈ 0.22 p_fc (coarse grid, coarse steps)
     assert!(lf[0] / p_fc > 0.1 && lb[0] / p_fc < 0.45, "{lf:?} {lb:?}");
     // current densities: at 0.1 p_fc (nearest point) and at the last flowing point; the

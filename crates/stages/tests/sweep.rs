@@ -5,7 +5,7 @@
 mod common;
 use common::{reader, run};
 
-use stages::kinds::sweep::SweepData;
+use stages::kinds::sweep::{Branch, SweepData};
 use stages::orchestrator::Plan;
 
 const SURFACE: &str = "[stages.sq]\nkind = \"surface\"\nparams = { lattice = \"square\", n = 4 }\n";
@@ -27,8 +27,8 @@ params = {{ interaction = \"adhesion\", path = [{{ from = 0.01, to = 1.0, step =
     let d = SweepData::read(&r).unwrap();
     assert_eq!(d.interaction, "adhesion");
     assert!((d.p_fc - 2.0 * std::f64::consts::PI).abs() < 1e-9);
-    let up = d.branch_indices("loading");
-    let down = d.branch_indices("unloading");
+    let up = d.branch_indices(Branch::Loading);
+    let down = d.branch_indices(Branch::Unloading);
     assert_eq!(up.len(), 21);
     assert!(
         d.points
@@ -38,7 +38,7 @@ params = {{ interaction = \"adhesion\", path = [{{ from = 0.01, to = 1.0, step =
     // unloading continues into tension and ends at pull-off
     assert!(d.points[*down.last().unwrap()].load < 0.0);
     assert_eq!(d.ended.len(), 1, "{:?}", d.ended);
-    assert_eq!(d.ended[0].branch, "unloading");
+    assert_eq!(d.ended[0].branch, Branch::Unloading);
     assert!(d.ended[0].load < 0.0 && d.ended[0].message.contains("pull-off"));
     // full contact is reached on loading (a jump) and kept on unloading far below where it
     // was reached: a hysteresis loop between the branches
@@ -53,7 +53,7 @@ params = {{ interaction = \"adhesion\", path = [{{ from = 0.01, to = 1.0, step =
         assert_eq!(d.points[j.index].branch, j.branch);
         assert_eq!(
             (d.points[j.index].load, d.points[j.index_after].load),
-            j.load
+            j.load()
         );
     }
     // 16² grid: the cohesive zone (0.008 λ) is far below the spacing (1/16 λ)
