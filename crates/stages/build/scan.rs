@@ -280,13 +280,39 @@ pub fn module_identities(
                 .unwrap_or_default()
                 .to_string_lossy()
                 .into_owned();
-            if p.extension().is_some_and(|x| x == "rs") && stem != "lib" {
+            // a module is a file `src/m.rs` or a folder `src/m/` with `mod.rs`: a folder's
+            // source is all of its files (sorted, each under its relative path), so an edit to
+            // any of them changes the module's identity
+            let source = if p.extension().is_some_and(|x| x == "rs") && stem != "lib" {
+                Some(std::fs::read_to_string(&p)?)
+            } else if p.is_dir() && p.join("mod.rs").is_file() {
+                let mut files = Vec::new();
+                files_under(&p, false, &mut files)?;
+                files.sort();
+                let mut text = String::new();
+                for f in files
+                    .iter()
+                    .filter(|f| f.extension().is_some_and(|x| x == "rs"))
+                {
+                    let rel = f
+                        .strip_prefix(&p)
+                        .unwrap_or(f)
+                        .to_string_lossy()
+                        .replace('\\', "/");
+                    text.push_str(&format!("// file {rel}\n"));
+                    text.push_str(&std::fs::read_to_string(f)?);
+                }
+                Some(text)
+            } else {
+                None
+            };
+            if let Some(source) = source {
                 if let Some((other, _)) = sources.get(&stem) {
                     return Err(io::Error::other(format!(
                         "module `{stem}` exists in both crates `{other}` and `{mc}`: kind modules must have unique names"
                     )));
                 }
-                sources.insert(stem, (mc.to_string(), std::fs::read_to_string(&p)?));
+                sources.insert(stem, (mc.to_string(), source));
             }
         }
     }
