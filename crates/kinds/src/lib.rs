@@ -14,6 +14,7 @@
 //! | `extremes` | the solvers at extreme loads and grids, with wall time and peak memory | – | table side output |
 //! | `selfaffine` | a self-affine random surface (H, q_r, q_s, rms height or slope, seed) on a periodic 2^n grid, statistics, binned PSD | – | `height`, `lx`, `ly`, `psd/*` |
 //! | `topography` | a user's height file (.npy, .h5, text; its content in the key), statistics, binned PSD | – | `height`, `lx`, `ly`, `psd/*` |
+//! | `leakage` | warm-started load path on any height field: area, gap, flux x/y, percolation per load; the fluid percolation load (bisection) and a_p; optional gap/pressure map | `surface` (`surface`, `selfaffine`, `topography`) | `points/*`, `percolation/*`, `map/*` |
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 //!
 //! Each kind lives in the module of its name and implements [`orchestrator::TypedKind`] (its
@@ -29,6 +30,7 @@ pub mod flow;
 pub mod flowmap;
 pub mod headline;
 pub mod ladder;
+pub mod leakage;
 pub mod mock;
 pub mod resolution;
 pub mod selfaffine;
@@ -53,4 +55,5 @@ pub fn register(r: &mut Registry) {
     r.register(Typed(mock::MockKind));
     r.register(Typed(selfaffine::SelfAffineKind));
     r.register(Typed(topography::TopographyKind));
+    r.register(Typed(leakage::LeakageKind));
 }

@@ -17,7 +17,7 @@
 use anyhow::{Result, anyhow};
 use formats::{Detrend, ReadOptions, TextLayout};
 use orchestrator::{
-    Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageReport, TypedKind,
+    Inputs, ParamIssue, ParamSpec, ParamType, StageContext, StageReport, TypedKind,
 };
 use serde::Deserialize;
 use store::ArtefactWriter;
