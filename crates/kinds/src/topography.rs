@@ -197,7 +197,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (nx, ny) = (8usize, 6usize);
         // a checkerboard (even nx, ny) has no least-squares slope of its own
-        let base = |i: usize, j: usize| if (i + j) % 2 == 0 { 0.1 } else { -0.1 };
+        let base = |i: usize, j: usize| if (i + j).is_multiple_of(2) { 0.1 } else { -0.1 };
         let mut text = String::from("# heights in µm\n");
         for i in 0..nx {
             let row: Vec<String> = (0..ny)
