@@ -18,6 +18,7 @@
 //!
 //! # Artefact
 //! - root attributes `boundary`, `sides`, `nx`, `ny`, `lx`, `ly`, `p_fc`, `n_points`,
+//!   `surface_seed` and `surface_source` (copied from the input's `seed`, `source` if present),
 //!   `n_flow_unconverged`, `last_percolating_load`, `first_sealed_load` (NaN if none);
 //! - `points/<column>`, one entry per load, ascending: the columns of [`POINT_COLUMNS`] (one
 //!   spec for writing, reading and the tables);
@@ -223,7 +224,8 @@ impl TypedKind for LeakageKind {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport> {
-        let field = crate::selfaffine::read_height_field(inputs.one("surface")?)?;
+        let surf = inputs.one("surface")?;
+        let field = crate::selfaffine::read_height_field(surf)?;
         let boundary = params.boundary().map_err(|e| anyhow!("{e}"))?;
         let p_fc = critical::leakage::full_contact_pressure(&field);
         if !(p_fc.is_finite() && p_fc > 0.0) {
@@ -251,6 +253,13 @@ impl TypedKind for LeakageKind {
         out.set_attr("ny", g.ny as i64)?;
         out.set_attr("p_fc", p_fc)?;
         out.set_attr("n_points", path.points.len() as i64)?;
+        // which surface: a generated one's seed (for ensembles), the kind that made it
+        if let Ok(seed) = surf.attr_i64("seed") {
+            out.set_attr("surface_seed", seed)?;
+        }
+        if let Ok(source) = surf.attr_str("source") {
+            out.set_attr("surface_source", source.as_str())?;
+        }
         let unconverged = write_points(out, &path.points, p_fc)?;
         out.set_attr("n_flow_unconverged", unconverged as i64)?;
         for p in path
@@ -400,6 +409,8 @@ pub struct LeakageRead {
     pub points: BTreeMap<String, Vec<f64>>,
     /// `any`, `x`, `y` brackets, if the percolation load was computed.
     pub percolation: Option<BTreeMap<String, PercolationRead>>,
+    /// The input surface's seed (a generated surface).
+    pub seed: Option<i64>,
     /// Gap and pressure at the map load, with the load.
     pub map: Option<(ndarray::Array2<f64>, ndarray::Array2<f64>, f64)>,
 }
@@ -448,6 +459,7 @@ impl LeakageRead {
         };
         Ok(Self {
             p_fc: r.attr_f64("p_fc")?,
+            seed: r.attr_i64("surface_seed").ok(),
             points,
             percolation,
             map,
@@ -555,6 +567,7 @@ mod tests {
         let map_area = gap.iter().filter(|g| **g <= 0.0).count() as f64 / gap.len() as f64;
         assert_eq!(map_area, areas[1], "the same contact set at the same load");
         assert_eq!(r.table().n_rows(), 3);
+        assert_eq!(r.seed, Some(1));
     }
 
     #[test]
