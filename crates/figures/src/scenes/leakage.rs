@@ -135,7 +135,7 @@ pub fn map_figure(d: &MapFig) -> Result<Figure> {
     m.y_label = "$y$".into();
     m.colorbar_label = "gap $g$".into();
     m.title = Some(format!(
-        "$p$/$p$_fc = {:.3}, contact area {:.3}",
+        "$p$/$p$_{{fc}} = {:.3}, contact area {:.3}",
         d.load_over_p_fc, d.contact_area
     ));
     f.heatmap(Rect::new(0.0, 0.0, w, h), m);
@@ -154,7 +154,7 @@ pub fn leakage_figure(d: &LeakageFig) -> Result<Figure> {
     let (w, h) = (520.0, 400.0);
     let mut f = Figure::new(w, h);
     let mut p = XyPanel::new(
-        Axis::linear("load $p$/$p$_fc"),
+        Axis::linear("load $p$/$p$_{fc}"),
         Axis::log("conductivity (uniform gap $g$: $g$^3)"),
     );
     p.series.push(
