@@ -188,12 +188,7 @@ impl TypedKind for LeakageKind {
             ParamSpec::new("sides", ParamType::one_of(&["noflux", "periodic"]))
                 .default("noflux")
                 .doc("free boundary: the edges parallel to the flow"),
-            ParamSpec::new(
-                "tol_gap",
-                ParamType::float_range(1e-14, contact::TOL_GAP_MAX),
-            )
-            .default(1e-10)
-            .doc("Polonsky–Keer tolerance on the constraint violation (h0)"),
+            crate::solver::tol_gap_spec(),
             ParamSpec::new("flow_tol", ParamType::float_range(1e-14, 0.5))
                 .default(1e-10)
                 .doc("relative residual of the Reynolds solves"),
