@@ -4,12 +4,13 @@
 Reads DIR/surface_n{N}.npy (the surface `saddleflow surface generate` wrote: H = 0.8, q_r = 2,
 q_s = 64 in units of 2pi/L, rms slope 1, exact amplitudes, seed 1, L = 1) and what
 `RANDOM_DUMP=DIR cargo bench -p contact --bench random_surface` wrote for the same parameters:
-DIR/random_heights_n{N}.f64 (the bench's own realisation: it must equal the .npy bit for bit,
-checked), DIR/random_pressure_n{N}.f64 (our pressure) and DIR/random_case_n{N}.json (mean
-pressure). tamaas 2.9 (PolonskyKeerRey, basic_2d, E = 1, nu = 0 so E* = 1, OMP_NUM_THREADS=1)
-solves the same hard-wall problem at the same mean pressure; its tolerance is tightened along a
-ladder until the common metric of contact_peers.py (our `max_violation` computed from a pressure
-field) is <= 1e-10, as in the lattice benchmark.
+DIR/random_heights_n{E}.f64 (E = log2 N; the bench's own realisation: it must equal the .npy
+bit for bit, checked), DIR/random_pressure_n{E}.f64 (our pressure) and
+DIR/random_case_n{E}.json (mean pressure). tamaas 2.9 (PolonskyKeerRey, basic_2d, E = 1,
+nu = 0 so E* = 1, OMP_NUM_THREADS=1) solves the same hard-wall problem at the same mean
+pressure; its tolerance is tightened along a ladder until the common metric of
+contact_peers.py (our `max_violation` computed from a pressure field) is <= 1e-10, as in the
+lattice benchmark.
 
 Prints the contact areas (raw fraction of nodes with p > 0) and CPU seconds of both, their
 difference and ratio, and one `RESULT solver=... n=...` line each.
@@ -38,14 +39,17 @@ def main():
     h = np.load(f"{d}/surface_n{n}.npy")
     if h.shape != (n, n):
         sys.exit(f"{d}/surface_n{n}.npy: shape {h.shape}, expected ({n}, {n})")
-    h_bench = np.fromfile(f"{d}/random_heights_n{n}.f64", dtype="<f8").reshape(n, n)
+    e = n.bit_length() - 1  # the bench names its files by the grid exponent
+    if n != 1 << e:
+        sys.exit(f"N = {n}: allowed a power of two")
+    h_bench = np.fromfile(f"{d}/random_heights_n{e}.f64", dtype="<f8").reshape(n, n)
     diff = np.abs(h - h_bench).max()
     print(f"n={n}: surface .npy vs the bench's realisation: max |difference| = {diff:.3e}")
     if diff != 0.0:
         sys.exit("the .npy is not the surface the bench solved (different generator parameters?)")
-    case = json.load(open(f"{d}/random_case_n{n}.json"))
+    case = json.load(open(f"{d}/random_case_n{e}.json"))
     pressure, lx, ly = case["pressure"], 1.0, 1.0
-    p_ours = np.fromfile(f"{d}/random_pressure_n{n}.f64", dtype="<f8").reshape(n, n)
+    p_ours = np.fromfile(f"{d}/random_pressure_n{e}.f64", dtype="<f8").reshape(n, n)
     v, a, g = metric(p_ours, h, lx, ly)
     print(f"n={n}: ours: violation={v:.3e} area={a:.8f} mean_gap={g:.10e} (load {pressure:.6e})")
     best = None
