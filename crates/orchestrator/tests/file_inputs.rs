@@ -73,11 +73,14 @@ fn editing_the_file_reruns_the_stage_and_its_dependants() {
     p.write("data/h.txt", "1.5\n");
     assert_eq!(key(&p.plan(&reg), "r"), k1);
     assert!(ran(&p.run(&reg, &quiet())).is_empty());
-    // edited: new key, both rerun, and the new value flows downstream
+    // edited: new key, both rerun (the reason names the file), and the new value flows
+    // downstream
     p.write("data/h.txt", "2.5\n");
     let k2 = key(&p.plan(&reg), "r");
     assert_ne!(k1, k2);
-    assert_eq!(ran(&p.run(&reg, &quiet())), ["r", "sum"]);
+    let third = p.run(&reg, &quiet());
+    assert_eq!(ran(&third), ["r", "sum"]);
+    assert_eq!(reasons(&third, "r"), ["file_changed"]);
     let plan = p.plan(&reg);
     let sum = plan.stages.iter().find(|s| s.name == "sum").unwrap();
     let r = store::ArtefactReader::open(p.ws().artefact_path(&sum.kind, &sum.key)).unwrap();
