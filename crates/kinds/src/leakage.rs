@@ -206,6 +206,15 @@ impl TypedKind for LeakageKind {
     fn check(&self, params: &LeakageParams) -> Result<(), ParamIssue> {
         params.boundary().map(drop)
     }
+    /// Heights, gap, pressure and displacement of the surface upstream (lower bound; the
+    /// solver's FFT buffers come on top).
+    fn memory_estimate(
+        &self,
+        _params: &orchestrator::Params,
+        inputs: &BTreeMap<String, Vec<orchestrator::Params>>,
+    ) -> Option<u64> {
+        crate::topography::upstream_field_bytes(inputs).map(|b| 4 * b)
+    }
     fn inputs(&self, _params: &LeakageParams) -> Vec<InputSpec> {
         vec![InputSpec::one("surface", &SURFACE_KINDS).doc("the height field")]
     }

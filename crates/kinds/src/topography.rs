@@ -17,9 +17,10 @@
 use anyhow::{Result, anyhow};
 use formats::{Detrend, ReadOptions, TextLayout};
 use orchestrator::{
-    Inputs, ParamIssue, ParamSpec, ParamType, StageContext, StageReport, TypedKind,
+    Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageReport, TypedKind,
 };
 use serde::Deserialize;
+use std::collections::BTreeMap;
 use store::ArtefactWriter;
 
 /// The `topography` stage kind.
@@ -90,6 +91,58 @@ impl TopographyParams {
     }
 }
 
+/// A lower bound of the bytes of the heights a height file holds, from its size (at plan time,
+/// relative to the current folder = the project root): `.npy` and HDF5 store 4 or 8 bytes per
+/// node (float32 read as f64 doubles it), so the size less a header bounds them; a text number
+/// takes at most ~25 characters, so 8/25 of a text file's size is a lower bound. `None` if the
+/// file cannot be read.
+pub fn heights_bytes_lower_bound(path: &str) -> Option<u64> {
+    let size = std::fs::metadata(path).ok()?.len();
+    let ext = std::path::Path::new(path)
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    Some(match ext.as_deref() {
+        Some("npy" | "h5" | "hdf5") => size.saturating_sub(4096),
+        _ => size / 25 * 8,
+    })
+}
+
+/// The largest height field upstream of a stage, in bytes (f64 per node): 8 × 4^n for any grid
+/// exponent `n`/`ns` upstream, or a `topography` file's lower bound (its string `path`).
+pub fn upstream_field_bytes(inputs: &BTreeMap<String, Vec<Params>>) -> Option<u64> {
+    fn walk(v: &serde_json::Value, best: &mut Option<u64>) {
+        let Some(o) = v.as_object() else { return };
+        if let Some(b) = o
+            .get("path")
+            .and_then(|p| p.as_str())
+            .and_then(heights_bytes_lower_bound)
+        {
+            *best = Some(best.map_or(b, |x| x.max(b)));
+        }
+        for list in o
+            .get(orchestrator::UPSTREAM)
+            .and_then(|u| u.as_object())
+            .into_iter()
+            .flat_map(|u| u.values())
+        {
+            for p in list.as_array().into_iter().flatten() {
+                walk(p, best);
+            }
+        }
+    }
+    let mut best =
+        orchestrator::upstream_max(inputs, &["n", "ns"]).map(crate::surface::field_bytes);
+    for p in inputs.values().flatten() {
+        let mut b = None;
+        walk(&p.to_value(), &mut b);
+        if let Some(b) = b {
+            best = Some(best.map_or(b, |x| x.max(b)));
+        }
+    }
+    best
+}
+
 impl TypedKind for TopographyKind {
     type Params = TopographyParams;
     fn name(&self) -> &str {
@@ -130,6 +183,14 @@ impl TypedKind for TopographyKind {
             return Err(ParamIssue::new("path", "empty; give the height file"));
         }
         params.options().map(drop)
+    }
+    /// The heights read (a lower bound from the file's size).
+    fn memory_estimate(
+        &self,
+        params: &Params,
+        _inputs: &BTreeMap<String, Vec<Params>>,
+    ) -> Option<u64> {
+        heights_bytes_lower_bound(params.str("path").ok()?)
     }
     fn file_inputs(&self, params: &TopographyParams) -> Vec<String> {
         vec![params.path.clone()]
