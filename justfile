@@ -63,6 +63,7 @@ bench-peers: build
     bench/peers/contact.sh
     bench/peers/adhesive.sh
     bench/peers/flow.sh
+    bench/peers/random.sh
 
 # Formatting and lints as CI would want them.
 lint:

@@ -447,6 +447,10 @@ impl Index {
                 if !changed.is_empty() {
                     out.push(Reason::InputChanged(changed));
                 }
+                let files = s.imp.file_inputs(&s.params);
+                if (out.is_empty() || (out.len() == 1 && forced)) && !files.is_empty() {
+                    out.push(Reason::FileChanged(files));
+                }
                 if out.is_empty() || (out.len() == 1 && forced) {
                     out.push(Reason::OutputMissing);
                 }
@@ -498,6 +502,9 @@ pub enum Reason {
     },
     /// An input's key changed (`input ← stage`).
     InputChanged(Vec<String>),
+    /// Nothing above differs but the key does: the content of a file input changed (the files
+    /// the kind reads, [`crate::StageKind::file_inputs`]).
+    FileChanged(Vec<String>),
     /// Same key as last time, but the artefact is gone (deleted, or gc'd).
     OutputMissing,
     /// The artefact is truncated, unreadable or unfinished (why, naming the file).
@@ -518,6 +525,7 @@ impl Reason {
             Self::CodeChanged(_) => "code_changed",
             Self::KindChanged { .. } => "kind_changed",
             Self::InputChanged(_) => "input_changed",
+            Self::FileChanged(_) => "file_changed",
             Self::OutputMissing => "output_missing",
             Self::OutputInvalid(_) => "output_invalid",
             Self::OutputDamaged(_) => "output_damaged",
@@ -537,6 +545,7 @@ impl fmt::Display for Reason {
             Self::CodeChanged(parts) => write!(f, "code changed ({})", parts.join(", ")),
             Self::KindChanged { from, to } => write!(f, "kind changed: {from} → {to}"),
             Self::InputChanged(d) => write!(f, "input changed: {}", d.join(", ")),
+            Self::FileChanged(files) => write!(f, "file input changed: {}", files.join(", ")),
             Self::OutputMissing => write!(f, "cached artefact missing (deleted or collected)"),
             Self::OutputInvalid(why) => write!(
                 f,

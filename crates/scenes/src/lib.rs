@@ -19,6 +19,8 @@ pub mod flowtable;
 pub mod jumptable;
 pub mod running;
 pub mod scene;
+pub mod surface_ensemble;
+pub mod surface_leakage;
 pub mod tradeoff;
 
 use orchestrator::Registry;
@@ -34,6 +36,8 @@ pub const SCENES: &[&dyn scene::Scene] = &[
     &fig5::Fig5,
     &running::Running,
     &fig6::Fig6,
+    &surface_leakage::SurfaceLeakage,
+    &surface_ensemble::SurfaceEnsemble,
 ];
 
 /// Registers every scene as a stage kind.

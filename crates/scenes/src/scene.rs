@@ -260,8 +260,8 @@ impl StageKind for SceneKind {
         if fields == 0 {
             return Some(0);
         }
-        let n = orchestrator::upstream_max(inputs, &["n", "ns"])?;
-        Some(fields * kinds::surface::field_bytes(n))
+        // the finest grid upstream, or a topography file's size (a lower bound)
+        kinds::topography::upstream_field_bytes(inputs).map(|b| fields * b)
     }
     fn side_outputs(&self, params: &Params) -> Vec<String> {
         self.0

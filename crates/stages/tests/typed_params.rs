@@ -163,7 +163,7 @@ fn tol_gap_is_declared_once() {
     }
     assert_eq!(
         users,
-        ["critical", "extremes", "flowmap", "ladder", "sweep"],
+        ["critical", "extremes", "flowmap", "ladder", "leakage", "sweep"],
         "kinds with tol_gap"
     );
 }
