@@ -83,7 +83,7 @@ fn main() {
         let c = s.at_l_c.constriction.as_ref();
         let eta_h = c.and_then(|c| c.height).map_or(f64::NAN, |h| h.eta);
         let eta_g = c.and_then(|c| c.gap_curvature).map_or(f64::NAN, |g| g.eta);
-        let drop = s.at_l_c.drop.map_or(f64::NAN, |d| d.fraction);
+        let drop = s.at_l_c.drop.unwrap_or(f64::NAN);
         let (beta, beta_err, pts) = s
             .beta_fit
             .map_or((f64::NAN, f64::NAN, 0), |f| (f.value, f.error, f.points));
@@ -104,7 +104,7 @@ fn main() {
                     j(c.map_or(f64::NAN, |c| c.gap)),
                     c.map_or("null".into(), |c| format!("[{}, {}]", c.node.0, c.node.1)),
                     c.map_or(0, |c| c.width_nodes),
-                    j(r.drop.map_or(f64::NAN, |d| d.fraction)),
+                    j(r.drop.unwrap_or(f64::NAN)),
                     r.resolved
                 )
             })

@@ -24,6 +24,17 @@
 //! `width_nodes`: the number of contiguous open nodes through the bottleneck along x and along y,
 //! the smaller of the two — how many nodes resolve the throat.
 //!
+//! # Pressure drop
+//! The fraction of the mean pressure drop per period (ΔP = 1) taken at the constriction: the
+//! spread max − min of the pressure over the flowing nodes of the (2w+1)² square around the
+//! bottleneck (w = `window_half_length`, pressure continued across the cell boundary along the
+//! flow). It does not depend on the throat's orientation, which on a random surface is any; a
+//! uniform channel along the flow gives 2w/n, a closing throat drives it to 1 (the ponds on
+//! either side are at uniform pressure). It overestimates the throat's share if another
+//! channel with a different pressure passes through the square. The directional measure of
+//! [`reynolds::pressure_drop_fraction`] (faces across the flow axis) is reported beside it; it is
+//! negative where the throat's channel runs against the flow axis.
+//!
 //! # Ladder
 //! Distances d = (L_c − L)/L_c > 0 (the reduced load is l = −d), by default the 1-2-5 sequence
 //! 5e-2, 2e-2, 1e-2, … down to 1e-4 ([`ladder_125`]); solved in ascending load (largest d
@@ -54,7 +65,7 @@ use analysis::{RunningSlope, ScalingPoint, local_slopes};
 use contact::{Method, Model, Solution, SolverOptions};
 use ndarray::{Array2, ArrayView2};
 use percolation::{Axis, last_constriction};
-use reynolds::{FlowAxis, FlowOptions, PressureDrop, Window, solve_with_pressure_drop};
+use reynolds::{FlowAxis, FlowOptions, PressureDrop, Window, pressure_drop_fraction};
 use std::time::Instant;
 use surface::{Channel, HeightField, Stencil, saddle_curvature};
 
@@ -99,7 +110,8 @@ pub struct ConstrictionOptions {
     /// Nodes in that square whose contact state must differ from L_c's for the rung to count
     /// as resolved (module docs, "affine regime"). Default 1; 0 switches the check off.
     pub min_contact_changes: usize,
-    /// Pressure-drop window: nodes on each side of the bottleneck along the flow. Default 2.
+    /// Pressure-drop window: half-size of the square around the bottleneck, and nodes on each
+    /// side of it along the flow for the directional measure. Default 2.
     pub window_half_length: usize,
     /// Pressure-drop window: nodes on each side across the flow. Default 4.
     pub window_half_width: usize,
@@ -406,8 +418,10 @@ pub struct ConstrictionRung {
     pub percolating: bool,
     /// The last constriction (None if the fluid does not wind).
     pub constriction: Option<ConstrictionInfo>,
-    /// Pressure-drop fraction across the window around the bottleneck.
-    pub drop: Option<PressureDrop>,
+    /// Pressure-drop fraction at the bottleneck ([`ThroatFlow::drop`]).
+    pub drop: Option<f64>,
+    /// The directional measure ([`ThroatFlow::drop_axial`]).
+    pub drop_axial: Option<PressureDrop>,
     /// Resolved (module docs): used in the exponents.
     pub resolved: bool,
     /// Nodes within `affine_radius` of the constriction at L_c whose contact state differs
@@ -476,6 +490,107 @@ fn flow_axis(axis: Axis) -> FlowAxis {
     }
 }
 
+/// The flow along `axis` through a gap field and the pressure drop at `node`.
+#[derive(Clone, Debug)]
+pub struct ThroatFlow {
+    /// Flux for a unit pressure drop per period (0 if not percolating).
+    pub flux: f64,
+    /// The flow solver's a-posteriori relative error estimate of the flux.
+    pub flux_error: f64,
+    /// The flow solve converged.
+    pub flow_converged: bool,
+    /// The fluid winds along `axis`.
+    pub percolating: bool,
+    /// Fraction of the pressure drop per period across the square around `node` (module docs,
+    /// "Pressure drop"); None without flowing nodes there.
+    pub drop: Option<f64>,
+    /// The directional measure of [`reynolds::pressure_drop_fraction`] (upstream face minus
+    /// downstream face along the flow axis; negative where the throat's channel runs against
+    /// the axis); None if the window does not fit or has no flowing face (then `note` says why).
+    pub drop_axial: Option<PressureDrop>,
+    /// Why a measure is missing.
+    pub note: Option<String>,
+}
+
+/// max − min of the pressure (continued across the cell boundary along the flow, unit drop per
+/// period) over the flowing nodes of the (2r+1)² square around `node`.
+fn square_drop(
+    pressure: ArrayView2<f64>,
+    axis: Axis,
+    node: (usize, usize),
+    r: usize,
+) -> Option<f64> {
+    let (nx, ny) = pressure.dim();
+    let r = r as isize;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for a in -r..=r {
+        for b in -r..=r {
+            let (ui, uj) = (node.0 as isize + a, node.1 as isize + b);
+            let (i, j) = (ui.rem_euclid(nx as isize), uj.rem_euclid(ny as isize));
+            let p = pressure[[i as usize, j as usize]];
+            if !p.is_finite() {
+                continue;
+            }
+            let wraps = match axis {
+                Axis::X => ui.div_euclid(nx as isize),
+                Axis::Y => uj.div_euclid(ny as isize),
+            };
+            let p = p - wraps as f64;
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    (hi >= lo).then_some(hi - lo)
+}
+
+/// Solves the periodic Reynolds flow on `gap` along `axis` and measures the fraction of the
+/// pressure drop at `node` (the square of half-size `window_half_length`, and the directional
+/// window of `window_half_length` along and `window_half_width` across the flow).
+pub fn throat_flow(
+    gap: ArrayView2<f64>,
+    lx: f64,
+    ly: f64,
+    axis: Axis,
+    node: (usize, usize),
+    opts: &ConstrictionOptions,
+) -> Result<ThroatFlow, CriticalError> {
+    let fopts = FlowOptions {
+        return_fields: true,
+        ..opts.flow.clone()
+    };
+    let f = reynolds::solve(gap, lx, ly, flow_axis(axis), &fopts).map_err(|e| {
+        CriticalError::Solver {
+            load: f64::NAN,
+            detail: format!("Reynolds flow: {e}"),
+        }
+    })?;
+    let (drop, drop_axial, note) = match f.fields.as_ref() {
+        Some(fields) if f.percolating => {
+            let window = Window {
+                centre: node,
+                half_length: opts.window_half_length,
+                half_width: opts.window_half_width,
+            };
+            let p = fields.pressure.view();
+            let sq = square_drop(p, axis, node, opts.window_half_length);
+            match pressure_drop_fraction(p, flow_axis(axis), &window) {
+                Ok(d) => (sq, Some(d), None),
+                Err(e) => (sq, None, Some(format!("axial pressure drop: {e}"))),
+            }
+        }
+        _ => (None, None, Some("no flow: no pressure drop".to_string())),
+    };
+    Ok(ThroatFlow {
+        flux: f.flux,
+        flux_error: f.flux_error_estimate,
+        flow_converged: f.converged,
+        percolating: f.percolating,
+        drop,
+        drop_axial,
+        note,
+    })
+}
+
 /// Measures one solved state: flux, constriction, pressure drop, resolution.
 fn measure_rung(
     field: &HeightField,
@@ -503,6 +618,7 @@ fn measure_rung(
         percolating: false,
         constriction: None,
         drop: None,
+        drop_axial: None,
         resolved: false,
         contact_changes: 0,
         note: None,
@@ -512,40 +628,20 @@ fn measure_rung(
         rung.note = Some("the fluid does not wind along the flow axis".into());
         return Ok(rung);
     };
-    let window = Window {
-        centre: c.node,
-        half_length: opts.window_half_length,
-        half_width: opts.window_half_width,
-    };
-    match solve_with_pressure_drop(sol.gap.view(), lx, ly, flow_axis(axis), &opts.flow, &window) {
-        Ok((f, drop)) => {
-            rung.flux = f.flux;
-            rung.flux_error = f.flux_error_estimate;
-            rung.flow_converged = f.converged;
-            rung.percolating = f.percolating;
-            rung.drop = Some(drop);
-        }
-        Err(reynolds::PressureDropError::Flow(e)) => {
-            return Err(CriticalError::Solver {
-                load: sol.mean_pressure,
-                detail: format!("Reynolds flow: {e}"),
-            });
-        }
-        Err(e) => {
-            // the window does not fit or has no flowing face: the flux without the drop
-            let f = reynolds::solve(sol.gap.view(), lx, ly, flow_axis(axis), &opts.flow).map_err(
-                |e| CriticalError::Solver {
-                    load: sol.mean_pressure,
-                    detail: format!("Reynolds flow: {e}"),
-                },
-            )?;
-            rung.flux = f.flux;
-            rung.flux_error = f.flux_error_estimate;
-            rung.flow_converged = f.converged;
-            rung.percolating = f.percolating;
-            rung.note = Some(format!("pressure drop: {e}"));
-        }
-    }
+    let t = throat_flow(sol.gap.view(), lx, ly, axis, c.node, opts).map_err(|e| match e {
+        CriticalError::Solver { detail, .. } => CriticalError::Solver {
+            load: sol.mean_pressure,
+            detail,
+        },
+        e => e,
+    })?;
+    rung.flux = t.flux;
+    rung.flux_error = t.flux_error;
+    rung.flow_converged = t.flow_converged;
+    rung.percolating = t.percolating;
+    rung.drop = t.drop;
+    rung.drop_axial = t.drop_axial;
+    rung.note = t.note;
     let reason = if !rung.converged {
         Some("contact solve not converged".to_string())
     } else if !(rung.percolating && rung.flow_converged && rung.flux > 0.0) {
