@@ -46,7 +46,9 @@
 //! hard-wall gap there is affine in the load, so the throat's gap closes linearly (g ∝ d) and the
 //! flux of a one-node throat goes as g³ ∝ d³ — exponents of the grid, not of the saddle. A rung
 //! counts only if at least `min_contact_changes` nodes within `affine_radius` of the
-//! constriction at L_c have another contact state than just below L_c. Only resolved rungs enter the
+//! constriction at L_c have another contact state than just below L_c. With
+//! `same_constriction_only` (default) a rung also needs its constriction to be the one at L_c
+//! (within 2 nodes): far from L_c another bottleneck can be the narrowest. Only resolved rungs enter the
 //! running exponents and the fits; the others are reported with the reason.
 //!
 //! # Errors of the exponents
@@ -61,7 +63,8 @@
 use crate::leakage::{Boundary, PercolationOptions, percolation_load};
 use crate::scaling::{ExponentFit, fit_exponent};
 use crate::{CriticalError, FlowState};
-use analysis::{RunningSlope, ScalingPoint, local_slopes};
+pub use analysis::RunningSlope;
+use analysis::{ScalingPoint, local_slopes};
 use contact::{Method, Model, Solution, SolverOptions};
 use ndarray::{Array2, ArrayView2};
 use percolation::{Axis, last_constriction};
@@ -121,6 +124,9 @@ pub struct ConstrictionOptions {
     pub flow: FlowOptions,
     /// Keep the gap just below L_c (for maps). Default false.
     pub keep_gap: bool,
+    /// Only rungs whose constriction is the one at L_c (within 2 nodes) count as resolved: the
+    /// claim is about the single critical constriction. Default true.
+    pub same_constriction_only: bool,
 }
 
 impl Default for ConstrictionOptions {
@@ -138,6 +144,7 @@ impl Default for ConstrictionOptions {
             fit_window: (0.0, 1.0),
             flow: FlowOptions::default(),
             keep_gap: false,
+            same_constriction_only: true,
         }
     }
 }
@@ -427,6 +434,8 @@ pub struct ConstrictionRung {
     /// Nodes within `affine_radius` of the constriction at L_c whose contact state differs
     /// from the state just below L_c (0 for that state itself).
     pub contact_changes: usize,
+    /// The constriction is the one at L_c (within 2 nodes, periodic); true for that state.
+    pub same_constriction: bool,
     /// Why not resolved, or what else went wrong.
     pub note: Option<String>,
     /// Polonsky–Keer iterations of this solve.
@@ -621,6 +630,7 @@ fn measure_rung(
         drop_axial: None,
         resolved: false,
         contact_changes: 0,
+        same_constriction: true,
         note: None,
         iterations,
     };
@@ -642,10 +652,24 @@ fn measure_rung(
     rung.drop = t.drop;
     rung.drop_axial = t.drop_axial;
     rung.note = t.note;
+    if let Some((g_ref, node)) = reference {
+        let (nx, ny) = g_ref.dim();
+        let dist = |a: usize, b: usize, n: usize| {
+            let d = a.abs_diff(b);
+            d.min(n - d)
+        };
+        rung.same_constriction = dist(c.node.0, node.0, nx) <= 2 && dist(c.node.1, node.1, ny) <= 2;
+    }
     let reason = if !rung.converged {
         Some("contact solve not converged".to_string())
     } else if !(rung.percolating && rung.flow_converged && rung.flux > 0.0) {
         Some("flux not certified (not percolating or flow not converged)".to_string())
+    } else if opts.same_constriction_only && !rung.same_constriction {
+        Some(format!(
+            "another constriction (node {:?}) than at L_c: the critical one does not yet \
+             dominate",
+            c.node
+        ))
     } else if let Some(k) = changes
         && k < opts.min_contact_changes
     {
