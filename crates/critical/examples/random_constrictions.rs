@@ -6,9 +6,9 @@
 //!
 //! ```sh
 //! cargo run --release -p critical --example random_constrictions -- N SEED_FIRST SEED_LAST \
-//!     [D_MIN [MIN_WIDTH]]
+//!     [D_MIN [MIN_WIDTH [Q_S]]]
 //! ```
-//! H = 0.8, q_r = 2, q_s = 64 (units of 2π/L), rms slope 1, exact amplitudes, periodic; L_c to
+//! H = 0.8, q_r = 2, q_s = Q_S (default 64; units of 2π/L), rms slope 1, exact amplitudes, periodic; L_c to
 //! 1e-9 relative; ladder 5e-2 … D_MIN (1-2-5, default 1e-4); rungs with a throat narrower than
 //! MIN_WIDTH nodes (default 2) are not used.
 
@@ -53,6 +53,7 @@ fn main() {
     let last: u64 = num(2, "8").parse().expect("SEED_LAST");
     let d_min: f64 = num(3, "1e-4").parse().expect("D_MIN");
     let min_width: usize = num(4, "2").parse().expect("MIN_WIDTH");
+    let q_s: f64 = num(5, "64").parse().expect("Q_S");
     let opts = ConstrictionOptions {
         ladder: ladder_125(5e-2, d_min),
         min_width,
@@ -66,7 +67,7 @@ fn main() {
             length: 1.0,
             hurst: 0.8,
             q_r: 2.0,
-            q_s: 64.0,
+            q_s,
             normalisation: Normalisation::RmsSlope(1.0),
             amplitudes: Amplitudes::Exact,
             seed,
@@ -110,7 +111,7 @@ fn main() {
             })
             .collect();
         println!(
-            "{{\"n\": {n}, \"seed\": {seed}, \"l_c\": {}, \"l_c_over_p_fc\": {}, \"a_p_raw\": {}, \
+            "{{\"n\": {n}, \"q_s\": {q_s}, \"seed\": {seed}, \"l_c\": {}, \"l_c_over_p_fc\": {}, \"a_p_raw\": {}, \
              \"axis\": \"{:?}\", \"node\": {}, \"constriction_gap\": {}, \"eta_height\": {}, \"eta_gap\": {}, \
              \"drop_at_l_c\": {}, \"beta\": {}, \"beta_err\": {}, \"beta_points\": {pts}, \
              \"gap_exponent\": {}, \"running_beta\": [{}], \"rungs\": [{}], \"wall_s\": {}}}",
