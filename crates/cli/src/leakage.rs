@@ -1,7 +1,8 @@
 //! `saddleflow leakage`: leakage against load on a height file — a warm-started hard-wall load
 //! path with, at every load, the contact area, the mean gap, the flux and conductivity along x
 //! and y and the percolation of contact and fluid (`critical::leakage::leakage_path`). Prints
-//! one JSON object; `--csv FILE` writes one row per load.
+//! one JSON object; `--csv FILE` writes one row per load. The loads are a list (`--loads`) or a
+//! generated ladder (`--load-path START:STOP:COUNT[:log|lin]`).
 
 use crate::guard::{self, Output};
 use crate::surface_cmd::{self, ReadArgs};
@@ -19,8 +20,17 @@ pub struct Args {
     #[command(flatten)]
     read: ReadArgs,
     /// Mean pressures, comma-separated (E* h0/λ; with --relative, fractions of p_fc).
-    #[arg(long, allow_hyphen_values = true)]
-    loads: String,
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        required_unless_present = "load_path",
+        conflicts_with = "load_path"
+    )]
+    loads: Option<String>,
+    /// A generated ladder of loads instead of --loads: START:STOP:COUNT[:log|lin], COUNT loads
+    /// from START to STOP inclusive, log-spaced (default) or linear (same units as --loads).
+    #[arg(long, value_name = "START:STOP:COUNT[:log|lin]")]
+    load_path: Option<String>,
     /// Read --loads as fractions of the full-contact pressure p_fc = −min(K h) (periodic kernel).
     #[arg(long)]
     relative: bool,
@@ -92,6 +102,63 @@ fn parse_loads(s: &str) -> Result<Vec<f64>> {
     Ok(loads)
 }
 
+/// Parses `--load-path START:STOP:COUNT[:log|lin]`: COUNT ≥ 2 loads from START to STOP
+/// (0 < START < STOP), both included, geometric (`log`, the default) or arithmetic (`lin`);
+/// COUNT = 1 gives START alone (then STOP must equal START).
+pub fn parse_load_path(s: &str) -> Result<Vec<f64>> {
+    let parts: Vec<&str> = s.split(':').map(str::trim).collect();
+    if !(3..=4).contains(&parts.len()) {
+        bail!("--load-path {s:?}: allowed START:STOP:COUNT or START:STOP:COUNT:log|lin");
+    }
+    let num = |what: &str, v: &str| -> Result<f64> {
+        let x: f64 = v
+            .parse()
+            .with_context(|| format!("--load-path {s:?}: {what} {v:?} is not a number"))?;
+        if !(x.is_finite() && x > 0.0) {
+            bail!("--load-path {s:?}: {what} {x:?}: allowed a finite load > 0");
+        }
+        Ok(x)
+    };
+    let (start, stop) = (num("START", parts[0])?, num("STOP", parts[1])?);
+    let count: usize = parts[2]
+        .parse()
+        .ok()
+        .filter(|c| (1..=10_000).contains(c))
+        .with_context(|| {
+            format!(
+                "--load-path {s:?}: COUNT {:?}: allowed an integer in 1..=10000",
+                parts[2]
+            )
+        })?;
+    let log = match parts.get(3).copied().unwrap_or("log") {
+        "log" => true,
+        "lin" | "linear" => false,
+        other => bail!("--load-path {s:?}: spacing {other:?}: allowed log, lin"),
+    };
+    if count == 1 {
+        if start != stop {
+            bail!("--load-path {s:?}: COUNT 1 needs START = STOP");
+        }
+        return Ok(vec![start]);
+    }
+    if stop <= start {
+        bail!("--load-path {s:?}: STOP {stop:?} must exceed START {start:?}");
+    }
+    let m = (count - 1) as f64;
+    Ok((0..count)
+        .map(|k| {
+            let t = k as f64 / m;
+            if k + 1 == count {
+                stop
+            } else if log {
+                start * (stop / start).powf(t)
+            } else {
+                start + (stop - start) * t
+            }
+        })
+        .collect())
+}
+
 fn point_json(p: &LeakagePoint, p_fc: f64) -> Value {
     json!({
         "load": p.load,
@@ -161,7 +228,11 @@ pub fn run(a: Args) -> Result<()> {
     if !(a.flow_tol.is_finite() && a.flow_tol > 0.0 && a.flow_tol < 1.0) {
         bail!("--flow-tol {:?}: allowed a number in (0, 1)", a.flow_tol);
     }
-    let loads = parse_loads(&a.loads)?;
+    let loads = match (&a.loads, &a.load_path) {
+        (Some(l), None) => parse_loads(l)?,
+        (None, Some(p)) => parse_load_path(p)?,
+        _ => bail!("give exactly one of --loads and --load-path"),
+    };
     // the output rule before any work; the file is written atomically at the end
     if let Some(p) = a.csv.as_deref() {
         Output::check("--csv", p, &[("--surface", &a.surface)])?;
@@ -232,4 +303,23 @@ pub fn run(a: Args) -> Result<()> {
     }
     println!("{}", serde_json::to_string(&out)?);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_load_path;
+
+    #[test]
+    fn load_paths_are_generated_and_checked() {
+        // oracle: 0.01, 0.1, 1 (log); 0, .. linear 1, 2, 3
+        let v = parse_load_path("0.01:1:3").unwrap();
+        assert_eq!(v.len(), 3);
+        assert!((v[1] - 0.1).abs() < 1e-15 && v[0] == 0.01 && v[2] == 1.0);
+        assert_eq!(parse_load_path("1:3:3:lin").unwrap(), vec![1.0, 2.0, 3.0]);
+        assert_eq!(parse_load_path("0.2:0.2:1").unwrap(), vec![0.2]);
+        for bad in ["1:0.5:3", "0:1:3", "1:2", "1:2:0", "1:2:3:cubic", "a:2:3"] {
+            let e = parse_load_path(bad).unwrap_err().to_string();
+            assert!(e.contains("--load-path"), "{bad}: {e}");
+        }
+    }
 }

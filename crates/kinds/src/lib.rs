@@ -12,6 +12,9 @@
 //! | `ladder` | hard-wall solves at reduced loads l around L_c (±0.002 … ±0.02 and 0), warm-started, coarse to fine: a window of gap and pressure around one saddle and the flux per rung | `critical` | `level/<n>/*` |
 //! | `exponents` | ζ, υ, χ, β per model from the ladders (fit and grid-spread errors), the identity β = 3ζ + υ − χ | `ladder` (one per model) | `model/<lattice>/*` |
 //! | `extremes` | the solvers at extreme loads and grids, with wall time and peak memory | – | table side output |
+//! | `selfaffine` | a self-affine random surface (H, q_r, q_s, rms height or slope, seed) on a periodic 2^n grid, statistics, binned PSD | – | `height`, `lx`, `ly`, `psd/*` |
+//! | `topography` | a user's height file (.npy, .h5, text; its content in the key), statistics, binned PSD | – | `height`, `lx`, `ly`, `psd/*` |
+//! | `leakage` | warm-started load path on any height field: area, gap, flux x/y, percolation per load; the fluid percolation load (bisection) and a_p; optional gap/pressure map | `surface` (`surface`, `selfaffine`, `topography`) | `points/*`, `percolation/*`, `map/*` |
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 //!
 //! Each kind lives in the module of its name and implements [`orchestrator::TypedKind`] (its
@@ -27,11 +30,14 @@ pub mod flow;
 pub mod flowmap;
 pub mod headline;
 pub mod ladder;
+pub mod leakage;
 pub mod mock;
 pub mod resolution;
+pub mod selfaffine;
 pub mod solver;
 pub mod surface;
 pub mod sweep;
+pub mod topography;
 
 use orchestrator::{Registry, Typed};
 
@@ -47,4 +53,7 @@ pub fn register(r: &mut Registry) {
     r.register(Typed(exponents::ExponentsKind));
     r.register(Typed(extremes::ExtremesKind));
     r.register(Typed(mock::MockKind));
+    r.register(Typed(selfaffine::SelfAffineKind));
+    r.register(Typed(topography::TopographyKind));
+    r.register(Typed(leakage::LeakageKind));
 }

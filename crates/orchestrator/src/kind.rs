@@ -305,6 +305,13 @@ pub trait StageKind: Send + Sync {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<StageReport>;
+    /// Files (paths as given in the parameters; a relative path is relative to the project
+    /// root, the folder above the pipeline file's folder) whose CONTENT enters the stage key,
+    /// e.g. a user's height file: editing the file reruns the stage and what depends on it.
+    /// Default: none (the key is then exactly as without this hook).
+    fn file_inputs(&self, _params: &Params) -> Vec<String> {
+        Vec::new()
+    }
     /// For kinds with typed parameters (see [`TypedKind`]): whether `params` (validated,
     /// defaults filled) deserialise into the kind's parameter struct. `None`: the kind reads its
     /// parameters untyped. Tests use it to hold the [`ParamSpec`] list and the struct together.
@@ -378,6 +385,10 @@ pub trait TypedKind: Send + Sync {
     fn cost(&self, _params: &Self::Params) -> f64 {
         1.0
     }
+    /// See [`StageKind::file_inputs`].
+    fn file_inputs(&self, _params: &Self::Params) -> Vec<String> {
+        Vec::new()
+    }
     /// See [`StageKind::run`].
     fn run(
         &self,
@@ -447,6 +458,11 @@ impl<K: TypedKind> StageKind for Typed<K> {
     }
     fn cost(&self, params: &Params) -> f64 {
         self.parse(params).map_or(1.0, |p| self.0.cost(&p))
+    }
+    fn file_inputs(&self, params: &Params) -> Vec<String> {
+        self.parse(params)
+            .map(|p| self.0.file_inputs(&p))
+            .unwrap_or_default()
     }
     fn run(
         &self,

@@ -92,6 +92,47 @@ pub fn stage_key(
     }))?)
 }
 
+/// [`stage_key`] of a stage whose kind names file inputs ([`StageKind::file_inputs`]): the
+/// document also holds the BLAKE3 hash of each file's content, in the order named (not the
+/// paths: the path is a parameter already). Without files it is exactly [`stage_key`].
+pub fn stage_key_with_files(
+    kind: &str,
+    code_version: u64,
+    code: &CodeIdentity,
+    params: &Params,
+    input_keys: &BTreeMap<String, Vec<String>>,
+    file_hashes: &[String],
+) -> Result<String> {
+    if file_hashes.is_empty() {
+        return stage_key(kind, code_version, code, params, input_keys);
+    }
+    Ok(store::hash_json(&json!({
+        "scheme": KEY_SCHEME,
+        "kind": kind,
+        "code_version": code_version,
+        "code": code,
+        "params": params.to_value(),
+        "inputs": input_keys,
+        "files": file_hashes,
+    }))?)
+}
+
+/// The content hashes of a stage's file inputs, paths relative to `root`; the error names the
+/// file.
+fn hash_file_inputs(root: &Path, files: &[String]) -> Result<Vec<String>, String> {
+    files
+        .iter()
+        .map(|f| {
+            store::canonical::hash_file(&root.join(f)).map_err(|e| {
+                format!(
+                    "cannot read the file input `{f}` (relative paths are relative to the project root `{}`): {e}",
+                    if root.as_os_str().is_empty() { ".".into() } else { root.display().to_string() }
+                )
+            })
+        })
+        .collect()
+}
+
 /// Replaces `"$setting"` references in `v`. `$$` escapes a literal `$`.
 fn resolve_refs(
     v: &Value,
@@ -402,6 +443,13 @@ impl Plan {
         }
 
         // 5. keys, inputs first
+        // file inputs are relative to the project root: the folder above the pipeline file's
+        let project_root = pipeline
+            .path
+            .parent()
+            .and_then(Path::parent)
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
         let mut stages: Vec<PlannedStage> = Vec::with_capacity(order.len());
         let mut by_name: HashMap<String, usize> = HashMap::new();
         // each stage's parameters with those of everything upstream under `_inputs`, for
@@ -421,13 +469,27 @@ impl Plan {
                 })
                 .collect();
             let code = registry.code_identity(imp.name());
-            let key = stage_key(imp.name(), imp.code_version(), &code, &params, &input_keys)
-                .map_err(|e| {
+            let file_hashes =
+                hash_file_inputs(&project_root, &imp.file_inputs(&params)).map_err(|e| {
                     ConfigErrors(vec![ConfigError::at(
                         &decl.origin,
                         format!("stage `{name}`: {e}"),
                     )])
                 })?;
+            let key = stage_key_with_files(
+                imp.name(),
+                imp.code_version(),
+                &code,
+                &params,
+                &input_keys,
+                &file_hashes,
+            )
+            .map_err(|e| {
+                ConfigErrors(vec![ConfigError::at(
+                    &decl.origin,
+                    format!("stage `{name}`: {e}"),
+                )])
+            })?;
             if let Some(given) = deep_inputs(&edges[name.as_str()], &deep) {
                 let mut d = params.clone();
                 d.0.insert(

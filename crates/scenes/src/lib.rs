@@ -18,6 +18,8 @@ pub mod fig6;
 pub mod jumptable;
 pub mod running;
 pub mod scene;
+pub mod surface_ensemble;
+pub mod surface_leakage;
 pub mod tradeoff;
 
 use orchestrator::Registry;
@@ -33,6 +35,8 @@ pub const SCENES: &[&dyn scene::Scene] = &[
     &fig5::Fig5,
     &running::Running,
     &fig6::Fig6,
+    &surface_leakage::SurfaceLeakage,
+    &surface_ensemble::SurfaceEnsemble,
 ];
 
 /// Registers every scene as a stage kind.

@@ -1,5 +1,6 @@
 //! Shared by the CLI's integration tests: a temporary project holding copies of the real
-//! declarative files (`pipeline/*.toml`, `params/*.toml`, `params/cluster/*.toml`).
+//! declarative files (`pipeline/*.toml`, `params/*.toml`, `params/cluster/*.toml`) and the
+//! example surface in `params/examples/`.
 #![allow(dead_code)]
 
 use serde_json::Value;
@@ -26,6 +27,15 @@ pub fn project() -> tempfile::TempDir {
     let root = project_root();
     for sub in ["pipeline", "params", "params/cluster"] {
         copy_tomls(&root.join(sub), &dir.path().join(sub));
+    }
+    // the example surface (and its params file) that the `leakage` scene reads by default
+    let ex = dir.path().join("params/examples");
+    std::fs::create_dir_all(&ex).unwrap();
+    for e in std::fs::read_dir(root.join("params/examples"))
+        .unwrap()
+        .flatten()
+    {
+        std::fs::copy(e.path(), ex.join(e.file_name())).unwrap();
     }
     dir
 }

@@ -10,5 +10,6 @@ pub mod fig2;
 pub mod fig3;
 pub mod fig5;
 pub mod fig6;
+pub mod leakage;
 pub mod maps;
 pub mod tradeoff;
