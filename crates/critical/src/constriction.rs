@@ -56,7 +56,8 @@
 //! a-posteriori relative error estimate, constriction gap with σ = the contact tolerance
 //! (`tol_gap`). These are the measurement errors only; no grid error is available from one grid
 //! (the CLI and the ensemble say so). The β window fit is a least-squares power law in log–log
-//! ([`crate::scaling::fit_exponent`]), 1σ scaled by the reduced χ², NaN with two points.
+//! ([`crate::scaling::fit_exponent`]), 1σ scaled by the reduced χ²; it needs 3 rungs (with two, the
+//! single running exponent is the only value).
 //!
 //! No I/O.
 
