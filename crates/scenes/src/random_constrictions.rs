@@ -151,7 +151,7 @@ impl Scene for RandomConstrictions {
         let rows: Vec<ConstrictionRead> = inputs
             .all("constriction")
             .iter()
-            .map(|r| ConstrictionRead::read(r))
+            .map(ConstrictionRead::read)
             .collect::<Result<_>>()?;
         anyhow::ensure!(!rows.is_empty(), "no constriction inputs");
         for r in &rows {

@@ -242,7 +242,7 @@ mod tests {
             resolved: vec![true, true, false],
         };
         assert!(
-            !flux_figure(&[c.clone()])
+            !flux_figure(std::slice::from_ref(&c))
                 .unwrap()
                 .render_svg()
                 .unwrap()
