@@ -6,8 +6,11 @@
 //!
 //! ```sh
 //! cargo run --release -p critical --example random_constrictions -- N SEED_FIRST SEED_LAST \
-//!     [D_MIN [MIN_WIDTH [Q_S]]]
+//!     [D_MIN [MIN_WIDTH [Q_S [SUB]]]]
 //! ```
+//! `SUB` > 0: the surface generated on 2^N × 2^N is sampled at every 2^SUB-th node (the same
+//! continuum surface on a coarser grid while q_s stays below the coarse Nyquist wavenumber): a
+//! resolution study of β on the same surfaces.
 //! H = 0.8, q_r = 2, q_s = Q_S (default 64; units of 2π/L), rms slope 1, exact amplitudes, periodic; L_c to
 //! 1e-9 relative; ladder 5e-2 … D_MIN (1-2-5, default 1e-4); rungs with a throat narrower than
 //! MIN_WIDTH nodes (default 2) are not used.
@@ -54,6 +57,7 @@ fn main() {
     let d_min: f64 = num(3, "1e-4").parse().expect("D_MIN");
     let min_width: usize = num(4, "2").parse().expect("MIN_WIDTH");
     let q_s: f64 = num(5, "64").parse().expect("Q_S");
+    let sub: u32 = num(6, "0").parse().expect("SUB");
     let opts = ConstrictionOptions {
         ladder: ladder_125(5e-2, d_min),
         min_width,
@@ -74,6 +78,18 @@ fn main() {
         }
         .generate()
         .expect("surface");
+        let field = if sub == 0 {
+            field
+        } else {
+            let step = 1usize << sub;
+            let nn = (1usize << n) / step;
+            let heights = field
+                .heights
+                .slice(ndarray::s![..;step, ..;step])
+                .to_owned();
+            let grid = surface::Grid::periodic(nn, nn, 1.0, 1.0).expect("grid");
+            surface::HeightField::new(grid, heights).expect("field")
+        };
         let s = match constriction_study(&field, &opts) {
             Ok(s) => s,
             Err(e) => {
@@ -111,7 +127,7 @@ fn main() {
             })
             .collect();
         println!(
-            "{{\"n\": {n}, \"q_s\": {q_s}, \"seed\": {seed}, \"l_c\": {}, \"l_c_over_p_fc\": {}, \"a_p_raw\": {}, \
+            "{{\"n\": {n}, \"sub\": {sub}, \"q_s\": {q_s}, \"seed\": {seed}, \"l_c\": {}, \"l_c_over_p_fc\": {}, \"a_p_raw\": {}, \
              \"axis\": \"{:?}\", \"node\": {}, \"constriction_gap\": {}, \"eta_height\": {}, \"eta_gap\": {}, \
              \"drop_at_l_c\": {}, \"beta\": {}, \"beta_err\": {}, \"beta_points\": {pts}, \
              \"gap_exponent\": {}, \"running_beta\": [{}], \"rungs\": [{}], \"wall_s\": {}}}",

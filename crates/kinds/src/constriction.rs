@@ -457,3 +457,81 @@ impl ConstrictionRead {
         self.summary.get(k).copied().unwrap_or(f64::NAN)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::selfaffine::{SelfAffineKind, SelfAffineParams};
+
+    fn surface(dir: &std::path::Path) -> ArtefactReader {
+        let p: SelfAffineParams = serde_json::from_value(json!({"n": 6, "length": 1.0,
+            "hurst": 0.8, "qr": 2.0, "qs": 8.0, "rms_height": 0.0, "rms_slope": 1.0,
+            "amplitudes": "exact", "seed": 3}))
+        .unwrap();
+        let path = dir.join("s.h5");
+        let mut w = ArtefactWriter::create(&path).unwrap();
+        let mut ctx = StageContext::detached("s", dir);
+        SelfAffineKind
+            .run(&mut ctx, &p, &Inputs::new(Default::default()), &mut w)
+            .unwrap();
+        w.publish().unwrap();
+        ArtefactReader::open(&path).unwrap()
+    }
+
+    fn params(v: serde_json::Value) -> ConstrictionParams {
+        let mut d = json!({"d_max": 5e-2, "d_min": 1e-3, "min_width": 2, "affine_radius": 8,
+            "min_contact_changes": 1, "window": 2, "tol_gap": 1e-10, "rel_width": 1e-9,
+            "flow_tol": 1e-10});
+        for (k, x) in v.as_object().unwrap() {
+            d[k] = x.clone();
+        }
+        serde_json::from_value(d).unwrap()
+    }
+
+    /// The artefact holds what `critical::constriction` computes on the same field, bit for
+    /// bit (the kind only adapts), and the surface's seed.
+    #[test]
+    fn artefact_matches_the_physics_crate() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = surface(dir.path());
+        let field = crate::selfaffine::read_height_field(&s).unwrap();
+        let inputs = Inputs::new(BTreeMap::from([("surface".to_string(), vec![s])]));
+        let p = params(json!({}));
+        let path = dir.path().join("c.h5");
+        let mut w = ArtefactWriter::create(&path).unwrap();
+        let mut ctx = StageContext::detached("c", dir.path());
+        ConstrictionKind.run(&mut ctx, &p, &inputs, &mut w).unwrap();
+        w.publish().unwrap();
+        let r = ConstrictionRead::read(&ArtefactReader::open(&path).unwrap()).unwrap();
+        let direct = constriction_study(&field, &p.options()).unwrap();
+        assert_eq!(r.get("seed"), 3.0);
+        assert_eq!(r.get("l_c"), direct.l_c);
+        assert_eq!(r.get("a_p_raw"), direct.a_p_raw);
+        let flux: Vec<f64> = direct.rungs.iter().map(|q| q.flux).collect();
+        assert_eq!(r.rungs["flux"], flux);
+        assert_eq!(r.rungs["d"], vec![5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3]);
+        let c = direct.at_l_c.constriction.as_ref().unwrap();
+        assert_eq!(r.get("node_i"), c.node.0 as f64);
+        assert_eq!(r.get("drop_fraction"), direct.at_l_c.drop.unwrap());
+        assert_eq!(
+            r.get("n_resolved"),
+            direct.rungs.iter().filter(|q| q.resolved).count() as f64
+        );
+        assert_eq!(r.running_beta.value.len(), direct.running_beta.len());
+        assert_eq!(r.gap.as_ref().unwrap().dim(), (64, 64));
+    }
+
+    #[test]
+    fn empty_ladder_names_the_parameter() {
+        let e = ConstrictionKind
+            .check(&params(json!({"d_max": 1e-3, "d_min": 1e-2})))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("d_min"), "{e}");
+        let e = ConstrictionKind
+            .check(&params(json!({"d_max": 4e-3, "d_min": 3e-3})))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("1-2-5"), "{e}");
+    }
+}
