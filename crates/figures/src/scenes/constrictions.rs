@@ -104,7 +104,7 @@ pub fn flux_figure(curves: &[FluxCurve]) -> Result<Figure> {
     let mut f = Figure::new(w, h);
     let mut p = XyPanel::new(
         Axis::log("$d$ = ($L$_c − $L$)/$L$_c"),
-        Axis::log("flux / flux($d$_max)"),
+        Axis::log("flux / flux($d$_{max})"),
     );
     let colors = [BLUE, RED, BLACK, GREY];
     let (mut dmin, mut dmax) = (f64::INFINITY, 0.0f64);
