@@ -462,7 +462,8 @@ pub struct ConstrictionStudy {
     pub a_p_corrected: f64,
     /// The flow axis.
     pub axis: Axis,
-    /// The state at the bracket's lower end.
+    /// The state at the bracket's lower end (or, if the re-solve there is blocked, the nearest
+    /// rung where the fluid winds; `notes` says so).
     pub at_l_c: ConstrictionRung,
     /// The gap there, if kept.
     pub gap_at_l_c: Option<Array2<f64>>,
@@ -751,20 +752,35 @@ pub fn constriction_study(
     }
     let (sol_lc, it_lc, _) = crate::solve_with_retries(&mut model, &sopts, lo, prev, &[])?;
     iterations += it_lc;
-    let state = FlowState::of_gap(sol_lc.gap.view())?;
+    let mut notes = Vec::new();
+    let state_lc = FlowState::of_gap(sol_lc.gap.view())?;
+    // The reference state "at L_c": just below it, or, if the re-solve there comes out blocked
+    // (the bisection's probe at the same load started from another state, and the last node
+    // closes within the solver's tolerance), the nearest rung where the fluid still winds.
+    let (ref_sol, ref_d, ref_it, state) = if state_lc.fluid_any() {
+        (&sol_lc, (l_c - lo) / l_c, it_lc, state_lc)
+    } else {
+        let nearest = solved.iter().rev().find_map(|(d, s, it)| {
+            let st = FlowState::of_gap(s.gap.view()).ok()?;
+            st.fluid_any().then_some((s, *d, *it, st))
+        });
+        notes.push(format!(
+            "the re-solve at the bracket's lower end {lo} is blocked (its last node closes \
+             within the solver tolerance from this warm start); the reference state is {}",
+            match &nearest {
+                Some((_, d, _, _)) => format!("the rung d = {d:e}"),
+                None => "missing: no rung winds".into(),
+            }
+        ));
+        nearest.unwrap_or((&sol_lc, (l_c - lo) / l_c, it_lc, state_lc))
+    };
     let axis = if state.fluid(Axis::X) || !state.fluid(Axis::Y) {
         Axis::X
     } else {
         Axis::Y
     };
-    let mut notes = Vec::new();
-    if !state.fluid_any() {
-        notes.push(format!(
-            "the fluid does not wind at the bracket's lower end {lo}: a broken bracket"
-        ));
-    }
-    let at_l_c = measure_rung(field, &sol_lc, (l_c - lo) / l_c, axis, opts, it_lc, None)?;
-    let reference = at_l_c.constriction.as_ref().map(|c| (&sol_lc.gap, c.node));
+    let at_l_c = measure_rung(field, ref_sol, ref_d, axis, opts, ref_it, None)?;
+    let reference = at_l_c.constriction.as_ref().map(|c| (&ref_sol.gap, c.node));
     let mut rungs = Vec::with_capacity(solved.len());
     for (d, sol, it) in &solved {
         let r = measure_rung(field, sol, *d, axis, opts, *it, reference)?;
@@ -832,7 +848,7 @@ pub fn constriction_study(
         a_p_corrected,
         axis,
         at_l_c,
-        gap_at_l_c: opts.keep_gap.then(|| sol_lc.gap.clone()),
+        gap_at_l_c: opts.keep_gap.then(|| ref_sol.gap.clone()),
         rungs,
         running_beta,
         running_gap,
