@@ -252,6 +252,17 @@ pub fn summary(s: &ConstrictionStudy, surface: [f64; 4]) -> Vec<f64> {
 
 impl TypedKind for ConstrictionKind {
     type Params = ConstrictionParams;
+    /// Lower bound: heights, displacement, pressure and gap of the contact solve, the gap kept
+    /// at L_c and the Reynolds pressure on the surface's grid (`n` of a `selfaffine` input; a
+    /// topography's size is not in its parameters: unknown).
+    fn memory_estimate(
+        &self,
+        _params: &orchestrator::Params,
+        inputs: &BTreeMap<String, Vec<orchestrator::Params>>,
+    ) -> Option<u64> {
+        let n = orchestrator::upstream_max(inputs, &["n"])?;
+        Some(6 * crate::surface::field_bytes(n))
+    }
     fn name(&self) -> &str {
         "constriction"
     }
