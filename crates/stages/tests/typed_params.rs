@@ -152,7 +152,14 @@ fn tol_gap_is_declared_once() {
     }
     assert_eq!(
         users,
-        ["constriction", "critical", "extremes", "flowmap", "ladder", "leakage"],
+        [
+            "constriction",
+            "critical",
+            "extremes",
+            "flowmap",
+            "ladder",
+            "leakage"
+        ],
         "kinds with tol_gap"
     );
 }
