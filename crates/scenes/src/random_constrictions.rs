@@ -7,7 +7,7 @@
 //!
 //! Outputs:
 //! - `random_constrictions.csv`, one row per realisation: the columns of
-//!   [`kinds::constriction::SUMMARY`] (seed, L_c, a_p, the constriction's node, gap, η of
+//!   [`kinds::constriction::SUMMARY`] but `wall_s` (seed, L_c, a_p, the constriction's node, gap, η of
 //!   heights and gap, pressure-drop fraction just below L_c, β window fit with 1σ and points,
 //!   the constriction-gap exponent, rungs used) and `running_beta` (the local slopes between
 //!   neighbouring used rungs, farthest first, `;`-separated);
@@ -71,7 +71,9 @@ pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
 /// The per-realisation table.
 pub fn table(rows: &[ConstrictionRead]) -> Table {
     let mut t = Table::new();
-    for k in SUMMARY {
+    // every summary value but the wall time (no recomputation reproduces it; the artefact
+    // keeps it)
+    for k in SUMMARY.iter().filter(|k| **k != "wall_s") {
         t = t.with_f64(k, rows.iter().map(|r| r.get(k)));
     }
     t.with_str(
