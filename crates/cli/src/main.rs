@@ -5,6 +5,7 @@
 use clap::{Parser, Subcommand};
 
 mod cluster;
+mod constriction;
 mod critical;
 mod flow;
 mod guard;
@@ -39,6 +40,8 @@ enum Command {
     Surface(surface_cmd::Command),
     /// Leakage against load on a height file: contact, gap, flux along x and y, percolation.
     Leakage(leakage::Args),
+    /// The last constriction of a height file near its fluid percolation load, and β.
+    Constriction(constriction::Args),
     /// Error against cost of every headline number across fidelity presets (reads the cache):
     /// figure, tables and the README's trade table.
     Tradeoff(tradeoff::Args),
@@ -55,6 +58,7 @@ fn main() -> std::process::ExitCode {
         Command::Critical(args) => critical::run(args),
         Command::Surface(cmd) => surface_cmd::run(cmd),
         Command::Leakage(args) => leakage::run(args),
+        Command::Constriction(args) => constriction::run(args),
         Command::Tradeoff(args) => tradeoff::run(args),
         Command::Pipeline(cmd) => pipeline::run(cmd),
     };

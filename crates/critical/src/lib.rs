@@ -47,6 +47,7 @@
 //! several grid exponents n, coarse to fine with warm starts, and extrapolates to zero spacing.
 
 pub mod bracket;
+pub mod constriction;
 pub mod ladder;
 pub mod leakage;
 pub mod running;

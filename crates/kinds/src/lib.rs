@@ -15,6 +15,7 @@
 //! | `selfaffine` | a self-affine random surface (H, q_r, q_s, rms height or slope, seed) on a periodic 2^n grid, statistics, binned PSD | – | `height`, `lx`, `ly`, `psd/*` |
 //! | `topography` | a user's height file (.npy, .h5, text; its content in the key), statistics, binned PSD | – | `height`, `lx`, `ly`, `psd/*` |
 //! | `leakage` | warm-started load path on any height field: area, gap, flux x/y, percolation per load; the fluid percolation load (bisection) and a_p; optional gap/pressure map | `surface` (`surface`, `selfaffine`, `topography`) | `points/*`, `percolation/*`, `map/*` |
+//! | `constriction` | the last constriction of a surface near its fluid percolation load: L_c, a 1-2-5 ladder below it, flux, constriction gap, η, pressure-drop fraction per rung, running β and the β fit | `surface` (any height field) | summary attributes, `rungs/*`, `running/*`, `map/gap` |
 //! | `mock` | engine tests: sums its inputs' values, may sleep or fail | `inputs` (any, optional) | `value` |
 //!
 //! Each kind lives in the module of its name and implements [`orchestrator::TypedKind`] (its
@@ -24,6 +25,7 @@
 //! readers of a kind's artefact live in its module too (the scenes read through them).
 //! [`headline`] is the shared record of headline numbers that kinds publish.
 
+pub mod constriction;
 pub mod critical;
 pub mod exponents;
 pub mod extremes;
@@ -53,6 +55,7 @@ pub fn register(r: &mut Registry) {
     r.register(Typed(flow::FlowKind));
     r.register(Typed(flowmap::FlowMapKind));
     r.register(Typed(critical::CriticalKind));
+    r.register(Typed(constriction::ConstrictionKind));
     r.register(Typed(resolution::ResolutionKind));
     r.register(Typed(ladder::LadderKind));
     r.register(Typed(exponents::ExponentsKind));

@@ -17,6 +17,7 @@ pub mod fig5;
 pub mod fig6;
 pub mod flowtable;
 pub mod jumptable;
+pub mod random_constrictions;
 pub mod running;
 pub mod scene;
 pub mod surface_ensemble;
@@ -38,6 +39,7 @@ pub const SCENES: &[&dyn scene::Scene] = &[
     &fig6::Fig6,
     &surface_leakage::SurfaceLeakage,
     &surface_ensemble::SurfaceEnsemble,
+    &random_constrictions::RandomConstrictions,
 ];
 
 /// Registers every scene as a stage kind.

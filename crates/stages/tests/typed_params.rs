@@ -163,7 +163,15 @@ fn tol_gap_is_declared_once() {
     }
     assert_eq!(
         users,
-        ["critical", "extremes", "flowmap", "ladder", "leakage", "sweep"],
+        [
+            "constriction",
+            "critical",
+            "extremes",
+            "flowmap",
+            "ladder",
+            "leakage",
+            "sweep"
+        ],
         "kinds with tol_gap"
     );
 }

@@ -4,6 +4,7 @@
 //! Units follow PHYSICS.md: E* = 1, λ = 1, h0 = 1; pressures in E* h0/λ, surface energies in
 //! E* h0²/λ, lengths along the surface in λ, gaps and displacements in h0.
 
+pub mod constrictions;
 pub mod convergence;
 pub mod fig2;
 pub mod fig3;
