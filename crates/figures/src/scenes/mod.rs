@@ -10,4 +10,5 @@ pub mod fig3;
 pub mod fig5;
 pub mod fig6;
 pub mod maps;
+pub mod running;
 pub mod tradeoff;
