@@ -118,7 +118,7 @@ pub fn figure_data(rows: &[RunningRecord]) -> RunningData {
                 })
                 .collect();
             RunningPanel {
-                label: format!("local slope ${}$_eff", symbol(e.name())),
+                label: format!("local slope ${}$_{{eff}}", symbol(e.name())),
                 paper: PAPER[k],
                 conjecture: Some((CONJECTURED[k].0, CONJECTURED[k].1.to_string())),
                 curves,

@@ -264,7 +264,9 @@ mod tests {
         // g = 0.3|l|^1.2 (1 + 0.8|l|^0.5) on the ladder; the coarse grid drifts by 3 %
         // per rung below 1e-3, so its grid errors (≥ ln 1.03 / ln 2.5 = 0.032) flag those pairs:
         // the estimate uses 5e-2 … 1e-3 only. Exact data: the direct fit recovers ζ to its
-        // convergence tolerance (1e-8, analysis::corrections); the variants agree to ~1e-6.
+        // convergence tolerance (1e-8, analysis::corrections); the running form is exact to
+        // first order in B only, and with B|l|^ω up to 0.18 its remainder moves x by ~3e-3: the
+        // form spread, which the error must include (bound 5e-3).
         let ls = [
             5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
         ];
@@ -283,7 +285,8 @@ mod tests {
         let a = estimate(&[level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)]).unwrap();
         assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
         assert_eq!(a.l_min, 1e-3);
-        assert!(a.error < 1e-4, "{a:?}");
+        assert!(a.error < 5e-3 && a.form_spread > 1e-4, "{a:?}");
+        assert!(a.stat_error < 1e-8 && a.range_spread < 1e-6, "{a:?}");
         // a single grid: every pair is unknown-flagged, nothing grid-converged to fit
         assert!(estimate(&[level(1.0 / 2048.0, 0.0)]).is_err());
     }
@@ -295,7 +298,7 @@ mod tests {
             &Asymptotic::of(0.45, 0.01),
             &Asymptotic::of(0.6, 0.01),
         );
-        assert!((b.value - 3.45).abs() < 1e-12 && (b.error - 0.011f64.sqrt() * 0.1).abs() < 1e-12);
+        assert!((b.value - 3.45).abs() < 1e-12 && (b.error - 11f64.sqrt() * 0.01).abs() < 1e-12);
         assert!(identity(&Asymptotic::NONE, &b, &b).value.is_nan());
         let mut a = Asymptotic::NONE;
         for (k, (_, get, set)) in Asymptotic::FIELDS.iter().enumerate() {
