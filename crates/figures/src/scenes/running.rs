@@ -59,10 +59,26 @@ pub struct RunningData {
 }
 
 fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
-    let mut p = XyPanel::new(
-        Axis::log("|$l$|").range(x_range.0, x_range.1),
-        Axis::linear(&d.label),
-    );
+    // y range: every value, the paper's band and the conjecture, 8 % margin; error bars may
+    // leave it (flagged pairs can carry huge ones that would squash the rest)
+    let mut ys: Vec<f64> = d
+        .curves
+        .iter()
+        .flat_map(|c| c.points.iter().map(|p| p.value))
+        .collect();
+    ys.extend([d.paper.0 - d.paper.1, d.paper.0 + d.paper.1, d.paper.0]);
+    ys.extend(d.conjecture.as_ref().map(|c| c.0));
+    ys.retain(|y| y.is_finite());
+    let (y_lo, y_hi) = ys.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &y| {
+        (a.0.min(y), a.1.max(y))
+    });
+    let pad = 0.08 * (y_hi - y_lo).max(0.02);
+    let y_axis = if ys.is_empty() {
+        Axis::linear(&d.label)
+    } else {
+        Axis::linear(&d.label).range(y_lo - pad, y_hi + pad)
+    };
+    let mut p = XyPanel::new(Axis::log("|$l$|").range(x_range.0, x_range.1), y_axis);
     let (pv, pe) = d.paper;
     if pv.is_finite() {
         let x = vec![x_range.0, x_range.1];
@@ -154,7 +170,7 @@ pub fn figure(d: &RunningData) -> Result<Figure> {
         let mut p = panel(d, x_range);
         p.tag = Some(format!("({})", (b'a' + k as u8) as char));
         if k == 0 {
-            p.legend = LegendPos::TopRight;
+            p.legend = LegendPos::BottomRight;
         }
         f.xy(cell, p);
     }
