@@ -6,8 +6,13 @@
 //! # L_c
 //! From the `critical` input, level by level: every ladder grid n must be a level of that stage
 //! (same model, computed on the unshifted grid — `shifts = 0` — so that its L_c belongs to the
-//! very grid the ladder solves on). The sub-grid L_c (saddle-gap fit) is used where the level has
-//! one, else the grid's bisected L_c (`l_c_source` says which).
+//! very grid the ladder solves on). With `l_c = "subgrid"` (default) the sub-grid L_c
+//! (saddle-gap fit) is used where the level has one, else the grid's bisected L_c; with
+//! `l_c = "grid"` always the grid's bisected L_c (`l_c_source` says which was used). The
+//! choice matters below |l| ≈ 1e-3: on 2^10 and 2^11 the sub-grid L_c lies ≈ 1e-4 (relative)
+//! above the load at which the grid's saddle closes, and a bias δ in L_c turns the local slope
+//! of the saddle gap into ζ ln((|l₁|−δ)/(|l₂|−δ)) / ln(|l₁|/|l₂|): shared by both grids, it
+//! is invisible to the grid error (README "Near-critical exponents").
 //!
 //! # Parameters
 //! `ns` (ascending grid exponents), `ls` (reduced loads, default the paper's ±0.002, ±0.005,
@@ -63,6 +68,8 @@ pub struct LadderParams {
     pub tol_gap: f64,
     /// Reynolds flux at every rung.
     pub flow: bool,
+    /// Which L_c of the `critical` input: "subgrid" (where available) or "grid".
+    pub l_c: String,
     /// Flow: target true relative residual.
     pub flow_tol: f64,
 }
@@ -110,6 +117,9 @@ impl TypedKind for LadderKind {
             ParamSpec::new("flow", ParamType::Bool)
                 .default(true)
                 .doc("Reynolds flux through the cell along the saddle's channel at every rung"),
+            ParamSpec::new("l_c", ParamType::one_of(&["subgrid", "grid"]))
+                .default("subgrid")
+                .doc("L_c of each level: the sub-grid L_c (saddle-gap fit) where available, or the grid's bisected L_c"),
             ParamSpec::new("flow_tol", ParamType::float_range(1e-14, 1e-3))
                 .default(1e-10)
                 .doc("flow: target true relative residual"),
@@ -177,7 +187,9 @@ impl TypedKind for LadderKind {
             })?;
             lv.require_unshifted(crit.path(), "the ladder")?;
             let grid = lv.get("l_c").map(|v| v.0).unwrap_or(f64::NAN);
-            let (l_c, source) = if lv.l_c_subgrid.0.is_finite() {
+            let (l_c, source) = if params.l_c == "grid" {
+                (grid, "grid")
+            } else if lv.l_c_subgrid.0.is_finite() {
                 (lv.l_c_subgrid.0, "subgrid")
             } else {
                 ctx.warn(format!(

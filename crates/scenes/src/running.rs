@@ -11,83 +11,39 @@
 //! Output `running_exponents.csv`, one row per model, exponent and neighbouring pair of rungs:
 //! `model`, `exponent`, `l_hi` (the rung farther from L_c, signed), `l_lo` (the nearer one),
 //! `value`, `grid_error` (|value − value on the next coarser level|, NaN if unknown),
-//! `fit_error` (1σ from the measurements), `resolution` (finest spacing, λ), `flag` (empty, or
-//! why the value must not be used silently: grid error above 0.005, or unknown).
+//! `fit_error` (1σ from the measurements), `resolution` (finest spacing, λ) — the names of
+//! `critical::running::RunningRecord::COLUMNS` — and `flag` (empty, or why the value must not be
+//! used silently: grid error above 0.005, or unknown).
+//!
+//! Output figure `running_exponents` (PNG, SVG; `figures::scenes::running`): one panel per
+//! exponent, the local slope against the pair's geometric-mean |l| (log axis), the three models,
+//! error bars grid error ⊕ fit error (an unknown grid error counts as 0 in the bar: those pairs
+//! are flagged), flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
+//! gives no error), the conjecture as a dotted line.
 //!
 //! Measurements that fail on a rung (a closed saddle node, an unresolved edge) are left out and
 //! reported as stage warnings.
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Context, Result};
-use critical::ladder::Rung;
-use critical::running::{
-    Exponent, MeasureOptions, Resolution, RunningRecord, measure, running_records,
-};
-use kinds::ladder::{LadderData, LadderLevel};
+use critical::running::{Exponent, RunningRecord, running_records};
+use figures::scenes::running::{RunningCurve, RunningData, RunningPanel, RunningPoint};
+use figures::style::Model;
+use kinds::exponents::asymptotic::{GRID_BOUND, resolutions};
+use kinds::exponents::{CONJECTURED, PAPER, symbol};
+use kinds::ladder::LadderData;
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
-use tables::Table;
-
-/// Grid-error bound above which a running exponent is flagged (the 0.005).
-pub const GRID_BOUND: f64 = 0.005;
+use tables::{ColumnData, Table};
 
 /// The `running` scene.
 pub struct Running;
 
-/// A level's rungs as the measurement takes them.
-fn rungs(level: &LadderLevel) -> Vec<Rung> {
-    level
-        .rungs
-        .iter()
-        .map(|r| Rung {
-            l: r.l,
-            load: r.load,
-            contact_area: r.contact_area,
-            window: r.window.clone(),
-            iterations: 0,
-            converged: r.converged,
-            retried: false,
-            wall_s: 0.0,
-        })
-        .collect()
-}
-
-/// β's points on one level: the flux of the converged, percolating rungs below L_c.
-fn flux_points(level: &LadderLevel) -> Resolution {
-    let first = level.rungs.first();
-    Resolution {
-        spacing: first.map_or(f64::NAN, |r| r.window.d_par.min(r.window.d_perp)),
-        points: level
-            .rungs
-            .iter()
-            .filter(|r| r.l < 0.0 && r.percolating && r.flow_converged && r.flux > 0.0)
-            .map(|r| analysis::running::ScalingPoint::new(r.l, r.flux, 0.0))
-            .collect(),
-    }
-}
-
 /// Every running exponent of one ladder; failed measurements go to `notes`.
 pub fn records(d: &LadderData, notes: &mut Vec<String>) -> Result<Vec<RunningRecord>> {
-    let opts = MeasureOptions::default();
     let mut out = Vec::new();
-    for e in [
-        Exponent::Zeta,
-        Exponent::Upsilon,
-        Exponent::Chi,
-        Exponent::Beta,
-    ] {
-        let mut levels = Vec::new();
-        for level in &d.levels {
-            if e == Exponent::Beta {
-                levels.push(flux_points(level));
-                continue;
-            }
-            match measure(&rungs(level), e, &opts, notes) {
-                Ok(r) => levels.push(r),
-                Err(why) => notes.push(format!("{} n = {}: {why}", d.lattice.name(), level.n)),
-            }
-        }
-        levels.retain(|r| r.points.len() >= 2);
+    for e in Exponent::ALL {
+        let levels = resolutions(d, e, notes);
         if levels.is_empty() {
             notes.push(format!(
                 "{} {}: fewer than two measured rungs on every level",
@@ -104,25 +60,72 @@ pub fn records(d: &LadderData, notes: &mut Vec<String>) -> Result<Vec<RunningRec
     Ok(out)
 }
 
+/// The cells of [`RunningRecord::COLUMNS`], in that order (one list of names).
+#[allow(clippy::type_complexity)]
+const CELLS: [fn(&[RunningRecord]) -> ColumnData; 8] = [
+    |r| ColumnData::Str(r.iter().map(|r| r.model.name().to_string()).collect()),
+    |r| ColumnData::Str(r.iter().map(|r| r.exponent.name().to_string()).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.l_hi).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.l_lo).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.value).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.grid_error).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.fit_error).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.resolution).collect()),
+];
+
 /// The table of [`RunningRecord`]s (columns in the module docs).
-pub fn table(rows: &[RunningRecord]) -> Table {
-    Table::new()
-        .with_str("model", rows.iter().map(|r| r.model.name().to_string()))
-        .with_str(
-            "exponent",
-            rows.iter().map(|r| r.exponent.name().to_string()),
-        )
-        .with_f64("l_hi", rows.iter().map(|r| r.l_hi))
-        .with_f64("l_lo", rows.iter().map(|r| r.l_lo))
-        .with_f64("value", rows.iter().map(|r| r.value))
-        .with_f64("grid_error", rows.iter().map(|r| r.grid_error))
-        .with_f64("fit_error", rows.iter().map(|r| r.fit_error))
-        .with_f64("resolution", rows.iter().map(|r| r.resolution))
-        .with_str(
-            "flag",
+pub fn table(rows: &[RunningRecord]) -> Result<Table> {
+    let mut t = Table::new();
+    for (name, cell) in RunningRecord::COLUMNS.iter().zip(CELLS) {
+        t.push(*name, cell(rows))?;
+    }
+    t.push(
+        "flag",
+        ColumnData::Str(
             rows.iter()
-                .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string())),
-        )
+                .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string()))
+                .collect(),
+        ),
+    )?;
+    Ok(t)
+}
+
+/// The figure's data (module docs): one panel per exponent, one curve per model.
+pub fn figure_data(rows: &[RunningRecord]) -> RunningData {
+    let panels = Exponent::ALL
+        .iter()
+        .enumerate()
+        .map(|(k, &e)| {
+            let curves = Model::ALL
+                .iter()
+                .filter_map(|&m| {
+                    let points: Vec<RunningPoint> = rows
+                        .iter()
+                        .filter(|r| r.exponent == e && r.model.name() == m.name())
+                        .map(|r| RunningPoint {
+                            l_mid: (r.l_hi * r.l_lo).abs().sqrt(),
+                            value: r.value,
+                            error: if r.grid_error.is_nan() {
+                                0.0
+                            } else {
+                                r.grid_error
+                            }
+                            .hypot(r.fit_error),
+                            flagged: r.flag.is_some(),
+                        })
+                        .collect();
+                    (!points.is_empty()).then_some(RunningCurve { model: m, points })
+                })
+                .collect();
+            RunningPanel {
+                label: format!("local slope ${}$_{{eff}}", symbol(e.name())),
+                paper: PAPER[k],
+                conjecture: Some((CONJECTURED[k].0, CONJECTURED[k].1.to_string())),
+                curves,
+            }
+        })
+        .collect();
+    RunningData { panels }
 }
 
 impl Scene for Running {
@@ -130,16 +133,19 @@ impl Scene for Running {
         "running"
     }
     fn doc(&self) -> &'static str {
-        "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors (table)"
+        "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors (table and figure)"
     }
     fn code_version(&self) -> u64 {
-        1
+        2
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model")]
     }
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
-        vec![OutputSpec::table("running", "running_exponents.csv")]
+        vec![
+            OutputSpec::table("running", "running_exponents.csv"),
+            OutputSpec::figure("figure", "running_exponents"),
+        ]
     }
     fn render(
         &self,
@@ -157,6 +163,15 @@ impl Scene for Running {
         for n in notes {
             ctx.warn(n);
         }
-        Ok(Outputs::new().table("running", table(&rows)))
+        let mut out = Outputs::new().table("running", table(&rows)?);
+        if rows.is_empty() {
+            ctx.warn("no running exponent on any ladder: figure running_exponents not drawn");
+        } else {
+            out = out.figure(
+                "figure",
+                figures::scenes::running::figure(&figure_data(&rows))?,
+            );
+        }
+        Ok(out)
     }
 }

@@ -12,4 +12,5 @@ pub mod fig5;
 pub mod fig6;
 pub mod leakage;
 pub mod maps;
+pub mod running;
 pub mod tradeoff;

@@ -1,6 +1,9 @@
 //! `exponents`: the near-critical exponents ζ, υ, χ and β of each model from its `ladder`
-//! (crates/critical/src/scaling.rs), each with an error bar from the fit and from the spread
-//! across the ladder's grid resolutions, and the identity β = 3ζ + υ − χ checked.
+//! (crates/critical/src/scaling.rs): the window fit over the paper's 0.002 ≤ |l| ≤ 0.02
+//! ([`WINDOW`]), each with an error bar from the fit and from the spread across the ladder's
+//! grid resolutions; the asymptotic estimate (l → 0) with corrections to scaling from the finest
+//! grid's grid-converged rungs ([`asymptotic`]); and the identity β = 3ζ + υ − χ checked both
+//! ways. The table `exponents.csv` is built by [`table`]; the artefact is read by [`read`].
 //!
 //! # Per grid
 //! - ζ: the gap at the saddle node against |l| (l < 0), power law in log–log; also with L_c free
@@ -12,6 +15,8 @@
 //! - β: the flux through the cell against |l| = (L_c − L)/L_c (l < 0, fluid percolating, flow
 //!   solve converged).
 //!
+//! Only the rungs with |l| in [`WINDOW`] enter these fits (a ladder may extend far beyond it:
+//! those rungs are for the running exponents and the asymptotic estimate).
 //! A rung whose measurement fails (channel not resolved, contact outside the window, fit
 //! failure) is left out of that fit with a warning; a fit needs 2 rungs (its error needs 3).
 //!
@@ -24,7 +29,9 @@
 //! # Artefact
 //! Attribute `models` (JSON list); per model `model/<lattice>`: attributes `<e>`,
 //! `<e>_fit_error`, `<e>_grid_spread`, `<e>_error`, `<e>_n`, `<e>_points`, `<e>_prefactor`
-//! for e in zeta, upsilon, chi, beta (NaN when no grid gave a fit), `zeta_lc_free`,
+//! for e in zeta, upsilon, chi, beta (NaN when no grid gave a fit), the asymptotic estimates
+//! `<e>_asymptotic_<field>` for e in zeta, upsilon, chi, beta, beta_identity (fields
+//! [`asymptotic::Asymptotic::FIELDS`]; NaN without an estimate), `zeta_lc_free`,
 //! `zeta_lc_free_error`, `l_c_fit`, `beta_identity`, `beta_identity_error`, `eta`; per grid
 //! `model/<lattice>/level/<n>`: the same fit attributes and datasets `l_open`, `saddle_gap`,
 //! `half_width`, `half_width_error`, `flux`, `l_blocked`, `half_length`, `half_length_error`
@@ -37,21 +44,38 @@
 //! `beta`, `beta_err`, `beta_prefactor` of a power law fitted to all models' points together
 //! ([`pooled_beta`]; the per-model β are the `model/<lattice>` attributes).
 
+pub mod asymptotic;
+mod io;
+pub mod table;
+
+pub use io::read;
+use io::{group_notes, write_fit, write_measure};
+
 use crate::ladder::{LadderData, LadderLevel};
 use anyhow::{Result, bail};
+use asymptotic::Asymptotic;
 use critical::scaling::{
     EdgeOptions, ExponentFit, blocked_half_length, fit_exponent, open_half_width,
 };
 use orchestrator::{InputSpec, Inputs, ParamSpec, ParamType, StageContext, StageReport, TypedKind};
 use serde::Deserialize;
 use serde_json::json;
-use store::{ArtefactReader, ArtefactWriter};
+use store::ArtefactWriter;
 
 /// The `exponents` stage kind.
 pub struct ExponentsKind;
 
 /// Bump when the artefact's content changes for the same inputs.
-pub const CODE_VERSION: u64 = 2;
+pub const CODE_VERSION: u64 = 3;
+
+/// The paper's fitting window of |l| (inclusive; a relative 1e-9 of slack for rounding).
+pub const WINDOW: (f64, f64) = (0.002, 0.02);
+
+/// Whether a reduced load is inside [`WINDOW`].
+pub fn in_window(l: f64) -> bool {
+    let a = l.abs();
+    a >= WINDOW.0 * (1.0 - 1e-9) && a <= WINDOW.1 * (1.0 + 1e-9)
+}
 
 /// The exponents, in table order.
 pub const NAMES: [&str; 4] = ["zeta", "upsilon", "chi", "beta"];
@@ -151,15 +175,24 @@ pub fn measure(level: &LadderLevel, opts: &EdgeOptions, notes: &mut Vec<String>)
     m
 }
 
-/// The four exponent fits of one grid (in [`NAMES`] order).
+/// The four exponent fits of one grid (in [`NAMES`] order), over the rungs in [`WINDOW`].
 pub fn level_fits(m: &LevelMeasure) -> [Result<ExponentFit, String>; 4] {
-    let w: Vec<f64> = m.half_width.iter().map(|v| v.0).collect();
-    let a: Vec<f64> = m.half_length.iter().map(|v| v.0).collect();
+    let pick = |ls: &[f64], ys: &mut dyn Iterator<Item = f64>| -> (Vec<f64>, Vec<f64>) {
+        ls.iter()
+            .zip(ys)
+            .filter(|(l, _)| in_window(**l))
+            .map(|(l, y)| (*l, y))
+            .unzip()
+    };
+    let (lg, g) = pick(&m.l_open, &mut m.saddle_gap.iter().copied());
+    let (lw, w) = pick(&m.l_open, &mut m.half_width.iter().map(|v| v.0));
+    let (la, a) = pick(&m.l_blocked, &mut m.half_length.iter().map(|v| v.0));
+    let (lq, q) = pick(&m.l_open, &mut m.flux.iter().copied());
     [
-        fit_exponent(&m.l_open, &m.saddle_gap),
-        fit_exponent(&m.l_open, &w),
-        fit_exponent(&m.l_blocked, &a),
-        fit_exponent(&m.l_open, &m.flux),
+        fit_exponent(&lg, &g),
+        fit_exponent(&lw, &w),
+        fit_exponent(&la, &a),
+        fit_exponent(&lq, &q),
     ]
 }
 
@@ -269,8 +302,12 @@ pub fn combine(per_grid: &[(u32, Option<ExponentFit>)]) -> Exponent {
 pub struct ModelExponents {
     /// Model name.
     pub lattice: String,
-    /// In [`NAMES`] order.
+    /// The window fits, in [`NAMES`] order.
     pub exponents: [Exponent; 4],
+    /// The asymptotic estimates, in [`NAMES`] order (β from the flux).
+    pub asymptotic: [Asymptotic; 4],
+    /// 3ζ + υ − χ of the asymptotic estimates.
+    pub beta_identity_asymptotic: Asymptotic,
     /// ζ with L_c free (finest grid) and its fit error.
     pub zeta_lc_free: (f64, f64),
     /// 3ζ + υ − χ and its error.
@@ -435,6 +472,17 @@ impl TypedKind for ExponentsKind {
                     .paper(pv, pe),
                 );
             }
+            let mut asy = [Asymptotic::NONE; 4];
+            for (k, a) in asy.iter_mut().enumerate() {
+                let levels = asymptotic::resolutions(&d, asymptotic::which(k), &mut notes);
+                match asymptotic::estimate(&levels) {
+                    Ok(v) => *a = v,
+                    Err(why) => notes.push(format!("no asymptotic {}: {why}", symbol(NAMES[k]))),
+                }
+                a.write(out, &at, NAMES[k])?;
+            }
+            let asy_identity = asymptotic::identity(&asy[0], &asy[1], &asy[2]);
+            asy_identity.write(out, &at, "beta_identity")?;
             let (bi, be) = identity(&ex[0], &ex[1], &ex[2]);
             out.set_attr_at(&at, "beta_identity", bi)?;
             out.set_attr_at(&at, "beta_identity_error", be)?;
@@ -454,6 +502,13 @@ impl TypedKind for ExponentsKind {
                     "beta": [ex[3].value, ex[3].error],
                     "beta_identity": [bi, be],
                     "zeta_lc_free": [zeta_free.0, zeta_free.1],
+                    "asymptotic": {
+                        "zeta": [asy[0].value, asy[0].error],
+                        "upsilon": [asy[1].value, asy[1].error],
+                        "chi": [asy[2].value, asy[2].error],
+                        "beta": [asy[3].value, asy[3].error],
+                        "beta_identity": [asy_identity.value, asy_identity.error],
+                    },
                 }),
             );
         }
@@ -472,124 +527,6 @@ impl TypedKind for ExponentsKind {
         }
         Ok(StageReport::with_stats(serde_json::Value::Object(summary)))
     }
-}
-
-/// Groups notes of the form "n = N, l = L: reason" by reason: "reason (n = N: l = L1, L2; ...)".
-/// Other notes pass unchanged.
-fn group_notes(notes: &[String]) -> Vec<String> {
-    let mut groups: Vec<(String, Vec<(String, String)>)> = Vec::new();
-    let mut out = Vec::new();
-    for note in notes {
-        let parsed = note.strip_prefix("n = ").and_then(|rest| {
-            let (n, rest) = rest.split_once(", l = ")?;
-            let (l, reason) = rest.split_once(": ")?;
-            Some((n.to_string(), l.to_string(), reason.to_string()))
-        });
-        match parsed {
-            Some((n, l, reason)) => match groups.iter_mut().find(|g| g.0 == reason) {
-                Some(g) => g.1.push((n, l)),
-                None => groups.push((reason, vec![(n, l)])),
-            },
-            None => out.push(note.clone()),
-        }
-    }
-    for (reason, at) in groups {
-        let mut by_n: Vec<(String, Vec<String>)> = Vec::new();
-        for (n, l) in at {
-            match by_n.iter_mut().find(|b| b.0 == n) {
-                Some(b) => b.1.push(l),
-                None => by_n.push((n, vec![l])),
-            }
-        }
-        let list: Vec<String> = by_n
-            .iter()
-            .map(|(n, ls)| format!("n = {n}: l = {}", ls.join(", ")))
-            .collect();
-        out.insert(0, format!("{reason} ({})", list.join("; ")));
-    }
-    out
-}
-
-fn write_fit(
-    out: &mut ArtefactWriter,
-    at: &str,
-    name: &str,
-    f: Option<&ExponentFit>,
-) -> Result<()> {
-    let g = |v: fn(&ExponentFit) -> f64| f.map_or(f64::NAN, v);
-    out.set_attr_at(at, name, g(|f| f.value))?;
-    out.set_attr_at(at, &format!("{name}_fit_error"), g(|f| f.error))?;
-    out.set_attr_at(at, &format!("{name}_prefactor"), g(|f| f.prefactor))?;
-    out.set_attr_at(
-        at,
-        &format!("{name}_points"),
-        f.map_or(0, |f| f.points as i64),
-    )?;
-    Ok(())
-}
-
-fn write_measure(out: &mut ArtefactWriter, at: &str, m: &LevelMeasure) -> Result<()> {
-    out.set_attr_at(at, "n", m.n as i64)?;
-    out.write_f64_1d(&format!("{at}/l_open"), &m.l_open)?;
-    out.write_f64_1d(&format!("{at}/load_open"), &m.load_open)?;
-    out.write_f64_1d(&format!("{at}/saddle_gap"), &m.saddle_gap)?;
-    let (w, we): (Vec<f64>, Vec<f64>) = m.half_width.iter().copied().unzip();
-    out.write_f64_1d(&format!("{at}/half_width"), &w)?;
-    out.write_f64_1d(&format!("{at}/half_width_error"), &we)?;
-    out.write_f64_1d(&format!("{at}/flux"), &m.flux)?;
-    out.write_f64_1d(&format!("{at}/l_blocked"), &m.l_blocked)?;
-    let (a, ae): (Vec<f64>, Vec<f64>) = m.half_length.iter().copied().unzip();
-    out.write_f64_1d(&format!("{at}/half_length"), &a)?;
-    out.write_f64_1d(&format!("{at}/half_length_error"), &ae)?;
-    Ok(())
-}
-
-/// Reads an `exponents` artefact: every model, in the artefact's order.
-pub fn read(r: &ArtefactReader) -> Result<Vec<ModelExponents>> {
-    let models: Vec<String> = serde_json::from_value(r.attr_json("models")?)?;
-    let mut out = Vec::new();
-    for name in models {
-        let at = format!("model/{name}");
-        let a = |k: &str| r.attr_f64_at(&at, k);
-        let mut exps = [Exponent::NONE; 4];
-        for (k, nm) in NAMES.iter().enumerate() {
-            exps[k] = Exponent {
-                value: a(nm)?,
-                fit_error: a(&format!("{nm}_fit_error"))?,
-                grid_spread: a(&format!("{nm}_grid_spread"))?,
-                error: a(&format!("{nm}_error"))?,
-                n: r.attr_i64_at(&at, &format!("{nm}_n"))? as u32,
-                points: r.attr_i64_at(&at, &format!("{nm}_points"))? as usize,
-                prefactor: a(&format!("{nm}_prefactor"))?,
-            };
-        }
-        let mut levels = Vec::new();
-        for lv in r.members(&format!("{at}/level"))? {
-            let la = format!("{at}/level/{lv}");
-            let f = |k: &str| r.read_f64_1d(&format!("{la}/{k}"));
-            let zip = |a: Vec<f64>, b: Vec<f64>| a.into_iter().zip(b).collect::<Vec<_>>();
-            levels.push(LevelMeasure {
-                n: r.attr_i64_at(&la, "n")? as u32,
-                l_open: f("l_open")?,
-                load_open: f("load_open")?,
-                saddle_gap: f("saddle_gap")?,
-                half_width: zip(f("half_width")?, f("half_width_error")?),
-                flux: f("flux")?,
-                l_blocked: f("l_blocked")?,
-                half_length: zip(f("half_length")?, f("half_length_error")?),
-            });
-        }
-        levels.sort_by_key(|l| l.n);
-        out.push(ModelExponents {
-            exponents: exps,
-            zeta_lc_free: (a("zeta_lc_free")?, a("zeta_lc_free_error")?),
-            beta_identity: (a("beta_identity")?, a("beta_identity_error")?),
-            eta: a("eta")?,
-            levels,
-            lattice: name,
-        });
-    }
-    Ok(out)
 }
 
 #[cfg(test)]

@@ -1,0 +1,309 @@
+//! Asymptotic exponents (l → 0) of one model's ladder, with corrections to scaling, and the
+//! verdict against the paper's conjecture.
+//!
+//! # Estimate ([`estimate`])
+//! Per exponent, the ladder's levels are measured rung by rung ([`resolutions`]:
+//! [`critical::running::measure`] for ζ, υ, χ; the flux of the converged, percolating rungs for
+//! β). The finest grid's rungs are used from the largest |l| down to the first neighbouring pair
+//! whose running exponent is flagged (grid error against the next finer-but-one grid above
+//! [`GRID_BOUND`], or unknown), and fitted with `y = A|l|^x (1 + B|l|^ω)` directly and as a
+//! running exponent, ω free and fixed, on the full range and with the largest |l| dropped one by
+//! one ([`analysis::asymptotic_estimate`]). The error is the reference fit's 1σ ⊕ the largest
+//! change over the accepted fit ranges and forms. No grid-converged window of one decade with a
+//! degree of freedom: no estimate (NaN, with the reason as a stage warning). β from the
+//! identity: 3ζ + υ − χ of the asymptotic ζ, υ, χ, errors in quadrature (correlations ignored:
+//! [`analysis::verdict`]).
+//!
+//! # Verdict ([`verdict`])
+//! The deviation of the asymptotic estimate from the conjecture (6/5, 9/20, 3/5, 69/20) in σ of
+//! its error. The rule:
+//! - **undecided** when there is no estimate or its error exceeds [`DECISIVE`] (0.02 for ζ, υ,
+//!   χ; 0.05 for β): the three models' window fits differ by 0.04–0.12 in ζ and by 0.1–0.35 in
+//!   β, so a larger error bar cannot tell a model-dependent exponent from a universal one;
+//! - **consistent** when the deviation is at most [`THRESHOLD_SIGMA`] = 2σ;
+//! - **not consistent** otherwise.
+//!
+//! The text states the σ either way so that the reader can judge.
+
+use crate::ladder::{LadderData, LadderLevel};
+use analysis::{AsymptoticOptions, Estimate, ScalingPoint};
+use critical::ladder::Rung;
+use critical::running::{Exponent as Which, MeasureOptions, Resolution, asymptotic, measure};
+use store::{ArtefactReader, ArtefactWriter};
+
+/// Grid-error bound of a running exponent (the 0.005); pairs above it are flagged.
+pub const GRID_BOUND: f64 = 0.005;
+
+/// Largest error of a decisive verdict, per exponent in [`super::NAMES`] order (module docs).
+pub const DECISIVE: [f64; 4] = [0.02, 0.02, 0.02, 0.05];
+
+/// Deviation (σ) up to which an estimate is consistent with the conjecture.
+pub const THRESHOLD_SIGMA: f64 = 2.0;
+
+/// The exponent of [`super::NAMES`]'s index.
+pub fn which(k: usize) -> Which {
+    Which::ALL[k]
+}
+
+/// A level's rungs as the measurement takes them.
+pub fn rungs(level: &LadderLevel) -> Vec<Rung> {
+    level
+        .rungs
+        .iter()
+        .map(|r| Rung {
+            l: r.l,
+            load: r.load,
+            contact_area: r.contact_area,
+            window: r.window.clone(),
+            iterations: 0,
+            converged: r.converged,
+            retried: false,
+            wall_s: 0.0,
+        })
+        .collect()
+}
+
+/// β's points on one level: the flux of the converged, percolating rungs below L_c (no error
+/// known: σ = 0, the fits scale by the misfit).
+pub fn flux_points(level: &LadderLevel) -> Resolution {
+    let first = level.rungs.first();
+    Resolution {
+        spacing: first.map_or(f64::NAN, |r| r.window.d_par.min(r.window.d_perp)),
+        points: level
+            .rungs
+            .iter()
+            .filter(|r| r.l < 0.0 && r.percolating && r.flow_converged && r.flux > 0.0)
+            .map(|r| ScalingPoint::new(r.l, r.flux, 0.0))
+            .collect(),
+    }
+}
+
+/// One exponent's measurements on every level with at least two measured rungs; failures go
+/// to `notes`.
+pub fn resolutions(d: &LadderData, e: Which, notes: &mut Vec<String>) -> Vec<Resolution> {
+    let opts = MeasureOptions::default();
+    let mut levels = Vec::new();
+    for level in &d.levels {
+        if e == Which::Beta {
+            levels.push(flux_points(level));
+            continue;
+        }
+        match measure(&rungs(level), e, &opts, notes) {
+            Ok(r) => levels.push(r),
+            Err(why) => notes.push(format!("{} n = {}: {why}", d.lattice.name(), level.n)),
+        }
+    }
+    levels.retain(|r| r.points.len() >= 2);
+    levels
+}
+
+/// An asymptotic estimate as stored and tabulated (NaN fields: none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Asymptotic {
+    /// The exponent as l → 0.
+    pub value: f64,
+    /// stat ⊕ spread (1σ).
+    pub error: f64,
+    /// 1σ of the reference fit.
+    pub stat_error: f64,
+    /// Largest change over the fit ranges.
+    pub range_spread: f64,
+    /// Largest change over the fit forms.
+    pub form_spread: f64,
+    /// Correction exponent ω of the fixed-ω fits.
+    pub omega: f64,
+    /// Rungs of the reference fit.
+    pub points: f64,
+    /// Smallest |l| of the grid-converged rungs.
+    pub l_min: f64,
+}
+
+/// One stored field: its attribute suffix (also the CSV column after `asymptotic_`) and value.
+type Field = (
+    &'static str,
+    fn(&Asymptotic) -> f64,
+    fn(&mut Asymptotic, f64),
+);
+
+impl Asymptotic {
+    /// No estimate.
+    pub const NONE: Asymptotic = Asymptotic {
+        value: f64::NAN,
+        error: f64::NAN,
+        stat_error: f64::NAN,
+        range_spread: f64::NAN,
+        form_spread: f64::NAN,
+        omega: f64::NAN,
+        points: f64::NAN,
+        l_min: f64::NAN,
+    };
+
+    /// The fields, the one list the artefact writer, its reader and the CSV use.
+    pub const FIELDS: [Field; 8] = [
+        ("value", |a| a.value, |a, v| a.value = v),
+        ("error", |a| a.error, |a, v| a.error = v),
+        ("stat_error", |a| a.stat_error, |a, v| a.stat_error = v),
+        (
+            "range_spread",
+            |a| a.range_spread,
+            |a, v| a.range_spread = v,
+        ),
+        ("form_spread", |a| a.form_spread, |a, v| a.form_spread = v),
+        ("omega", |a| a.omega, |a, v| a.omega = v),
+        ("points", |a| a.points, |a, v| a.points = v),
+        ("l_min", |a| a.l_min, |a, v| a.l_min = v),
+    ];
+
+    /// A value and error only (e.g. the identity).
+    pub fn of(value: f64, error: f64) -> Self {
+        Asymptotic {
+            value,
+            error,
+            ..Self::NONE
+        }
+    }
+
+    /// Writes the fields as attributes `<name>_asymptotic_<field>` at `at`.
+    pub fn write(&self, out: &mut ArtefactWriter, at: &str, name: &str) -> anyhow::Result<()> {
+        for (f, get, _) in Self::FIELDS {
+            out.set_attr_at(at, &format!("{name}_asymptotic_{f}"), get(self))?;
+        }
+        Ok(())
+    }
+
+    /// Reads what [`Asymptotic::write`] wrote.
+    pub fn read(r: &ArtefactReader, at: &str, name: &str) -> anyhow::Result<Self> {
+        let mut a = Self::NONE;
+        for (f, _, set) in Self::FIELDS {
+            set(
+                &mut a,
+                r.attr_f64_at(at, &format!("{name}_asymptotic_{f}"))?,
+            );
+        }
+        Ok(a)
+    }
+}
+
+/// The asymptotic estimate of one exponent from its levels (module docs); `Err` says why none.
+pub fn estimate(levels: &[Resolution]) -> Result<Asymptotic, String> {
+    let e =
+        asymptotic(levels, GRID_BOUND, &AsymptoticOptions::default()).map_err(|e| e.to_string())?;
+    let f = e.reference_fit();
+    let fixed = e.omega_fixed;
+    Ok(Asymptotic {
+        value: e.value,
+        error: e.error,
+        stat_error: e.stat_error,
+        range_spread: e.range_spread,
+        form_spread: e.form_spread,
+        omega: if f.omega_free { f.omega } else { fixed },
+        points: f.points as f64,
+        l_min: f.l_range.0,
+    })
+}
+
+/// 3ζ + υ − χ of asymptotic estimates (NaN if any is missing).
+pub fn identity(z: &Asymptotic, u: &Asymptotic, c: &Asymptotic) -> Asymptotic {
+    let est = |a: &Asymptotic| Estimate::new(a.value, a.error);
+    match analysis::beta_identity(est(z), est(u), est(c)) {
+        Ok(b) => Asymptotic::of(b.value, b.error),
+        Err(_) => Asymptotic::NONE,
+    }
+}
+
+/// The verdict on an estimate of exponent `k` (module docs): (text, deviation in σ or NaN).
+pub fn verdict(a: &Asymptotic, k: usize) -> (String, f64) {
+    let (conj, label) = super::CONJECTURED[k];
+    if !(a.value.is_finite() && a.error.is_finite() && a.error > 0.0) {
+        return ("undecided: no asymptotic estimate".into(), f64::NAN);
+    }
+    let sigma = (a.value - conj) / a.error;
+    if a.error > DECISIVE[k] {
+        return (
+            format!(
+                "undecided: error {:.3} > {} ({sigma:+.1}σ from {label})",
+                a.error, DECISIVE[k]
+            ),
+            sigma,
+        );
+    }
+    let word = if sigma.abs() <= THRESHOLD_SIGMA {
+        "consistent with"
+    } else {
+        "not consistent with"
+    };
+    (format!("{word} {label} ({sigma:+.1}σ)"), sigma)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_verdict_follows_the_stated_rule() {
+        // ζ: 1.21 ± 0.004 is +2.5σ from 6/5 (not consistent); ± 0.006 is +1.7σ (consistent);
+        // ± 0.03 exceeds the decisive error 0.02 (undecided, whatever the σ)
+        let v = |x: f64, e: f64| verdict(&Asymptotic::of(x, e), 0);
+        let (t, s) = v(1.21, 0.004);
+        assert!(
+            t.starts_with("not consistent with 6/5") && (s - 2.5).abs() < 1e-9,
+            "{t}"
+        );
+        let (t, s) = v(1.21, 0.006);
+        assert!(t.starts_with("consistent with 6/5") && (s - 10.0 / 6.0).abs() < 1e-9);
+        assert!(v(1.30, 0.03).0.starts_with("undecided: error 0.030"));
+        assert!(v(f64::NAN, 0.01).0.starts_with("undecided: no"));
+        assert!(v(1.2, 0.0).1.is_nan());
+        // β's decisive error is larger: 3.50 ± 0.04 is 1.25σ from 69/20
+        let (t, _) = verdict(&Asymptotic::of(3.5, 0.04), 3);
+        assert!(t.starts_with("consistent with 69/20"), "{t}");
+    }
+
+    #[test]
+    fn estimate_recovers_a_corrected_power_law_and_stops_at_unresolved_rungs() {
+        // g = 0.3|l|^1.2 (1 + 0.8|l|^0.5) on the ladder; the coarse grid drifts by 3 %
+        // per rung below 1e-3, so its grid errors (≥ ln 1.03 / ln 2.5 = 0.032) flag those pairs:
+        // the estimate uses 5e-2 … 1e-3 only. Exact data: the direct fit recovers ζ to its
+        // convergence tolerance (1e-8, analysis::corrections); the running form is exact to
+        // first order in B only, and with B|l|^ω up to 0.18 its remainder moves x by ~3e-3: the
+        // form spread, which the error must include (bound 5e-3).
+        let ls = [
+            5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
+        ];
+        let g = |a: f64| 0.3 * a.powf(1.2) * (1.0 + 0.8 * a.sqrt());
+        let level = |spacing: f64, drift: f64| Resolution {
+            spacing,
+            points: ls
+                .iter()
+                .enumerate()
+                .map(|(k, &a)| {
+                    let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
+                    ScalingPoint::new(-a, g(a) * d, 0.0)
+                })
+                .collect(),
+        };
+        let a = estimate(&[level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)]).unwrap();
+        assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
+        assert_eq!(a.l_min, 1e-3);
+        assert!(a.error < 5e-3 && a.form_spread > 1e-4, "{a:?}");
+        assert!(a.stat_error < 1e-8 && a.range_spread < 1e-6, "{a:?}");
+        // a single grid: every pair is unknown-flagged, nothing grid-converged to fit
+        assert!(estimate(&[level(1.0 / 2048.0, 0.0)]).is_err());
+    }
+
+    #[test]
+    fn identity_combines_in_quadrature_and_fields_are_one_list() {
+        let b = identity(
+            &Asymptotic::of(1.2, 0.01),
+            &Asymptotic::of(0.45, 0.01),
+            &Asymptotic::of(0.6, 0.01),
+        );
+        assert!((b.value - 3.45).abs() < 1e-12 && (b.error - 11f64.sqrt() * 0.01).abs() < 1e-12);
+        assert!(identity(&Asymptotic::NONE, &b, &b).value.is_nan());
+        let mut a = Asymptotic::NONE;
+        for (k, (_, get, set)) in Asymptotic::FIELDS.iter().enumerate() {
+            set(&mut a, k as f64);
+            assert_eq!(get(&a), k as f64);
+        }
+    }
+}

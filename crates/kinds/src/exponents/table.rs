@@ -1,0 +1,179 @@
+//! `exponents.csv`: one row per model and exponent, built from one column spec ([`COLUMNS`]).
+//!
+//! Rows per model: `zeta`, `upsilon`, `chi`, `beta` (from the flux), `zeta_lc_free` (the window
+//! fit with L_c free; no asymptotic estimate), `beta_identity` (3ζ + υ − χ, window and
+//! asymptotic), `beta_minus_identity` (β − (3ζ + υ − χ), expected 0: the `paper` column holds
+//! 0, no conjecture, no verdict).
+//!
+//! Columns: `model`, `exponent`; the window fit (0.002 ≤ |l| ≤ 0.02, [`super::WINDOW`]):
+//! `value`, `fit_error`, `grid_spread`, `error`, `n` (grid of the value), `points`; the paper:
+//! `paper`, `paper_error`, `deviation` (window value − paper), `deviation_sigma` (in `error`);
+//! the conjecture `conjectured`, `conjectured_value`; the asymptotic estimate
+//! ([`super::asymptotic`]): `asymptotic_<field>` for each of [`Asymptotic::FIELDS`];
+//! `asymptotic_sigma` ((asymptotic − conjecture)/asymptotic error) and `verdict` (the rule in
+//! [`super::asymptotic`]).
+
+use super::asymptotic::{Asymptotic, verdict};
+use super::{CONJECTURED, Exponent, ModelExponents, NAMES, PAPER};
+use tables::{ColumnData, Table};
+
+/// One row of the table.
+#[derive(Clone, Debug)]
+pub struct Row {
+    /// Model name.
+    pub model: String,
+    /// Row name (module docs).
+    pub exponent: String,
+    /// The window fit.
+    pub window: Exponent,
+    /// The paper's value and error (NaN: none).
+    pub paper: (f64, f64),
+    /// Index of the conjecture and verdict rule ([`NAMES`] order), if any.
+    pub conjecture: Option<usize>,
+    /// The asymptotic estimate.
+    pub asymptotic: Asymptotic,
+}
+
+/// A column's cells of one row.
+pub enum Cell {
+    /// A float.
+    F(fn(&Row) -> f64),
+    /// An integer.
+    I(fn(&Row) -> i64),
+    /// Text.
+    S(fn(&Row) -> String),
+}
+
+fn conj(r: &Row) -> f64 {
+    r.conjecture.map_or(f64::NAN, |k| CONJECTURED[k].0)
+}
+
+fn judged(r: &Row) -> (String, f64) {
+    r.conjecture
+        .map_or((String::new(), f64::NAN), |k| verdict(&r.asymptotic, k))
+}
+
+/// The columns before the asymptotic fields.
+pub const COLUMNS: [(&str, Cell); 12] = [
+    ("model", Cell::S(|r| r.model.clone())),
+    ("exponent", Cell::S(|r| r.exponent.clone())),
+    ("value", Cell::F(|r| r.window.value)),
+    ("fit_error", Cell::F(|r| r.window.fit_error)),
+    ("grid_spread", Cell::F(|r| r.window.grid_spread)),
+    ("error", Cell::F(|r| r.window.error)),
+    ("n", Cell::I(|r| r.window.n as i64)),
+    ("points", Cell::I(|r| r.window.points as i64)),
+    ("paper", Cell::F(|r| r.paper.0)),
+    ("paper_error", Cell::F(|r| r.paper.1)),
+    (
+        "conjectured",
+        Cell::S(|r| {
+            r.conjecture
+                .map_or(String::new(), |k| CONJECTURED[k].1.into())
+        }),
+    ),
+    ("conjectured_value", Cell::F(conj)),
+];
+
+/// The columns after the asymptotic fields.
+pub const TAIL: [(&str, Cell); 4] = [
+    ("deviation", Cell::F(|r| r.window.value - r.paper.0)),
+    (
+        "deviation_sigma",
+        Cell::F(|r| (r.window.value - r.paper.0) / r.window.error),
+    ),
+    ("asymptotic_sigma", Cell::F(|r| judged(r).1)),
+    ("verdict", Cell::S(|r| judged(r).0)),
+];
+
+/// The rows of one model (module docs).
+pub fn rows(e: &ModelExponents) -> Vec<Row> {
+    let row = |name: &str, window: Exponent, k: Option<usize>, a: Asymptotic| Row {
+        model: e.lattice.clone(),
+        exponent: name.into(),
+        window,
+        paper: k.map_or((f64::NAN, f64::NAN), |k| PAPER[k]),
+        conjecture: k,
+        asymptotic: a,
+    };
+    let mut out: Vec<Row> = NAMES
+        .iter()
+        .enumerate()
+        .map(|(k, nm)| row(nm, e.exponents[k], Some(k), e.asymptotic[k]))
+        .collect();
+    let z = e.get("zeta");
+    out.push(row(
+        "zeta_lc_free",
+        Exponent {
+            value: e.zeta_lc_free.0,
+            fit_error: e.zeta_lc_free.1,
+            grid_spread: f64::NAN,
+            error: e.zeta_lc_free.1,
+            ..z
+        },
+        Some(0),
+        Asymptotic::NONE,
+    ));
+    out.push(row(
+        "beta_identity",
+        Exponent {
+            value: e.beta_identity.0,
+            fit_error: f64::NAN,
+            grid_spread: f64::NAN,
+            error: e.beta_identity.1,
+            ..z
+        },
+        Some(3),
+        e.beta_identity_asymptotic,
+    ));
+    let b = e.get("beta");
+    let (ab, ai) = (e.asymptotic[3], e.beta_identity_asymptotic);
+    let mut diff = row(
+        "beta_minus_identity",
+        Exponent {
+            value: b.value - e.beta_identity.0,
+            fit_error: f64::NAN,
+            grid_spread: f64::NAN,
+            error: b.error.hypot(e.beta_identity.1),
+            ..b
+        },
+        None,
+        Asymptotic::of(ab.value - ai.value, ab.error.hypot(ai.error)),
+    );
+    diff.paper = (0.0, f64::NAN);
+    out.push(diff);
+    out
+}
+
+/// The column names, in order.
+pub fn column_names() -> Vec<String> {
+    let head = COLUMNS.iter().map(|c| c.0.to_string());
+    let mid = Asymptotic::FIELDS
+        .iter()
+        .map(|f| format!("asymptotic_{}", f.0));
+    head.chain(mid)
+        .chain(TAIL.iter().map(|c| c.0.into()))
+        .collect()
+}
+
+/// `exponents.csv` of every model (module docs).
+pub fn table(ex: &[ModelExponents]) -> anyhow::Result<Table> {
+    let rows: Vec<Row> = ex.iter().flat_map(rows).collect();
+    let mut t = Table::new();
+    let cell = |c: &Cell| match c {
+        Cell::F(f) => ColumnData::F64(rows.iter().map(f).collect()),
+        Cell::I(f) => ColumnData::I64(rows.iter().map(f).collect()),
+        Cell::S(f) => ColumnData::Str(rows.iter().map(f).collect()),
+    };
+    for (name, c) in &COLUMNS {
+        t.push(*name, cell(c))?;
+    }
+    for (name, get, _) in Asymptotic::FIELDS {
+        let v = rows.iter().map(|r| get(&r.asymptotic)).collect();
+        t.push(format!("asymptotic_{name}"), ColumnData::F64(v))?;
+    }
+    for (name, c) in &TAIL {
+        t.push(*name, cell(c))?;
+    }
+    Ok(t)
+}
