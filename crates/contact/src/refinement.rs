@@ -189,6 +189,61 @@ pub struct Refined {
     pub stats: SolveStats,
     /// The composite solution (unknowns packed row by row; the warm start of the next solve).
     pub composite: Solution,
+    /// Contact lines on the region's edge (the window-size check).
+    pub edge: EdgeRuns,
+}
+
+/// The contact state along the region's edge (its fine nodes, once around): the runs of open
+/// and of contact nodes between the points where a contact line crosses the edge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EdgeRuns {
+    /// Contact lines crossing the edge (state changes once around; even).
+    pub crossings: usize,
+    /// Shortest run of open nodes between two crossings, in base cells (None without crossings).
+    pub narrowest_open: Option<f64>,
+    /// Shortest run of contact nodes between two crossings, in base cells.
+    pub narrowest_contact: Option<f64>,
+    /// Whether the whole edge is in contact (meaningful without crossings).
+    pub all_contact: bool,
+}
+
+impl EdgeRuns {
+    /// Runs of `contact` (rx × ry, row-major) around the edge; `f` fine nodes per base cell.
+    pub fn of(contact: &[bool], rx: usize, ry: usize, f: usize) -> EdgeRuns {
+        let mut ring: Vec<bool> = Vec::with_capacity(2 * (rx + ry));
+        ring.extend((0..ry).map(|b| contact[b]));
+        ring.extend((1..rx).map(|a| contact[a * ry + ry - 1]));
+        ring.extend((0..ry - 1).rev().map(|b| contact[(rx - 1) * ry + b]));
+        ring.extend((1..rx - 1).rev().map(|a| contact[a * ry]));
+        let n = ring.len();
+        let starts: Vec<usize> = (0..n)
+            .filter(|&k| ring[k] != ring[(k + n - 1) % n])
+            .collect();
+        let (mut open, mut touch) = (None::<f64>, None::<f64>);
+        for (i, &k) in starts.iter().enumerate() {
+            let next = starts[(i + 1) % starts.len()];
+            let len = (next + n - k) % n;
+            let len = if len == 0 { n } else { len } as f64 / f as f64;
+            let slot = if ring[k] { &mut touch } else { &mut open };
+            *slot = Some(slot.map_or(len, |v: f64| v.min(len)));
+        }
+        EdgeRuns {
+            crossings: starts.len(),
+            narrowest_open: open,
+            narrowest_contact: touch,
+            all_contact: ring.iter().all(|&c| c),
+        }
+    }
+
+    /// The window is too small for the neck if no contact line crosses its edge (it lies inside
+    /// the open channel or inside a contact patch: the contact lines that bound the neck are left
+    /// to the coarse grid), or if a run of either state on the edge is shorter than `min_cells`
+    /// base cells (the narrow part of the channel or of the contact bridge reaches the edge).
+    pub fn too_small(&self, min_cells: f64) -> bool {
+        self.crossings == 0
+            || self.narrowest_open.is_some_and(|w| w < min_cells)
+            || self.narrowest_contact.is_some_and(|w| w < min_cells)
+    }
 }
 
 impl Refined {
@@ -799,6 +854,8 @@ impl RefinedModel {
             .sum::<f64>()
             / nodes;
         let origin = c.origin;
+        let contact: Vec<bool> = window_pressure.iter().map(|&p| p > 0.0).collect();
+        let edge = EdgeRuns::of(&contact, rx, ry, c.f);
         Ok(Refined {
             window_grid: Grid {
                 nx: rx,
@@ -816,6 +873,7 @@ impl RefinedModel {
             contact_area,
             stats: sol.stats.clone(),
             composite: sol,
+            edge,
         })
     }
 
@@ -1091,6 +1149,41 @@ mod tests {
         );
         assert!(ga > 0.0);
         assert!((gb / ga - 1.0).abs() < 1e-3);
+    }
+
+    /// A window smaller than the neck is reported: near percolation (l ≈ −0.02) a window of
+    /// 2² base cells around the saddle sees no contact line cross its edge, or only a narrow
+    /// channel; one of 12² sees the channel cross its edge wider than 2 base cells.
+    #[test]
+    fn a_too_small_window_is_reported() {
+        let s = Surface::new(Lattice::Square, 5).unwrap();
+        let load = 0.224 * s.p_fc_grid();
+        let mut seen = Vec::new();
+        for w in [2, 12] {
+            let opts = RefineOptions {
+                levels: 2,
+                window: Window::centred(&s.grid, 0.5, 0.0, w, w),
+                solver: solver(),
+            };
+            let r = RefinedModel::blockwise(&s, &opts, 6)
+                .unwrap()
+                .solve(load, None)
+                .unwrap();
+            assert!(r.stats.converged);
+            eprintln!("window {w}: {:?}", r.edge);
+            seen.push(r.edge.too_small(2.0));
+        }
+        assert_eq!(seen, [true, false]);
+        // the run count on a hand-made edge: a 5 × 4 region with contact on its first row
+        let mut c = vec![false; 20];
+        c[..4].iter_mut().for_each(|v| *v = true);
+        let e = EdgeRuns::of(&c, 5, 4, 2);
+        assert_eq!(e.crossings, 2);
+        // the ring has 14 nodes: row 0 (4, in contact), then 10 open; 2 fine nodes per cell
+        assert_eq!(
+            (e.narrowest_contact, e.narrowest_open),
+            (Some(2.0), Some(5.0))
+        );
     }
 
     /// Bad options are refused with the parameter named.
