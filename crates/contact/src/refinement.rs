@@ -87,29 +87,77 @@
 //! contact lines of the rest of the cell), not by the neck. 1e-6 in the saddle gap is not
 //! reached; the uniform 2048² and 4096² solves agree to 7.7e-7 at a fixed load.
 //!
-//! # Cost, and what is left
+//! # Cost of the full application
 //! Measured (`REFINE_BASE=9 REFINE_LEVELS=2 REFINE_WINDOWS=64` and `REFINE_BASE=7
 //! REFINE_LEVELS=4 REFINE_WINDOWS=32`, 2 cores shared with other jobs, load average ~15):
 //! composite 230 s, 153 iterations (k = 2) and 439 s, 308 iterations (k = 4) against 20 s and
 //! 30 s, 40 iterations, for the uniform 2048² solve in the same runs.
-//! Every iteration applies G_f and K_f on the whole fine lattice (two FFT pairs of f² N_base
-//! nodes, as the uniform solve does) plus the prolongation and restriction passes (the latter
-//! (2f − 1)² operations per base node), and needs 4–8× the uniform solve's iterations (the
-//! preconditioner is exact inside R only; every late correction costs a full application): the
-//! composite solve is several times SLOWER than the uniform one and allocates the fine
-//! lattice. It proves the discretisation, not the economy. Not fit for the near-critical ladder
-//! yet. What would make it cheap without changing the discrete problem: apply A' blockwise —
-//! fine–fine by zero-padded FFT on R ([`FreeKernel::from_green`] of G_f), coarse–coarse as a
-//! base-grid circulant (PᵀG_fP restricted to hats is shift-invariant with the base period:
-//! one fine transform at setup), and the cross blocks by the same circulants on the region's
-//! base-cell restriction plus a near-field correction; nested regions (k steps of 2) for
-//! k = 6. Not done.
+//! Every iteration of [`RefinedModel::new`]'s operator applies G_f and K_f on the whole fine
+//! lattice (two FFT pairs of f² N_base nodes) plus the prolongation and restriction passes, and
+//! needs 4–8× the uniform solve's iterations: slower than the uniform solve, and it allocates
+//! the fine lattice. It is kept as the reference of the blockwise application.
+//!
+//! # Blockwise application ([`RefinedModel::blockwise`], [`blocks`])
+//! The same discrete problem (same unknowns, weights, heights W⁻¹Pᵀh and preconditioner
+//! Pᵀ K_f P) with A' applied without the fine lattice. Write p = H v + d (H v the bilinear
+//! interpolant of nodal values on every base node, d the fine remainder on R, zero at R's base
+//! nodes). Then, with E the base nodes within `margin` cells of R and F the rest:
+//! - hats–hats: C = Hᵀ G_f H is a base-grid circulant; its spectrum is an alias sum over the f²
+//!   fine modes of each base mode (exact; setup work f² N_base, memory N_base);
+//! - everything supported near R (d and the hats of E): one zero-padded FFT on a box of
+//!   ((w + 2 margin + 2) f)² fine nodes with the real-space table of G_f, computed by two
+//!   passes of 1-D transforms (memory (F/2) × box side, never F²) (exact);
+//! - d against the hats of F: their field is exact at base nodes (the circulant C' =
+//!   (G_f ∗ hat) on the base lattice, alias sum) and interpolated onto R's fine nodes by
+//!   [`ORDER`]-point Lagrange per axis; the transposed block uses the adjoint interpolation, so
+//!   A' stays symmetric (one energy, PK unchanged, no outer iteration). This is the only
+//!   approximation. It bounds the field of hats at least `margin` cells away; tested on
+//!   operators (32² base): max |A'x − A'_full x| / max |A'_full x| = 6.4e-6 (margin 5, f = 2),
+//!   3.9e-6 (5, f = 4), 2.8e-7 (8), 5.1e-8 (12); symmetric to 1e-14.
+//!
+//! Heights: Pᵀh streamed over the fine lattice by base rows (each fine node evaluated ~twice).
+//!
+//! Measured against the full composite (same discretisation; the difference is the
+//! approximation above):
+//! - 32² base, k = 2, window 8², margin 6, at 0.215 p_fc: saddle gap −1.6e-5 relative, window
+//!   gaps within 4.5e-7 h0, same contact area and the same 118 iterations (test).
+//! - 64² base, k = 2, window 16², margin 12, fixed reduced load (own p_c, test): p_c −4.0e-7
+//!   (margin 8: −7.0e-7); saddle gap blockwise/composite +3.5e-5, +1.0e-4, +2.9e-4 at l = −1e-2,
+//!   −3e-3, −1e-3 (margin 8: +6.1e-5, +1.8e-4 at the first two). The difference grows like
+//!   1/|l|, i.e. it acts as an unabsorbed shift of the reduced load by ~3e-7, and falls only
+//!   slowly with the margin (8 → 12: ×1.8, while the operator error falls ×5): its origin is not
+//!   understood. Against the uniform 256² solve the blockwise errors are +2.9e-3, +1.3e-3,
+//!   +1.9e-3 (composite +2.9e-3, +1.2e-3, +1.7e-3; base alone −5.1e-2, −0.19, −3.5e-2).
+//! - 128² base, k = 2, window 32², margin 8, against uniform 512² (`REFINE_METHOD=blockwise
+//!   REFINE_CRITICAL=1`): p_c/p_fc 0.2286087270 (composite 0.2286087523, uniform 0.2286068670,
+//!   base 0.2286302437); saddle gap at l = −1e-2, −3e-3, −1e-3, −3e-4, −1e-4: +7.9e-4, +1.0e-3,
+//!   +1.8e-3, +1.7e-3, +1.9e-3 relative to uniform (composite +7.7e-4, +1.0e-3, +1.7e-3, +1.4e-3;
+//!   base alone −1.4e-2, −4.1e-2, −0.14, −0.13, +0.11).
+//!
+//! Cost (2 cores shared with ~5 other builds and solves, load average 13: wall times are
+//! indicative; setup included; square model at 0.227 p_fc, saddle (1/2, 0), margin 8):
+//! - 256² base, k = 3, window 32² (fine spacing of 2048²): 23 s, 200 iterations, against
+//!   18 s, 40 iterations for the uniform 2048² solve in the same run; saddle gap −5.7e-4 from
+//!   uniform at this fixed load (base alone +2.6e-4: at a fixed load near p_c the comparison
+//!   measures the p_c shift, see above).
+//! - k = 4..6: see below (COSTS).
+//!
+//! # What is left
+//! - Iterations: the preconditioner Pᵀ K_f P (applied blockwise as well) leaves 5× the uniform
+//!   solve's iterations; each is cheap, but a better one (e.g. exact on R's box) would pay.
+//! - Box size: the box grows like (w + 2 margin + 2) 2^k per side, so k = 6 needs a window of
+//!   few base cells; nested windows (each level refining a fixed number of its own cells by 2)
+//!   would make the unknowns grow linearly in k. Not done.
+//! - The flow (Reynolds) on the composite gap is not done; [`Refined::window_gap`] holds the
+//!   fine gap of R only.
+//! - [`EdgeRuns`] reports a window that is too small (no contact line crossing its edge, or a
+//!   run of open or contact nodes on the edge shorter than a given number of base cells).
 
 pub mod blocks;
+pub mod coupled;
 
 /// Points per axis of the far field's Lagrange interpolation in the blockwise operator.
 pub const ORDER: usize = 8;
-pub mod coupled;
 
 use crate::compliance::Compliance;
 use crate::elastic::ElasticKernel;

@@ -259,11 +259,6 @@ impl Blocks {
         }
     }
 
-    /// Nodes the box FFT works on (padded), for cost reports.
-    pub fn box_nodes(&self) -> usize {
-        4 * self.bx * self.by
-    }
-
     /// Bilinear interpolant of base values `v` (masked by `mask` if given) at the fine node
     /// (a, b) relative to R's first node.
     fn bilinear(&self, v: &[f64], mask: Option<&[bool]>, a: isize, b: isize) -> f64 {
