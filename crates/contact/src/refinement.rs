@@ -150,6 +150,17 @@
 //!   measures the p_c shift, see above).
 //! - k = 4..6: see below (COSTS).
 //!
+//! # Fit to drive the near-critical ladder?
+//! Not yet below |l| ~ 1e-4. What holds: the discretisation is the composite one (local slopes
+//! within 6.4e-4 of the uniform ones at fixed l), the fine lattice is never allocated, and at
+//! k = 3 one solve costs about a uniform 2048² solve. What does not: (i) the far-field
+//! interpolation adds an error that acts like a shift of the reduced load by ~1e-7 … 1e-6
+//! (falling with the margin and the base resolution, see above), which at |l| = 1e-5 would be
+//! 1–10 % of the saddle gap unless the margin and base grid are chosen to push it below ~1e-9
+//! (to be measured: vary the margin at the rung); (ii) 5× the uniform iterations; (iii) the box
+//! grows like 2^k, so k = 6 needs a window of a few base cells (nested windows not done);
+//! (iv) no flow on the composite gap.
+//!
 //! # What is left
 //! - Iterations: the preconditioner Pᵀ K_f P (applied blockwise as well) leaves 5× the uniform
 //!   solve's iterations; each is cheap, but a better one (e.g. exact on R's box) would pay.
