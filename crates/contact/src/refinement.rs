@@ -148,7 +148,11 @@
 //!   18 s, 40 iterations for the uniform 2048² solve in the same run; saddle gap −5.7e-4 from
 //!   uniform at this fixed load (base alone +2.6e-4: at a fixed load near p_c the comparison
 //!   measures the p_c shift, see above).
-//! - k = 4..6: see below (COSTS).
+//! - 256² base, k = 4 (fine spacing of 4096², never allocated), window 16²
+//!   (`REFINE_SKIP_REFERENCE=1`): 57 s, 203 iterations, peak resident memory 238 MiB.
+//! - k = 5 (256² base, window 16²) and k = 6 (128² base, window 8², margin 6; box 2814²
+//!   padded, resident 1.15 GB) were still iterating after 9 and 2.5 CPU-minutes when the
+//!   session ended (load average ~12 on 2 cores): not measured.
 //!
 //! # Fit to drive the near-critical ladder?
 //! Not yet below |l| ~ 1e-4. What holds: the discretisation is the composite one (local slopes
