@@ -151,8 +151,10 @@
 //! - 256² base, k = 4 (fine spacing of 4096², never allocated), window 16²
 //!   (`REFINE_SKIP_REFERENCE=1`): 57 s, 203 iterations, peak resident memory 238 MiB.
 //! - k = 5 (256² base, window 16²) and k = 6 (128² base, window 8², margin 6; box 2814²
-//!   padded, resident 1.15 GB) were still iterating after 9 and 2.5 CPU-minutes when the
-//!   session ended (load average ~12 on 2 cores): not measured.
+//!   padded, resident 1.15 GB; k = 5 resident 0.9 GB) had not finished after 18 and 12
+//!   CPU-minutes (50 and 26 min wall, load average ~12 on 2 cores) when the session ended: not
+//!   measured, and clearly not yet comparable to a uniform 2048² solve (the iteration count at
+//!   these k is unknown; the composite's grew from 153 at k = 2 to 308 at k = 4).
 //!
 //! # Fit to drive the near-critical ladder?
 //! Not yet below |l| ~ 1e-4. What holds: the discretisation is the composite one (local slopes
