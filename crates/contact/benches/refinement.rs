@@ -3,7 +3,9 @@
 //! Problem: the square model near percolation, hard wall; the saddle (1/2, 0) is refined. Base
 //! grid 2^`REFINE_BASE` (default 9), refined 2^`REFINE_LEVELS` (default 2) times; the reference
 //! is the uniform solve on the fine lattice. `REFINE_METHOD` picks the refinement:
-//! `composite` (default, [`contact::refinement`]), `coupled` (domain decomposition with the cut
+//! `composite` (default, [`contact::refinement`]), `blockwise` (the same discretisation applied
+//! blockwise without the fine lattice, [`contact::refinement::blocks`], margin `REFINE_MARGIN`
+//! base cells, default 8), `coupled` (domain decomposition with the cut
 //! interface, [`contact::refinement::coupled`]) or `bandlimited` (the same with the first,
 //! band-limited interface, to reproduce the diagnosis).
 //!
@@ -16,6 +18,10 @@
 //! `REFINE_WINDOW`, default 32), the load p_c at which the saddle closes (bisection to 1e-9
 //! relative) and the saddle gap at l = −1e-2, −3e-3, −1e-3, −3e-4 from each one's own p_c
 //! (defaults base 2^7). `REFINE_SKIP_REFERENCE=1` skips the uniform and base cases.
+//!
+//! `REFINE_SKIP_REFERENCE=1` in the default mode skips the uniform and base solves too (cost
+//! of the refined solve alone, e.g. k = 4..6); each refined case then reports the process's
+//! peak resident memory (VmHWM), so run one window per process for a memory figure.
 //!
 //! Each case prints one machine-readable line starting with `RESULT`. Measurements are in the
 //! module docs of `contact::refinement`.
@@ -52,16 +58,18 @@ impl Disc {
         };
         let window = Window::centred(&s.grid, 0.5, 0.0, w, w);
         match method {
-            "composite" => {
+            "composite" | "blockwise" => {
                 let opts = RefineOptions {
                     levels,
                     window,
                     solver: solver(),
                 };
-                Disc::Composite(Box::new((
-                    RefinedModel::new(s, &opts).expect("composite"),
-                    None,
-                )))
+                let model = if method == "blockwise" {
+                    RefinedModel::blockwise(s, &opts, env("REFINE_MARGIN", 8)).expect("blockwise")
+                } else {
+                    RefinedModel::new(s, &opts).expect("composite")
+                };
+                Disc::Composite(Box::new((model, None)))
             }
             "coupled" | "bandlimited" => Disc::Coupled(coupled::RefineOptions {
                 levels,
@@ -75,7 +83,9 @@ impl Disc {
                     coupled::Interface::BandLimited
                 },
             }),
-            other => panic!("REFINE_METHOD = {other:?}: composite, coupled or bandlimited"),
+            other => {
+                panic!("REFINE_METHOD = {other:?}: composite, blockwise, coupled or bandlimited")
+            }
         }
     }
 
@@ -139,7 +149,7 @@ fn critical(base_n: u32, levels: u32, w: usize, method: &str) {
             }
         }
         let pc = 0.5 * (lo + hi);
-        let gaps: Vec<String> = [-1e-2, -3e-3, -1e-3, -3e-4]
+        let gaps: Vec<String> = [-1e-2, -3e-3, -1e-3, -3e-4, -1e-4]
             .iter()
             .map(|l| format!("{l:e}: {:.6e}", d.solve(surf, pc * (1.0 + l) * pfc).0))
             .collect();
@@ -174,36 +184,54 @@ fn main() {
     let s = Surface::new(Lattice::Square, base_n).expect("base grid");
     let fine = Surface::new(Lattice::Square, base_n + levels).expect("fine grid");
     let load = frac * s.p_fc_grid();
-    let t = Instant::now();
-    let (g_uni, a_uni, it) = Disc::new(&fine, &method, levels, None).solve(&fine, load);
-    let t_uni = t.elapsed().as_secs_f64();
-    println!(
-        "uniform {}²: {t_uni:.2} s, {it} iterations, saddle gap {g_uni:.12e}, area {a_uni:.8}",
-        fine.grid.nx
-    );
-    println!(
-        "RESULT uniform n={} wall_s={t_uni:.3} gap={g_uni:.15e} area={a_uni:.10}",
-        fine.grid.nx
-    );
-    let t = Instant::now();
-    let (g_c, a_c, _) = Disc::new(&s, &method, levels, None).solve(&s, load);
-    println!(
-        "base {}² alone: {:.2} s, saddle gap {g_c:.12e} (rel {:+.3e}), area {a_c:.8}",
-        s.grid.nx,
-        t.elapsed().as_secs_f64(),
-        g_c / g_uni - 1.0,
-    );
+    let skip = env("REFINE_SKIP_REFERENCE", 0) == 1;
+    let mut g_uni = f64::NAN;
+    if !skip {
+        let t = Instant::now();
+        let (g, a_uni, it) = Disc::new(&fine, &method, levels, None).solve(&fine, load);
+        g_uni = g;
+        let t_uni = t.elapsed().as_secs_f64();
+        println!(
+            "uniform {}²: {t_uni:.2} s, {it} iterations, saddle gap {g_uni:.12e}, area {a_uni:.8}",
+            fine.grid.nx
+        );
+        println!(
+            "RESULT uniform n={} wall_s={t_uni:.3} gap={g_uni:.15e} area={a_uni:.10}",
+            fine.grid.nx
+        );
+        let t = Instant::now();
+        let (g_c, a_c, _) = Disc::new(&s, &method, levels, None).solve(&s, load);
+        println!(
+            "base {}² alone: {:.2} s, saddle gap {g_c:.12e} (rel {:+.3e}), area {a_c:.8}",
+            s.grid.nx,
+            t.elapsed().as_secs_f64(),
+            g_c / g_uni - 1.0,
+        );
+    }
     for w in windows {
         let t = Instant::now();
         let mut d = Disc::new(&s, &method, levels, Some(w));
         let (gap, area, it) = d.solve(&s, load);
         let wall = t.elapsed().as_secs_f64();
         let rel = gap / g_uni - 1.0;
+        let peak = peak_memory_mib();
         println!(
-            "{method} window {w}² base cells: {wall:.2} s, {it} iterations, saddle gap {gap:.12e} (rel {rel:+.3e}), area {area:.8}"
+            "{method} window {w}² base cells: {wall:.2} s (setup included), {it} iterations, saddle gap {gap:.12e} (rel {rel:+.3e}), area {area:.8}, peak memory {peak:.0} MiB"
         );
         println!(
-            "RESULT method={method} window={w} wall_s={wall:.3} iterations={it} gap={gap:.15e} rel={rel:.3e} area={area:.10}"
+            "RESULT method={method} window={w} wall_s={wall:.3} iterations={it} gap={gap:.15e} rel={rel:.3e} area={area:.10} peak_mib={peak:.0}"
         );
     }
+}
+
+/// Peak resident memory of this process (VmHWM, MiB); NaN where /proc is missing.
+fn peak_memory_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kb| kb / 1024.0)
 }

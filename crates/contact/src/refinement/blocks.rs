@@ -1,0 +1,533 @@
+//! The composite operator applied blockwise, without the fine lattice (see the parent module's
+//! docs, "Blockwise application").
+//!
+//! Write the composite pressure as p = H v + d: H v the bilinear interpolant of nodal values v
+//! on every base node (the coarse unknowns outside R, the fine unknowns at R's base nodes), d
+//! the fine remainder on R (zero at R's base nodes; zero outside R, where p = H v exactly). The
+//! unknowns map to (v, d) by a bijection T, and ½ pᵀ G p splits into
+//! - vᵀ C v, C = Hᵀ G H: a circulant on the base grid (hats are translates by a base period),
+//!   its spectrum an alias sum over the f² fine modes of each base mode (exact, setup only);
+//! - zᵀ G z − v_Eᵀ C v_E with z = H v_E + d, v_E the nodal values on the base nodes within
+//!   `margin` base cells of R (set E): z lives on a box of fine nodes around R, so G z is a
+//!   zero-padded FFT on the box with the real-space table of G (exact);
+//! - 2 dᵀ (G H v_F) on R, v_F the nodal values outside E: the field of hats at least `margin`
+//!   cells from R's base nodes. Its exact values at base nodes are C' v_F (C' the circulant
+//!   (G ∗ hat) sampled on the base lattice, alias sum as for C); on R's fine nodes it is
+//!   interpolated from them (tensor cubic Lagrange over the base nodes R ± 1 cell). This is the
+//!   only approximation, and it keeps one energy (the transposed block uses the adjoint
+//!   interpolation), so the operator stays symmetric.
+//!
+//! The same machinery with G replaced by the fine stiffness K_f is the preconditioner Pᵀ K_f P.
+
+use crate::free_kernel::FreeKernel;
+use crate::spectral::Spectral;
+use rayon::prelude::*;
+use rustfft::FftPlanner;
+
+/// A fine-lattice circulant given by its spectrum (eigenvalue per fine mode).
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Kernel {
+    /// G_f: 1/k(q), zero at q = 0.
+    Compliance,
+    /// K_f: k(q) = |q|/2 (E* = 1), zero at q = 0.
+    Stiffness,
+}
+
+/// Geometry of the fine lattice and the window.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Geometry {
+    pub nx: usize,
+    pub ny: usize,
+    pub lx: f64,
+    pub ly: f64,
+    pub f: usize,
+    pub i0: usize,
+    pub j0: usize,
+    pub wx: usize,
+    pub wy: usize,
+    pub margin: usize,
+    /// Points of the Lagrange interpolation of the far field per axis (even, ≥ 2).
+    pub order: usize,
+}
+
+impl Geometry {
+    fn fine(&self) -> (usize, usize) {
+        (self.nx * self.f, self.ny * self.f)
+    }
+    /// Fine nodes of R per side.
+    pub fn region(&self) -> (usize, usize) {
+        (self.wx * self.f + 1, self.wy * self.f + 1)
+    }
+    /// Fine nodes of the box per side, and its first node relative to R's.
+    fn boxed(&self) -> (usize, usize, isize) {
+        let (f, m) = (self.f, self.margin);
+        (
+            (self.wx + 2 * m + 2) * f - 1,
+            (self.wy + 2 * m + 2) * f - 1,
+            -(((m + 1) * f) as isize) + 1,
+        )
+    }
+    fn base(&self, rel_i: isize, rel_j: isize) -> usize {
+        let i = (self.i0 as isize + rel_i).rem_euclid(self.nx as isize) as usize;
+        let j = (self.j0 as isize + rel_j).rem_euclid(self.ny as isize) as usize;
+        i * self.ny + j
+    }
+    fn eigen(&self, kernel: Kernel, kx: usize, ky: usize) -> f64 {
+        let (fx, fy) = self.fine();
+        let sx = if kx <= fx / 2 {
+            kx as f64
+        } else {
+            kx as f64 - fx as f64
+        };
+        let sy = if ky <= fy / 2 {
+            ky as f64
+        } else {
+            ky as f64 - fy as f64
+        };
+        let tau = 2.0 * std::f64::consts::PI;
+        let k = 0.5 * (tau * sx / self.lx).hypot(tau * sy / self.ly);
+        if k == 0.0 {
+            0.0
+        } else {
+            match kernel {
+                Kernel::Compliance => 1.0 / k,
+                Kernel::Stiffness => k,
+            }
+        }
+    }
+}
+
+/// Hat weight 1 − |a|/f.
+fn hat(a: isize, f: usize) -> f64 {
+    1.0 - a.unsigned_abs() as f64 / f as f64
+}
+
+/// Lagrange weights at t ∈ [0, 1) for the `order` nodes 1 − order/2 ..= order/2.
+fn lagrange(t: f64, order: usize) -> Vec<f64> {
+    let x = |k: usize| k as f64 + 1.0 - (order / 2) as f64;
+    (0..order)
+        .map(|k| {
+            (0..order)
+                .filter(|&m| m != k)
+                .map(|m| (t - x(m)) / (x(k) - x(m)))
+                .product()
+        })
+        .collect()
+}
+
+/// Real-space table t[dx·(by+1) + dy] = kernel(dx, dy) of the fine circulant for 0 ≤ dx ≤ bx,
+/// 0 ≤ dy ≤ by (the kernel is even in each coordinate). Two passes of 1-D transforms; the work
+/// array holds (F_x/2 + 1) × (by + 1) values, never the fine lattice.
+fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f64> {
+    let (fx, fy) = g.fine();
+    let (bx, by) = (bx.min(fx - 1), by.min(fy - 1));
+    let half = fx / 2 + 1;
+    let fft_y = FftPlanner::<f64>::new().plan_fft_forward(fy);
+    let mut rows = vec![0.0; half * (by + 1)];
+    rows.par_chunks_mut(by + 1)
+        .enumerate()
+        .for_each(|(kx, out)| {
+            let mut buf: Vec<num_complex::Complex64> = (0..fy)
+                .map(|ky| num_complex::Complex64::new(g.eigen(kernel, kx, ky), 0.0))
+                .collect();
+            fft_y.process(&mut buf);
+            for (o, c) in out.iter_mut().zip(&buf) {
+                *o = c.re;
+            }
+        });
+    let fft_x = FftPlanner::<f64>::new().plan_fft_forward(fx);
+    let norm = (fx * fy) as f64;
+    let cols: Vec<Vec<f64>> = (0..=by)
+        .into_par_iter()
+        .map(|dy| {
+            let mut buf: Vec<num_complex::Complex64> = (0..fx)
+                .map(|kx| {
+                    let k = if kx < half { kx } else { fx - kx };
+                    num_complex::Complex64::new(rows[k * (by + 1) + dy], 0.0)
+                })
+                .collect();
+            fft_x.process(&mut buf);
+            buf[..=bx].iter().map(|c| c.re / norm).collect()
+        })
+        .collect();
+    let mut t = vec![0.0; (bx + 1) * (by + 1)];
+    for (dy, col) in cols.iter().enumerate() {
+        for (dx, v) in col.iter().enumerate() {
+            t[dx * (by + 1) + dy] = *v;
+        }
+    }
+    t
+}
+
+/// Half spectra (natural layout, normalised for [`Spectral`]) of C = Hᵀ K H and
+/// C' = (K ∗ hat) sampled on the base lattice: alias sums over the f² fine modes of each base
+/// mode.
+fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>) {
+    let (f, nx, ny) = (g.f, g.nx, g.ny);
+    let (fx, fy) = g.fine();
+    let phi = |k: usize, n: usize| -> f64 {
+        if k == 0 {
+            return f as f64;
+        }
+        let th = std::f64::consts::PI * k as f64 / n as f64;
+        let r = (f as f64 * th).sin() / th.sin();
+        r * r / f as f64
+    };
+    let px: Vec<f64> = (0..fx).map(|k| phi(k, fx)).collect();
+    let py: Vec<f64> = (0..fy).map(|k| phi(k, fy)).collect();
+    let m = ny / 2 + 1;
+    let norm = (f * f * nx * ny) as f64;
+    let pairs: Vec<(f64, f64)> = (0..nx * m)
+        .into_par_iter()
+        .map(|idx| {
+            let (a, b) = (idx / m, idx % m);
+            let (mut c, mut cp) = (0.0, 0.0);
+            for mx in 0..f {
+                let kx = a + nx * mx;
+                for my in 0..f {
+                    let ky = b + ny * my;
+                    let e = g.eigen(kernel, kx, ky);
+                    let h = px[kx] * py[ky];
+                    c += h * h * e;
+                    cp += h * e;
+                }
+            }
+            (c / norm, cp / norm)
+        })
+        .collect();
+    pairs.into_iter().unzip()
+}
+
+/// One kernel's blockwise operator (see the module docs).
+pub(crate) struct Blocks {
+    g: Geometry,
+    rx: usize,
+    ry: usize,
+    bx: usize,
+    by: usize,
+    origin: isize,
+    /// Zero-padded convolution on the box.
+    boxk: FreeKernel,
+    spectral: Spectral,
+    c: Vec<f64>,
+    cp: Vec<f64>,
+    /// Base nodes within `margin` cells of R.
+    in_e: Vec<bool>,
+    /// Interpolation weights per fine offset in a cell (0..f).
+    lag: Vec<Vec<f64>>,
+    /// The kernel at offset 0.
+    pub point: f64,
+}
+
+impl Blocks {
+    pub fn new(g: Geometry, kernel: Kernel) -> Self {
+        let (rx, ry) = g.region();
+        let (bx, by, origin) = g.boxed();
+        let t = table(&g, kernel, bx, by);
+        let stride = by + 1;
+        let boxk = FreeKernel::from_green(bx, by, |i, j| {
+            t[i.unsigned_abs() * stride + j.unsigned_abs()]
+        });
+        let (c, cp) = alias_spectra(&g, kernel);
+        let spectral = Spectral::new(g.nx, g.ny);
+        let c = spectral.multiplier(&c);
+        let cp = spectral.multiplier(&cp);
+        let m = g.margin as isize;
+        let mut in_e = vec![false; g.nx * g.ny];
+        for ei in -m..=g.wx as isize + m {
+            for ej in -m..=g.wy as isize + m {
+                in_e[g.base(ei, ej)] = true;
+            }
+        }
+        let lag = (0..g.f)
+            .map(|s| lagrange(s as f64 / g.f as f64, g.order))
+            .collect();
+        Blocks {
+            lag,
+            point: t[0],
+            g,
+            rx,
+            ry,
+            bx,
+            by,
+            origin,
+            boxk,
+            spectral,
+            c,
+            cp,
+            in_e,
+        }
+    }
+
+    /// Bilinear interpolant of base values `v` (masked by `mask` if given) at the fine node
+    /// (a, b) relative to R's first node.
+    fn bilinear(&self, v: &[f64], mask: Option<&[bool]>, a: isize, b: isize) -> f64 {
+        let f = self.g.f as isize;
+        let (ca, sa, cb, sb) = (
+            a.div_euclid(f),
+            a.rem_euclid(f),
+            b.div_euclid(f),
+            b.rem_euclid(f),
+        );
+        let mut s = 0.0;
+        for (di, wi) in [(0, 1.0 - sa as f64 / f as f64), (1, sa as f64 / f as f64)] {
+            if wi == 0.0 {
+                continue;
+            }
+            for (dj, wj) in [(0, 1.0 - sb as f64 / f as f64), (1, sb as f64 / f as f64)] {
+                if wj == 0.0 {
+                    continue;
+                }
+                let k = self.g.base(ca + di, cb + dj);
+                if mask.is_none_or(|m| m[k]) {
+                    s += wi * wj * v[k];
+                }
+            }
+        }
+        s
+    }
+
+    /// Applies Tᵀ Ĝ T to the unknowns: `fine` on R (rx × ry, row-major) and `v` the nodal
+    /// values on every base node (R's base nodes carrying the fine unknown there). Returns the
+    /// gradient on R's fine unknowns (with the base nodes' coarse terms added) and on every base
+    /// node (only the nodes outside R are used by the caller).
+    pub fn apply(&mut self, fine: &[f64], v: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let (rx, ry, bx, by, o) = (self.rx, self.ry, self.bx, self.by, self.origin);
+        let f = self.g.f as isize;
+        let nb = self.g.nx * self.g.ny;
+        // d = p_R − I_R v
+        let mut d = vec![0.0; rx * ry];
+        d.par_chunks_mut(ry).enumerate().for_each(|(a, row)| {
+            for (b, x) in row.iter_mut().enumerate() {
+                *x = fine[a * ry + b] - self.bilinear(v, None, a as isize, b as isize);
+            }
+        });
+        // z = H v_E + d on the box
+        let mut z = vec![0.0; bx * by];
+        {
+            let this = &*self;
+            let mask = Some(&this.in_e[..]);
+            z.par_chunks_mut(by).enumerate().for_each(|(u, row)| {
+                let a = u as isize + o;
+                for (w, x) in row.iter_mut().enumerate() {
+                    let b = w as isize + o;
+                    let mut s = this.bilinear(v, mask, a, b);
+                    if a >= 0 && (a as usize) < rx && b >= 0 && (b as usize) < ry {
+                        s += d[a as usize * ry + b as usize];
+                    }
+                    *x = s;
+                }
+            });
+        }
+        let mut gz = vec![0.0; bx * by];
+        crate::compliance::Compliance::displacement(&mut self.boxk, &z, &mut gz);
+        // far field
+        let vf: Vec<f64> = v
+            .iter()
+            .zip(&self.in_e)
+            .map(|(x, e)| if *e { 0.0 } else { *x })
+            .collect();
+        let mut cp_vf = vec![0.0; nb];
+        self.spectral.convolve_with(&vf, &self.cp, &mut cp_vf);
+        let mut c_vf = vec![0.0; nb];
+        self.spectral.convolve_with(&vf, &self.c, &mut c_vf);
+        let mut c_v = vec![0.0; nb];
+        self.spectral.convolve_with(v, &self.c, &mut c_v);
+        // g_d = (G z)|_R + Π S C' v_F and w = Sᵀ Πᵀ d, separably: the stencil's base rows are
+        // rel 1 − P/2 ..= wx + P/2 (sx of them), fine row a uses rows a/f .. a/f + P.
+        let (fu, pp) = (self.g.f, self.g.order);
+        let lo = 1 - (pp / 2) as isize;
+        let (sx, sy) = (self.g.wx + pp, self.g.wy + pp);
+        let mut ay = vec![0.0; sx * ry];
+        ay.par_chunks_mut(ry).enumerate().for_each(|(is, row)| {
+            for (b, x) in row.iter_mut().enumerate() {
+                let (cb, wb) = (b / fu, &self.lag[b % fu]);
+                let mut acc = 0.0;
+                for (q, wq) in wb.iter().enumerate() {
+                    if *wq != 0.0 {
+                        acc += wq * cp_vf[self.g.base(is as isize + lo, (cb + q) as isize + lo)];
+                    }
+                }
+                *x = acc;
+            }
+        });
+        let mut gd = vec![0.0; rx * ry];
+        gd.par_chunks_mut(ry).enumerate().for_each(|(a, row)| {
+            let (ca, wa) = (a / fu, &self.lag[a % fu]);
+            for (b, x) in row.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (p, wp) in wa.iter().enumerate() {
+                    if *wp != 0.0 {
+                        acc += wp * ay[(ca + p) * ry + b];
+                    }
+                }
+                let (u, t) = ((a as isize - o) as usize, (b as isize - o) as usize);
+                *x = gz[u * by + t] + acc;
+            }
+        });
+        let mut bx_ = vec![0.0; sx * ry];
+        for a in 0..rx {
+            let (ca, wa) = (a / fu, &self.lag[a % fu]);
+            for (p, wp) in wa.iter().enumerate() {
+                if *wp != 0.0 {
+                    let dst = &mut bx_[(ca + p) * ry..(ca + p + 1) * ry];
+                    for (x, dv) in dst.iter_mut().zip(&d[a * ry..(a + 1) * ry]) {
+                        *x += wp * dv;
+                    }
+                }
+            }
+        }
+        let mut w = vec![0.0; nb];
+        for is in 0..sx {
+            for b in 0..ry {
+                let (cb, wb) = (b / fu, &self.lag[b % fu]);
+                let val = bx_[is * ry + b];
+                for (q, wq) in wb.iter().enumerate() {
+                    if *wq != 0.0 {
+                        w[self.g.base(is as isize + lo, (cb + q) as isize + lo)] += wq * val;
+                    }
+                }
+            }
+        }
+        let _ = sy;
+        let oy = o;
+        let mut cp_w = vec![0.0; nb];
+        self.spectral.convolve_with(&w, &self.cp, &mut cp_w);
+        // g_v: on E, C v_F + Hᵀ G z; outside E, C v + C' Sᵀ Πᵀ d
+        let mut gv = vec![0.0; nb];
+        for k in 0..nb {
+            if !self.in_e[k] {
+                gv[k] = c_v[k] + cp_w[k];
+            }
+        }
+        let m = self.g.margin as isize;
+        for ei in -m..=self.g.wx as isize + m {
+            for ej in -m..=self.g.wy as isize + m {
+                let mut s = 0.0;
+                for da in 1 - f..f {
+                    let u = (ei * f + da - o) as usize;
+                    let line = &gz[u * by..(u + 1) * by];
+                    let mut sa = 0.0;
+                    for db in 1 - f..f {
+                        sa += hat(db, self.g.f) * line[(ej * f + db - oy) as usize];
+                    }
+                    s += hat(da, self.g.f) * sa;
+                }
+                let k = self.g.base(ei, ej);
+                gv[k] = c_vf[k] + s;
+            }
+        }
+        // Tᵀ: fine unknowns get g_d; R's base nodes add g_v − I_Rᵀ g_d
+        let mut out = gd.clone();
+        for ci in 0..=self.g.wx as isize {
+            for cj in 0..=self.g.wy as isize {
+                let mut s = 0.0;
+                for da in 1 - f..f {
+                    let a = ci * f + da;
+                    if a < 0 || a as usize >= rx {
+                        continue;
+                    }
+                    for db in 1 - f..f {
+                        let b = cj * f + db;
+                        if b < 0 || b as usize >= ry {
+                            continue;
+                        }
+                        s += hat(da, self.g.f)
+                            * hat(db, self.g.f)
+                            * gd[a as usize * ry + b as usize];
+                    }
+                }
+                let k = (ci * f) as usize * ry + (cj * f) as usize;
+                out[k] += gv[self.g.base(ci, cj)] - s;
+            }
+        }
+        (out, gv)
+    }
+}
+
+/// Weights W = Pᵀ1 of the composite unknowns: f² for a coarse hat, 1 for a fine node of R, and
+/// 1 + (the hat's mass outside R) for R's base nodes. `fine` is rx × ry.
+pub(crate) fn weights(g: &Geometry) -> (Vec<f64>, f64) {
+    let (rx, ry) = g.region();
+    let f = g.f;
+    let edge = |c: usize, w: usize| -> f64 {
+        // hat mass inside R along one axis
+        if c == 0 || c == w {
+            (f as f64 + 1.0) / 2.0
+        } else {
+            f as f64
+        }
+    };
+    let mut w = vec![1.0; rx * ry];
+    for ci in 0..=g.wx {
+        for cj in 0..=g.wy {
+            let inside = edge(ci, g.wx) * edge(cj, g.wy);
+            w[ci * f * ry + cj * f] = 1.0 + (f * f) as f64 - inside;
+        }
+    }
+    (w, (f * f) as f64)
+}
+
+/// Pᵀ h for a height function h(i, j) of the fine lattice node (i, j) (global indices): on R
+/// (rx × ry) and on every base node (Hᵀ h; the caller uses the nodes outside R). Streams the
+/// fine lattice by base rows; evaluates each fine node about twice.
+pub(crate) fn heights(
+    g: &Geometry,
+    h: impl Fn(usize, usize) -> f64 + Sync,
+) -> (Vec<f64>, Vec<f64>) {
+    let (fx, fy) = g.fine();
+    let f = g.f;
+    let (nx, ny) = (g.nx, g.ny);
+    let hv: Vec<f64> = (0..nx)
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            let lines: Vec<Vec<f64>> = (1 - f as isize..f as isize)
+                .map(|da| {
+                    let fi = ((f * i) as isize + da).rem_euclid(fx as isize) as usize;
+                    (0..fy).map(|j| h(fi, j)).collect()
+                })
+                .collect();
+            (0..ny).map(move |j| {
+                let mut s = 0.0;
+                for (r, line) in lines.iter().enumerate() {
+                    let wa = hat(r as isize + 1 - f as isize, f);
+                    let mut sa = 0.0;
+                    for db in 1 - f as isize..f as isize {
+                        let fj = ((f * j) as isize + db).rem_euclid(fy as isize) as usize;
+                        sa += hat(db, f) * line[fj];
+                    }
+                    s += wa * sa;
+                }
+                s
+            })
+        })
+        .collect();
+    let (rx, ry) = g.region();
+    let hr: Vec<f64> = (0..rx * ry)
+        .map(|k| {
+            let (a, b) = (k / ry, k % ry);
+            h((g.i0 * f + a) % fx, (g.j0 * f + b) % fy)
+        })
+        .collect();
+    let mut out = hr.clone();
+    for ci in 0..=g.wx {
+        for cj in 0..=g.wy {
+            let mut s = 0.0;
+            for da in 1 - f as isize..f as isize {
+                let a = (ci * f) as isize + da;
+                if a < 0 || a as usize >= rx {
+                    continue;
+                }
+                for db in 1 - f as isize..f as isize {
+                    let b = (cj * f) as isize + db;
+                    if b < 0 || b as usize >= ry {
+                        continue;
+                    }
+                    s += hat(da, f) * hat(db, f) * hr[a as usize * ry + b as usize];
+                }
+            }
+            out[ci * f * ry + cj * f] += hv[g.base(ci as isize, cj as isize)] - s;
+        }
+    }
+    (out, hv)
+}
