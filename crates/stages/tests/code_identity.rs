@@ -118,6 +118,29 @@ fn editing_a_stage_module_reruns_the_kinds_that_reach_it_and_no_others() {
 }
 
 #[test]
+fn a_module_folder_is_one_module_whose_every_file_counts() {
+    let dir = workspace_copy();
+    let before = ids(dir.path(), "");
+    assert!(
+        before.contains_key("exponents"),
+        "the exponents kind (a folder module) has an identity"
+    );
+    append(
+        &dir.path().join("crates/kinds/src/exponents/asymptotic.rs"),
+        "\n// an edit\n",
+    );
+    let after = ids(dir.path(), "");
+    let users: BTreeSet<String> = before
+        .iter()
+        .filter(|(_, parts)| parts.contains_key("kinds/src/exponents.rs"))
+        .map(|(m, _)| m.clone())
+        .collect();
+    assert!(users.contains("exponents"), "{users:?}");
+    assert!(!users.contains("sweep") && !users.contains("fig2"), "{users:?}");
+    assert_eq!(changed(&before, &after), users);
+}
+
+#[test]
 fn an_override_keeps_the_identity_across_an_edit_known_not_to_change_results() {
     let dir = workspace_copy();
     let before = ids(dir.path(), "");
