@@ -472,21 +472,9 @@ impl ConstrictionRead {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::selfaffine::{SelfAffineKind, SelfAffineParams};
 
     fn surface(dir: &std::path::Path) -> ArtefactReader {
-        let p: SelfAffineParams = serde_json::from_value(json!({"n": 6, "length": 1.0,
-            "hurst": 0.8, "qr": 2.0, "qs": 8.0, "rms_height": 0.0, "rms_slope": 1.0,
-            "amplitudes": "exact", "seed": 3}))
-        .unwrap();
-        let path = dir.join("s.h5");
-        let mut w = ArtefactWriter::create(&path).unwrap();
-        let mut ctx = StageContext::detached("s", dir);
-        SelfAffineKind
-            .run(&mut ctx, &p, &Inputs::new(Default::default()), &mut w)
-            .unwrap();
-        w.publish().unwrap();
-        ArtefactReader::open(&path).unwrap()
+        crate::selfaffine::test_surface(dir, 6, 3)
     }
 
     fn params(v: serde_json::Value) -> ConstrictionParams {

@@ -277,6 +277,23 @@ impl TypedKind for SelfAffineKind {
     }
 }
 
+/// A small self-affine surface artefact written by this kind, for other kinds' tests.
+#[cfg(test)]
+pub(crate) fn test_surface(dir: &std::path::Path, n: u32, seed: u64) -> store::ArtefactReader {
+    let p: SelfAffineParams = serde_json::from_value(serde_json::json!({"n": n, "length": 1.0,
+        "hurst": 0.8, "qr": 2.0, "qs": 8.0, "rms_height": 0.0, "rms_slope": 1.0,
+        "amplitudes": "exact", "seed": seed}))
+    .unwrap();
+    let path = dir.join("s.h5");
+    let mut w = store::ArtefactWriter::create(&path).unwrap();
+    let mut ctx = StageContext::detached("s", dir);
+    SelfAffineKind
+        .run(&mut ctx, &p, &Inputs::new(Default::default()), &mut w)
+        .unwrap();
+    w.publish().unwrap();
+    store::ArtefactReader::open(&path).unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

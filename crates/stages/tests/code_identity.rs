@@ -136,7 +136,10 @@ fn a_module_folder_is_one_module_whose_every_file_counts() {
         .map(|(m, _)| m.clone())
         .collect();
     assert!(users.contains("exponents"), "{users:?}");
-    assert!(!users.contains("sweep") && !users.contains("fig2"), "{users:?}");
+    assert!(
+        !users.contains("sweep") && !users.contains("fig2"),
+        "{users:?}"
+    );
     assert_eq!(changed(&before, &after), users);
 }
 
