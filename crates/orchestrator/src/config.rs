@@ -295,6 +295,9 @@ pub struct PipelineFile {
     pub scenes: BTreeMap<String, SceneDecl>,
     /// Stages, by name.
     pub stages: BTreeMap<String, StageDecl>,
+    /// The merged tree, kept when a matrix takes a setting: such templates are expanded again
+    /// once the preset is known ([`PipelineFile::for_params`]).
+    source: Option<Node>,
 }
 
 /// A parsed params file: setting name → value (as written, unchecked).
@@ -320,7 +323,7 @@ impl PipelineFile {
     /// Reads and checks the structure of a pipeline file, following `extends` and expanding
     /// named values and templates (kinds and references are checked when a plan is built).
     pub fn load(path: &Path) -> Result<Self, ConfigErrors> {
-        Self::from_tree(path, tree::load_tree(path, None)?)
+        Self::from_tree(path, tree::load_tree(path, None)?, None)
     }
 
     /// Parses pipeline text (for tests); `name` is used in error messages (and an `extends`
@@ -329,16 +332,40 @@ impl PipelineFile {
         Self::from_tree(
             Path::new(name),
             tree::load_tree(Path::new(name), Some(text.into()))?,
+            None,
         )
     }
 
-    fn from_tree(path: &Path, root: Node) -> Result<Self, ConfigErrors> {
+    /// The pipeline as `params` sees it: a template whose matrix takes a setting
+    /// (`matrix.seed = "$ensemble_seeds"`) has one instance per element of the preset's list.
+    /// Without such a template (or if `params` does not resolve: building the plan reports
+    /// that) this is the pipeline itself.
+    pub fn for_params(
+        &self,
+        params: &ParamsFile,
+    ) -> Result<std::borrow::Cow<'_, PipelineFile>, ConfigErrors> {
+        let Some(root) = &self.source else {
+            return Ok(std::borrow::Cow::Borrowed(self));
+        };
+        let Ok(settings) = params.resolve(self) else {
+            return Ok(std::borrow::Cow::Borrowed(self));
+        };
+        Self::from_tree(&self.path, root.clone(), Some(&settings)).map(std::borrow::Cow::Owned)
+    }
+
+    /// `preset`: the resolved settings (None: only the declared defaults are known).
+    fn from_tree(
+        path: &Path,
+        root: Node,
+        preset: Option<&BTreeMap<String, Located<Value>>>,
+    ) -> Result<Self, ConfigErrors> {
         let mut errs = Vec::new();
         let mut out = PipelineFile {
             path: path.to_path_buf(),
             settings: BTreeMap::new(),
             scenes: BTreeMap::new(),
             stages: BTreeMap::new(),
+            source: None,
         };
         let entries = root.table().unwrap_or_default();
         let mut sections: BTreeMap<&str, &[(Key, Node)]> = BTreeMap::new();
@@ -375,9 +402,36 @@ impl PipelineFile {
                 out.scenes.insert(name.name.clone(), d);
             }
         }
+        let defaults: BTreeMap<String, Located<Value>> = out
+            .settings
+            .iter()
+            .filter_map(|(k, d)| {
+                let value = d.default.clone()?;
+                let origin = d.origin.clone();
+                Some((k.clone(), Located { value, origin }))
+            })
+            .collect();
+        let mut msettings = expand::MatrixSettings {
+            values: preset.unwrap_or(&defaults),
+            declared: out.settings.keys().map(String::as_str).collect(),
+            preset: preset.is_some(),
+            used: false,
+        };
         let mut defined: BTreeMap<String, Origin> = BTreeMap::new();
+        // template → its instances in matrix order (for `"TEMPLATE[*]"` inputs)
+        let mut instances: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        let mut concrete = Vec::new();
         for (template, decl) in section("stages") {
-            for (name, decl) in expand::expand_stage(template, decl, &mut values, &mut errs) {
+            let expanded =
+                expand::expand_stage(template, decl, &mut values, &mut msettings, &mut errs);
+            if decl
+                .table()
+                .is_some_and(|t| t.iter().any(|(k, _)| k.name == "matrix"))
+            {
+                let names = expanded.iter().map(|(k, _)| k.name.clone()).collect();
+                instances.insert(template.name.clone(), names);
+            }
+            for (name, decl) in expanded {
                 if let Some(first) = defined.insert(name.name.clone(), name.origin.clone()) {
                     errs.push(ConfigError::plain(format!(
                         "stage `{}` is defined twice: at {} and at {}",
@@ -387,11 +441,15 @@ impl PipelineFile {
                     )));
                     continue;
                 }
-                if let Some(d) = parse_stage(&name, &decl, &mut errs) {
-                    out.stages.insert(name.name.clone(), d);
-                }
+                concrete.push((name, decl));
             }
         }
+        for (name, decl) in &concrete {
+            if let Some(d) = parse_stage(name, decl, &instances, &defined, &mut errs) {
+                out.stages.insert(name.name.clone(), d);
+            }
+        }
+        let used_settings = msettings.used;
         if out.stages.is_empty() && errs.is_empty() {
             errs.push(ConfigError::at(
                 &root.origin,
@@ -399,6 +457,9 @@ impl PipelineFile {
             ));
         }
         if errs.is_empty() {
+            if used_settings {
+                out.source = Some(root);
+            }
             Ok(out)
         } else {
             Err(ConfigErrors(errs))
@@ -551,7 +612,7 @@ fn parse_setting(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option
     };
     let ty = setting_type(&ty_name, min, max, allowed);
     let default = match default {
-        Some((v, origin)) => match ty.check(&v) {
+        Some((v, origin)) => match list_setting(&ty, &v).and_then(|x| ty.check(&x)) {
             Ok(v) => Some(v),
             Err(e) => {
                 errs.push(ConfigError::at(
@@ -569,6 +630,35 @@ fn parse_setting(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option
         doc,
         origin: name.origin.clone(),
     })
+}
+
+/// Largest number of elements a range setting `{ from, to }` may give.
+const MAX_RANGE: i64 = 100_000;
+
+/// A setting of type "array" may be written as an inclusive integer range
+/// `{ from = 1, to = 16 }`: that is the list `[1, 2, …, 16]`. Other values are unchanged.
+fn list_setting(ty: &ParamType, v: &Value) -> Result<Value, String> {
+    let (ParamType::Array { .. }, Value::Object(m)) = (ty, v) else {
+        return Ok(v.clone());
+    };
+    let bad = || {
+        format!(
+            "{v} is not a list nor a range: write a list like [1, 2, 3] or an inclusive integer range {{ from = 1, to = 16 }} (from ≤ to, at most {MAX_RANGE} elements)"
+        )
+    };
+    if m.len() != 2 {
+        return Err(bad());
+    }
+    let (Some(from), Some(to)) = (
+        m.get("from").and_then(Value::as_i64),
+        m.get("to").and_then(Value::as_i64),
+    ) else {
+        return Err(bad());
+    };
+    if from > to || to.saturating_sub(from) >= MAX_RANGE {
+        return Err(bad());
+    }
+    Ok(Value::Array((from..=to).map(Value::from).collect()))
 }
 
 /// The type a setting declared only by its default has.
@@ -666,21 +756,83 @@ fn parse_scene(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option<S
     })
 }
 
-fn parse_inputs(n: &str, v: &Node, errs: &mut Vec<ConfigError>) -> BTreeMap<String, InputDecl> {
+/// The suffix of an input naming every instance of a template: `"ensemble_leakage[*]"`.
+const ALL_INSTANCES: &str = "[*]";
+
+/// An input's stage name, or, written `"TEMPLATE[*]"`, every instance of the template in
+/// matrix order.
+fn input_names(
+    n: &str,
+    input: &str,
+    s: Located<String>,
+    instances: &BTreeMap<String, Vec<String>>,
+    defined: &BTreeMap<String, Origin>,
+    errs: &mut Vec<ConfigError>,
+) -> Vec<Located<String>> {
+    let Some(t) = s.value.strip_suffix(ALL_INSTANCES) else {
+        return vec![s];
+    };
+    match instances.get(t) {
+        Some(names) => names
+            .iter()
+            .map(|x| Located {
+                value: x.clone(),
+                origin: s.origin.clone(),
+            })
+            .collect(),
+        None => {
+            let templates: Vec<&str> = instances.keys().map(String::as_str).collect();
+            let hint = if defined.contains_key(t) {
+                format!("`{t}` is a single stage: write \"{t}\"; ")
+            } else {
+                did_you_mean(t, &templates)
+                    .map(|x| format!("did you mean \"{x}{ALL_INSTANCES}\"? "))
+                    .unwrap_or_default()
+            };
+            errs.push(ConfigError::at(
+                &s.origin,
+                format!(
+                    "stage `{n}`: input `{input}`: \"{}\" names every instance of a template `{t}`, but no template (a stage with a `matrix`) has that name; {hint}templates: {}",
+                    s.value,
+                    if templates.is_empty() { "none".to_string() } else { templates.join(", ") }
+                ),
+            ));
+            Vec::new()
+        }
+    }
+}
+
+fn parse_inputs(
+    n: &str,
+    v: &Node,
+    instances: &BTreeMap<String, Vec<String>>,
+    defined: &BTreeMap<String, Origin>,
+    errs: &mut Vec<ConfigError>,
+) -> BTreeMap<String, InputDecl> {
     let mut inputs = BTreeMap::new();
     let Some(it) = as_table(&format!("stage `{n}`: `inputs`"), v, errs) else {
         return inputs;
     };
     for (ik, iv) in it {
         let (stages, list) = match &iv.v {
-            Val::Str(s) => (
-                vec![Located {
+            Val::Str(s) => {
+                let one = Located {
                     value: s.clone(),
                     origin: iv.origin.clone(),
-                }],
-                false,
+                };
+                let many = s.ends_with(ALL_INSTANCES);
+                (
+                    input_names(n, &ik.name, one, instances, defined, errs),
+                    many,
+                )
+            }
+            Val::Array(a) => (
+                as_names("an input stage", a, errs)
+                    .into_iter()
+                    .flat_map(|x| input_names(n, &ik.name, x, instances, defined, errs))
+                    .collect(),
+                true,
             ),
-            Val::Array(a) => (as_names("an input stage", a, errs), true),
             _ => {
                 errs.push(ConfigError::at(
                     &iv.origin,
@@ -705,7 +857,13 @@ fn parse_inputs(n: &str, v: &Node, errs: &mut Vec<ConfigError>) -> BTreeMap<Stri
     inputs
 }
 
-fn parse_stage(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option<StageDecl> {
+fn parse_stage(
+    name: &Key,
+    decl: &Node,
+    instances: &BTreeMap<String, Vec<String>>,
+    defined: &BTreeMap<String, Origin>,
+    errs: &mut Vec<ConfigError>,
+) -> Option<StageDecl> {
     let n = &name.name;
     if !check_name(name, "stage", errs) {
         return None;
@@ -739,7 +897,7 @@ fn parse_stage(name: &Key, decl: &Node, errs: &mut Vec<ConfigError>) -> Option<S
                     );
                 }
             }
-            "inputs" => inputs = parse_inputs(n, v, errs),
+            "inputs" => inputs = parse_inputs(n, v, instances, defined, errs),
             _ => errs.push(unknown_key(k, &format!("stage `{n}`"), STAGE_KEYS)),
         }
     }
@@ -847,7 +1005,7 @@ impl ParamsFile {
                 ));
                 continue;
             };
-            match decl.ty.check(&v.value) {
+            match list_setting(&decl.ty, &v.value).and_then(|x| decl.ty.check(&x)) {
                 Ok(x) => {
                     out.insert(
                         k.clone(),

@@ -195,6 +195,9 @@ impl Plan {
         pipeline: &PipelineFile,
         params: &ParamsFile,
     ) -> Result<Plan, ConfigErrors> {
+        // templates whose matrix takes a preset's setting get their instances now
+        let expanded = pipeline.for_params(params)?;
+        let pipeline: &PipelineFile = &expanded;
         let mut errs: Vec<ConfigError> = Vec::new();
         let settings = match params.resolve(pipeline) {
             Ok(s) => s,

@@ -18,10 +18,26 @@
 //! print after their `file:line:col`. Cost: linear in the size of the expanded pipeline.
 
 use super::tree::{Key, Node, Val};
-use super::{ConfigError, valid_name};
+use super::{ConfigError, Located, Origin, valid_name};
 use crate::util::did_you_mean;
+use serde_json::Value;
 use std::collections::BTreeMap;
 use std::sync::Arc;
+
+/// The settings a matrix variable may take (`matrix.seed = "$ensemble_seeds"`): a template is
+/// expanded once the preset is known, so that a preset sets how many instances there are.
+pub(crate) struct MatrixSettings<'a> {
+    /// Setting values: the preset's (checked), or, before a preset is known, the declared
+    /// defaults.
+    pub values: &'a BTreeMap<String, Located<Value>>,
+    /// Every declared setting (for "unknown setting" errors).
+    pub declared: Vec<&'a str>,
+    /// Whether `values` are a preset's. If not, a template whose matrix takes a setting without
+    /// a default is left pending (no instances, no error) until the preset is known.
+    pub preset: bool,
+    /// Set when some matrix took a setting (the pipeline must be expanded again per preset).
+    pub used: bool,
+}
 
 /// The key that merges a table into the one it is written in.
 pub(crate) const MERGE_KEY: &str = "<<";
@@ -353,6 +369,7 @@ pub(crate) fn expand_stage(
     key: &Key,
     decl: &Node,
     values: &mut Values<'_>,
+    settings: &mut MatrixSettings<'_>,
     errs: &mut Vec<ConfigError>,
 ) -> Vec<(Key, Node)> {
     let Some(t) = decl.table() else {
@@ -373,7 +390,7 @@ pub(crate) fn expand_stage(
         return vec![(key.clone(), subst_values(decl, values, errs))];
     };
     let tname = &key.name;
-    let Some(axes) = matrix_axes(tname, mkey, matrix, values, errs) else {
+    let Some(axes) = matrix_axes(tname, mkey, matrix, values, settings, errs) else {
         return Vec::new();
     };
     let Some((_, pattern)) = name else {
@@ -450,6 +467,7 @@ fn matrix_axes(
     mkey: &Key,
     matrix: &Node,
     values: &mut Values<'_>,
+    settings: &mut MatrixSettings<'_>,
     errs: &mut Vec<ConfigError>,
 ) -> Option<Vec<(String, Vec<Node>)>> {
     let before = errs.len();
@@ -471,6 +489,7 @@ fn matrix_axes(
         ));
     }
     let mut axes = Vec::new();
+    let mut pending = false;
     for (k, v) in t {
         if !valid_name(&k.name) || k.name.contains('-') {
             errs.push(ConfigError::at(
@@ -480,6 +499,16 @@ fn matrix_axes(
                     k.name
                 ),
             ));
+            continue;
+        }
+        if let Val::Str(s) = &v.v
+            && let Some(name) = s.strip_prefix('$').filter(|n| !n.starts_with('$'))
+        {
+            match setting_axis(tname, &k.name, name, v, settings) {
+                Ok(Some(vals)) => axes.push((k.name.clone(), vals)),
+                Ok(None) => pending = true,
+                Err(e) => errs.push(e),
+            }
             continue;
         }
         match &v.v {
@@ -494,7 +523,90 @@ fn matrix_axes(
             )),
         }
     }
-    (errs.len() == before).then_some(axes)
+    // a pending template (its setting has no default and no preset is known yet) has no
+    // instances until the preset is
+    (errs.len() == before && !pending).then_some(axes)
+}
+
+/// The values of matrix variable `var` of template `tname`, written `"$name"` at `at`: the
+/// setting `name`, which must be a non-empty list. `Ok(None)`: pending (see [`MatrixSettings`]).
+fn setting_axis(
+    tname: &str,
+    var: &str,
+    name: &str,
+    at: &Node,
+    settings: &mut MatrixSettings<'_>,
+) -> Result<Option<Vec<Node>>, ConfigError> {
+    settings.used = true;
+    let Some(v) = settings.values.get(name) else {
+        if !settings.preset && settings.declared.contains(&name) {
+            return Ok(None);
+        }
+        let hint = did_you_mean(name, &settings.declared)
+            .map(|s| format!("did you mean `${s}`? "))
+            .unwrap_or_default();
+        return Err(ConfigError::at(
+            &at.origin,
+            format!(
+                "template `{tname}`: matrix variable `{var}` = \"${name}\": unknown setting `{name}`; {hint}settings declared: {} (a matrix variable takes a list-valued setting declared in [settings])",
+                if settings.declared.is_empty() {
+                    "none".to_string()
+                } else {
+                    settings.declared.join(", ")
+                }
+            ),
+        ));
+    };
+    match &v.value {
+        Value::Array(a) if !a.is_empty() => {
+            Ok(Some(a.iter().map(|x| json_node(x, &v.origin)).collect()))
+        }
+        other => Err(ConfigError::at(
+            &v.origin,
+            format!(
+                "setting `{name}` = {other}: template `{tname}` (at {}) takes it as the values of its matrix variable `{var}`, so it must be a non-empty list (like [1, 2, 3] or {{ from = 1, to = 8 }}), found {}",
+                at.origin,
+                match other {
+                    Value::Array(_) => "an empty list",
+                    Value::Object(_) => "a table",
+                    Value::String(_) => "a string",
+                    Value::Bool(_) => "a boolean",
+                    Value::Number(_) => "a number",
+                    Value::Null => "null",
+                }
+            ),
+        )),
+    }
+}
+
+/// A setting's (JSON) value as a node written at `origin`.
+fn json_node(v: &Value, origin: &Origin) -> Node {
+    let v = match v {
+        Value::String(s) => Val::Str(s.clone()),
+        Value::Number(n) => match n.as_i64() {
+            Some(i) => Val::Int(i),
+            None => Val::Float(n.as_f64().unwrap_or(f64::NAN)),
+        },
+        Value::Bool(b) => Val::Bool(*b),
+        Value::Array(a) => Val::Array(a.iter().map(|x| json_node(x, origin)).collect()),
+        Value::Object(m) => Val::Table(
+            m.iter()
+                .map(|(k, x)| {
+                    let key = Key {
+                        name: k.clone(),
+                        origin: origin.clone(),
+                    };
+                    (key, json_node(x, origin))
+                })
+                .collect(),
+        ),
+        // settings come from TOML, which has no null
+        Value::Null => Val::Str(String::new()),
+    };
+    Node {
+        v,
+        origin: origin.clone(),
+    }
 }
 
 /// Every combination of the axes' values (the first axis varying slowest).
