@@ -338,8 +338,8 @@ impl PipelineFile {
 
     /// The pipeline as `params` sees it: a template whose matrix takes a setting
     /// (`matrix.seed = "$ensemble_seeds"`) has one instance per element of the preset's list.
-    /// Without such a template (or if `params` does not resolve: building the plan reports
-    /// that) this is the pipeline itself.
+    /// Without such a template this is the pipeline itself (and building the plan reports
+    /// errors of `params`); with one, errors of `params` are returned here.
     pub fn for_params(
         &self,
         params: &ParamsFile,
@@ -347,9 +347,9 @@ impl PipelineFile {
         let Some(root) = &self.source else {
             return Ok(std::borrow::Cow::Borrowed(self));
         };
-        let Ok(settings) = params.resolve(self) else {
-            return Ok(std::borrow::Cow::Borrowed(self));
-        };
+        // a preset that does not resolve: its errors alone (the templates it would expand
+        // would only add "no instances" errors downstream)
+        let settings = params.resolve(self)?;
         Self::from_tree(&self.path, root.clone(), Some(&settings)).map(std::borrow::Cow::Owned)
     }
 
