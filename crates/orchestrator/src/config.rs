@@ -55,7 +55,10 @@
 //! `"{name}"` is replaced by a named value or matrix variable (any type), `"{name.field}"` by a
 //! field of it (`"{rows.0}"`: an element), and `"x_{name}"` splices a string or integer into a
 //! longer string (`{{`, `}}`: literal braces); `"<<"` merges a table into the one it is written
-//! in. Params files may use `extends` too. The expansion (`config/expand.rs`) and the merge
+//! in. A matrix variable written `"$setting"` takes a list-valued setting (a list, or a range
+//! `{ from = 1, to = 16 }`), so the template is expanded per preset
+//! ([`PipelineFile::for_params`]); an input `"TEMPLATE[*]"` is every instance of a template, in
+//! matrix order. Params files may use `extends` too. The expansion (`config/expand.rs`) and the merge
 //! (`config/tree.rs`) happen before anything else sees the file: a plan, its keys, dry-run reasons and errors are
 //! per concrete stage, and an error in a template instance names the template and the instance
 //! after its `file:line:col`. `docs/pipeline.md` has the full description.
