@@ -33,7 +33,7 @@
 use crate::surface::lattice_from_name;
 use anyhow::{Context, Result, bail};
 use critical::{
-    Criterion, CriticalOptions, CriticalResult, LevelSummary, ResolutionOptions,
+    Criterion, CriticalOptions, CriticalResult, LevelSummary, ResolutionOptions, ResolutionStudy,
     default_saddle_loads, resolution_study_with,
 };
 use formats::records::Record;
@@ -219,74 +219,112 @@ impl TypedKind for CriticalKind {
             resolution_study_with(lattice, &opts, &mut on_level)
                 .with_context(|| format!("{} grids n = {ns:?}", lattice.name()))?
         };
-        let finest_n = study.levels.last().expect("levels").n;
-        let mut retries = 0usize;
-        for l in &study.levels {
-            write_level(out, &format!("level/{}", l.n), l)?;
-            retries += l.results.iter().map(|r| r.retries).sum::<usize>();
-            // Coarse grids cannot resolve the channel at the sampled loads: only the finest
-            // level's sub-grid notes are worth a warning.
-            if l.n == finest_n {
-                for r in &l.results {
-                    for note in &r.notes {
-                        ctx.warn(format!("n = {}: sub-grid estimate: {note}", l.n));
-                    }
+        write_levels(ctx, out, &study)?;
+        let finest = study.levels.last().expect("levels");
+        let g = finest.results[0].grid;
+        write_root(out, lattice, &ns, &opts.critical, finest, g)?;
+        if params.fields {
+            write_fields(out, lattice, g, study.fields.as_ref().expect("kept"))?;
+        }
+        ctx.progress(1.0, "written");
+        Ok(StageReport::with_stats(level_stats(&study)))
+    }
+}
+
+/// Writes every `level/<n>`; warns on the finest level's sub-grid notes and on retried solves.
+fn write_levels(
+    ctx: &mut StageContext,
+    out: &mut ArtefactWriter,
+    study: &ResolutionStudy,
+) -> Result<()> {
+    let finest_n = study.levels.last().expect("levels").n;
+    let mut retries = 0usize;
+    for l in &study.levels {
+        write_level(out, &format!("level/{}", l.n), l)?;
+        retries += l.results.iter().map(|r| r.retries).sum::<usize>();
+        // Coarse grids cannot resolve the channel at the sampled loads: only the finest
+        // level's sub-grid notes are worth a warning.
+        if l.n == finest_n {
+            for r in &l.results {
+                for note in &r.notes {
+                    ctx.warn(format!("n = {}: sub-grid estimate: {note}", l.n));
                 }
             }
         }
-        if retries > 0 {
-            ctx.warn(format!(
-                "{retries} contact solves did not converge from their warm start and were repeated \
-                 from another start (unexpected since the re-open step of Polonsky–Keer: please report)"
-            ));
-        }
-        let finest = study.levels.last().expect("levels");
-        let g = finest.results[0].grid;
-        out.set_cell(g.lx, g.ly)?;
-        out.set_attr("lattice", lattice.name())?;
-        out.set_attr("ns", json!(ns))?;
-        out.set_attr("n", finest.n as i64)?;
-        out.set_attr("tol_gap", opts.critical.tol_gap)?;
-        out.set_attr("rel_width", opts.critical.rel_width)?;
-        out.set_attr("p_fc_exact", lattice.exact().p_fc)?;
-        let av = &finest.average;
-        out.set_attr("l_c", av.any.l_c.mean)?;
-        out.set_attr("a_p_raw", av.any.a_p_raw.mean)?;
-        out.set_attr("a_p_corrected", av.any.a_p_corrected.mean)?;
-        out.set_attr("p_fc_over_l_c", av.p_fc_over_l_c.mean)?;
-        if params.fields {
-            let f = study.fields.as_ref().expect("kept");
-            let s = Surface::on_grid(lattice, g);
-            out.write_f64_2d(fields::HEIGHT, s.heights.view())?;
-            out.write_f64_2d(fields::GAP, f.below.gap.view())?;
-            out.write_f64_2d(fields::DISPLACEMENT, f.below.displacement.view())?;
-            out.write_f64_2d(fields::PRESSURE, f.below.pressure.view())?;
-            out.write_f64_2d("above/gap", f.above.gap.view())?;
-            out.write_f64_2d("above/pressure", f.above.pressure.view())?;
-            out.set_attr("load_below", f.below.mean_pressure)?;
-            out.set_attr("load_above", f.above.mean_pressure)?;
-            out.set_attr("field_shift", json!([g.shift.0, g.shift.1]))?;
-        }
-        ctx.progress(1.0, "written");
-        let per_level: Vec<_> = study
-            .levels
-            .iter()
-            .map(|l| {
-                json!({
-                    "n": l.n,
-                    "solves": l.solves(),
-                    "iterations": l.iterations(),
-                    "wall_s": l.wall_s,
-                    "l_c": l.average.any.l_c.mean,
-                    "a_p_corrected": l.average.any.a_p_corrected.mean,
-                })
-            })
-            .collect();
-        Ok(StageReport::with_stats(json!({
-            "levels": per_level,
-            "iterations": study.levels.iter().map(|l| l.iterations()).sum::<usize>(),
-        })))
     }
+    if retries > 0 {
+        ctx.warn(format!(
+            "{retries} contact solves did not converge from their warm start and were repeated \
+             from another start (unexpected since the re-open step of Polonsky–Keer: please report)"
+        ));
+    }
+    Ok(())
+}
+
+/// Root attributes: the cell, the grids, the options and the finest level's averages.
+fn write_root(
+    out: &mut ArtefactWriter,
+    lattice: Lattice,
+    ns: &[u32],
+    copts: &CriticalOptions,
+    finest: &LevelSummary,
+    g: surface::Grid,
+) -> Result<()> {
+    out.set_cell(g.lx, g.ly)?;
+    out.set_attr("lattice", lattice.name())?;
+    out.set_attr("ns", json!(ns))?;
+    out.set_attr("n", finest.n as i64)?;
+    out.set_attr("tol_gap", copts.tol_gap)?;
+    out.set_attr("rel_width", copts.rel_width)?;
+    out.set_attr("p_fc_exact", lattice.exact().p_fc)?;
+    let av = &finest.average;
+    out.set_attr("l_c", av.any.l_c.mean)?;
+    out.set_attr("a_p_raw", av.any.a_p_raw.mean)?;
+    out.set_attr("a_p_corrected", av.any.a_p_corrected.mean)?;
+    out.set_attr("p_fc_over_l_c", av.p_fc_over_l_c.mean)?;
+    Ok(())
+}
+
+/// The fields below and above L_c on the finest grid (`fields = true`).
+fn write_fields(
+    out: &mut ArtefactWriter,
+    lattice: Lattice,
+    g: surface::Grid,
+    f: &critical::Fields,
+) -> Result<()> {
+    let s = Surface::on_grid(lattice, g);
+    out.write_f64_2d(fields::HEIGHT, s.heights.view())?;
+    out.write_f64_2d(fields::GAP, f.below.gap.view())?;
+    out.write_f64_2d(fields::DISPLACEMENT, f.below.displacement.view())?;
+    out.write_f64_2d(fields::PRESSURE, f.below.pressure.view())?;
+    out.write_f64_2d("above/gap", f.above.gap.view())?;
+    out.write_f64_2d("above/pressure", f.above.pressure.view())?;
+    out.set_attr("load_below", f.below.mean_pressure)?;
+    out.set_attr("load_above", f.above.mean_pressure)?;
+    out.set_attr("field_shift", json!([g.shift.0, g.shift.1]))?;
+    Ok(())
+}
+
+/// The stage report's statistics: per level and the total iterations.
+fn level_stats(study: &ResolutionStudy) -> serde_json::Value {
+    let per_level: Vec<_> = study
+        .levels
+        .iter()
+        .map(|l| {
+            json!({
+                "n": l.n,
+                "solves": l.solves(),
+                "iterations": l.iterations(),
+                "wall_s": l.wall_s,
+                "l_c": l.average.any.l_c.mean,
+                "a_p_corrected": l.average.any.a_p_corrected.mean,
+            })
+        })
+        .collect();
+    json!({
+        "levels": per_level,
+        "iterations": study.levels.iter().map(|l| l.iterations()).sum::<usize>(),
+    })
 }
 
 formats::record! {

@@ -188,7 +188,7 @@ impl TypedKind for LadderKind {
             let t0 = std::time::Instant::now();
             let s = Surface::new(lattice, n)?;
             let frame = axis_saddle(&s)?;
-            let (l_c, source, l_c_grid) = l_cs[k];
+            let (l_c, source, _) = l_cs[k];
             let keep = k + 1 < ns.len();
             let step = LevelStep {
                 n,
@@ -206,18 +206,8 @@ impl TypedKind for LadderKind {
             coarse = keep.then_some(kept);
             let at = format!("level/{n}");
             write_level(out, &at, &rungs)?;
-            out.set_attr_at(&at, "n", n as i64)?;
-            out.set_attr_at(&at, "nx", s.grid.nx as i64)?;
-            out.set_attr_at(&at, "ny", s.grid.ny as i64)?;
-            out.set_attr_at(&at, "l_c", l_c)?;
-            out.set_attr_at(&at, "l_c_source", source)?;
-            out.set_attr_at(&at, "l_c_grid", l_c_grid)?;
-            out.set_attr_at(&at, "d_par", rungs[0].window.d_par)?;
-            out.set_attr_at(&at, "d_perp", rungs[0].window.d_perp)?;
-            let iterations: usize = rungs.iter().map(|r| r.iterations).sum();
-            out.set_attr_at(&at, "iterations", iterations as i64)?;
             let wall = t0.elapsed().as_secs_f64();
-            out.set_attr_at(&at, "wall_s", wall)?;
+            let iterations = write_level_attrs(out, &at, n, &s, l_cs[k], &rungs, wall)?;
             write_flows(out, &at, params.flow, &flows, ls.len())?;
             unconverged += rungs.iter().filter(|r| !r.converged).count();
             if params.flow {
@@ -361,6 +351,30 @@ fn solve_level(
         return Err(e);
     }
     Ok((rungs, flows, kept))
+}
+
+/// The attributes of `level/<n>`; returns the level's contact iterations.
+fn write_level_attrs(
+    out: &mut ArtefactWriter,
+    at: &str,
+    n: u32,
+    s: &Surface,
+    (l_c, source, l_c_grid): (f64, &str, f64),
+    rungs: &[Rung],
+    wall: f64,
+) -> Result<usize> {
+    out.set_attr_at(at, "n", n as i64)?;
+    out.set_attr_at(at, "nx", s.grid.nx as i64)?;
+    out.set_attr_at(at, "ny", s.grid.ny as i64)?;
+    out.set_attr_at(at, "l_c", l_c)?;
+    out.set_attr_at(at, "l_c_source", source)?;
+    out.set_attr_at(at, "l_c_grid", l_c_grid)?;
+    out.set_attr_at(at, "d_par", rungs[0].window.d_par)?;
+    out.set_attr_at(at, "d_perp", rungs[0].window.d_perp)?;
+    let iterations: usize = rungs.iter().map(|r| r.iterations).sum();
+    out.set_attr_at(at, "iterations", iterations as i64)?;
+    out.set_attr_at(at, "wall_s", wall)?;
+    Ok(iterations)
 }
 
 /// The per-rung flow datasets of one level (NaN / 0 without flow).
