@@ -218,27 +218,13 @@ impl TypedKind for LadderKind {
             }));
             frame0 = Some((frame, s.grid));
         }
-        if unconverged > 0 {
-            ctx.warn(format!(
-                "{unconverged} rungs did not converge (contact solver): their windows are stored \
-                 with converged = 0"
-            ));
-        }
-        if !not_flowing.is_empty() {
-            ctx.warn(format!(
-                "the fluid does not percolate below L_c at {}: the grid closes the channel \
-                 before the sub-grid L_c",
-                not_flowing.join("; ")
-            ));
-        }
+        warn_summary(ctx, unconverged, &not_flowing);
         let (frame, grid) = frame0.expect("at least one level");
         out.set_cell(grid.lx, grid.ly)?;
         out.set_attr("lattice", lattice.name())?;
         out.set_attr("ns", json!(ns))?;
         out.set_attr("ls", json!(ls))?;
-        out.set_attr("window", opts.window)?;
-        out.set_attr("l_c", l_cs.last().expect("levels").0)?;
-        write_frame(out, &frame)?;
+        write_frame(out, opts.window, l_cs.last().expect("levels").0, &frame)?;
         ctx.progress(1.0, "written");
         Ok(StageReport::with_stats(json!({ "levels": per_level })))
     }
@@ -423,8 +409,32 @@ fn check_flows(
     }
 }
 
-/// The saddle's root attributes.
-fn write_frame(out: &mut ArtefactWriter, frame: &critical::ladder::SaddleFrame) -> Result<()> {
+/// The run's closing warnings: unconverged contact solves, no flow below L_c.
+fn warn_summary(ctx: &mut StageContext, unconverged: usize, not_flowing: &[String]) {
+    if unconverged > 0 {
+        ctx.warn(format!(
+            "{unconverged} rungs did not converge (contact solver): their windows are stored \
+             with converged = 0"
+        ));
+    }
+    if !not_flowing.is_empty() {
+        ctx.warn(format!(
+            "the fluid does not percolate below L_c at {}: the grid closes the channel \
+             before the sub-grid L_c",
+            not_flowing.join("; ")
+        ));
+    }
+}
+
+/// The root attributes `window`, `l_c` (finest level) and the saddle's.
+fn write_frame(
+    out: &mut ArtefactWriter,
+    window: f64,
+    l_c: f64,
+    frame: &critical::ladder::SaddleFrame,
+) -> Result<()> {
+    out.set_attr("window", window)?;
+    out.set_attr("l_c", l_c)?;
     out.set_attr("saddle_x", frame.x)?;
     out.set_attr("saddle_y", frame.y)?;
     out.set_attr(
