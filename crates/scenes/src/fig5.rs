@@ -145,7 +145,6 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>, Vec<ModelCur
         .map(LadderData::read)
         .collect::<Result<_>>()?;
     ladders.sort_by_key(|l| Model::ALL.iter().position(|m| m.name() == l.lattice.name()));
-    const X_MAX: f64 = 3.0;
     let mut curves = Vec::new();
     for lad in &ladders {
         let name = lad.lattice.name();
@@ -155,55 +154,17 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>, Vec<ModelCur
             ));
             continue;
         };
-        let (Some((zeta, a_z)), Some((ups, a_u)), Some((chi, a_c))) = (
-            scale(e, 0, &mut warn),
-            scale(e, 1, &mut warn),
-            scale(e, 2, &mut warn),
-        ) else {
+        let Some(units) = units_of(e, &mut warn) else {
             continue;
-        };
-        let units = Units {
-            zeta,
-            a_z,
-            upsilon: ups,
-            a_u,
-            chi,
-            a_c,
         };
         let level = lad.levels.last().expect("read checks");
         let mut mine = Vec::new();
-        // rungs whose width or length could not be measured (channel below the grid's
-        // resolution) are left out, as they are of the fits
-        let measured = |l: f64| {
-            let m = e.levels.iter().find(|m| m.n == level.n);
-            let ok = |ls: &[f64], v: &[(f64, f64)]| {
-                ls.iter().zip(v).any(|(x, v)| *x == l && v.0.is_finite())
-            };
-            m.is_some_and(|m| {
-                if l < 0.0 {
-                    ok(&m.l_open, &m.half_width)
-                } else if l > 0.0 {
-                    ok(&m.l_blocked, &m.half_length)
-                } else {
-                    true
-                }
-            })
-        };
         for r in &level.rungs {
-            if !r.converged || !measured(r.l) {
+            if !r.converged || !measured(e, level.n, r.l) {
                 continue;
             }
             let (line, dist, gap) = rescale_rung(&r.window, r.l, &units);
-            let mut pts = Vec::new();
-            for (px, py) in line {
-                if px.is_nan() || px.abs() > X_MAX || py.abs() > X_MAX {
-                    if pts.last().is_some_and(|p: &(f64, f64)| !p.0.is_nan()) {
-                        pts.push((f64::NAN, f64::NAN));
-                    }
-                } else {
-                    pts.push((px, py));
-                }
-            }
+            let pts = clip_line(line);
             if pts.iter().any(|p| !p.0.is_nan()) {
                 d.contact_lines.push(ContactLine {
                     l: r.l,
@@ -212,13 +173,7 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>, Vec<ModelCur
             }
             if r.l != 0.0 {
                 mine.push((r.l, dist.clone(), gap.clone()));
-                let keep: Vec<usize> = (0..dist.len()).filter(|&k| dist[k] <= 4.0).collect();
-                let stride = keep.len().div_ceil(30).max(1);
-                let (x, y) = keep
-                    .iter()
-                    .step_by(stride)
-                    .map(|&k| (dist[k], gap[k]))
-                    .unzip();
+                let (x, y) = thin_profile(&dist, &gap);
                 d.profiles.push(GapProfile {
                     model: model_of(name)?,
                     l: r.l,
@@ -230,6 +185,67 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>, Vec<ModelCur
         curves.push((name.to_string(), mine));
     }
     Ok((d, warn, curves))
+}
+
+/// A model's units from its fits of ζ, υ, χ; `None` (with warnings) without all three.
+fn units_of(e: &ModelExponents, warn: &mut Vec<String>) -> Option<Units> {
+    let (Some((zeta, a_z)), Some((ups, a_u)), Some((chi, a_c))) =
+        (scale(e, 0, warn), scale(e, 1, warn), scale(e, 2, warn))
+    else {
+        return None;
+    };
+    Some(Units {
+        zeta,
+        a_z,
+        upsilon: ups,
+        a_u,
+        chi,
+        a_c,
+    })
+}
+
+/// Rungs whose width (l < 0) or length (l > 0) could not be measured on grid n (channel below
+/// the grid's resolution) are left out, as they are of the fits.
+fn measured(e: &ModelExponents, n: u32, l: f64) -> bool {
+    let m = e.levels.iter().find(|m| m.n == n);
+    let ok =
+        |ls: &[f64], v: &[(f64, f64)]| ls.iter().zip(v).any(|(x, v)| *x == l && v.0.is_finite());
+    m.is_some_and(|m| {
+        if l < 0.0 {
+            ok(&m.l_open, &m.half_width)
+        } else if l > 0.0 {
+            ok(&m.l_blocked, &m.half_length)
+        } else {
+            true
+        }
+    })
+}
+
+/// A rescaled contact line cut to the drawn box |X|, |Y| ≤ 3, with one NaN break wherever it
+/// leaves the box (or is already broken).
+fn clip_line(line: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
+    const X_MAX: f64 = 3.0;
+    let mut pts = Vec::new();
+    for (px, py) in line {
+        if px.is_nan() || px.abs() > X_MAX || py.abs() > X_MAX {
+            if pts.last().is_some_and(|p: &(f64, f64)| !p.0.is_nan()) {
+                pts.push((f64::NAN, f64::NAN));
+            }
+        } else {
+            pts.push((px, py));
+        }
+    }
+    pts
+}
+
+/// Panel (b)'s markers: the axis gap up to distance 4, at most about 30 points.
+fn thin_profile(dist: &[f64], gap: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let keep: Vec<usize> = (0..dist.len()).filter(|&k| dist[k] <= 4.0).collect();
+    let stride = keep.len().div_ceil(30).max(1);
+    keep.iter()
+        .step_by(stride)
+        .map(|&k| (dist[k], gap[k]))
+        .unzip()
 }
 
 /// `exponents.csv` (columns and rows: `kinds::exponents::table`).
