@@ -161,7 +161,7 @@ impl TypedKind for LadderKind {
         let crit = inputs.one("critical")?;
         let levels = CriticalLevel::read_all(crit)?;
         let lattice = levels[0].lattice;
-        let ns = params.ns.clone();
+        let ns = &params.ns;
         let mut ls = params.ls.clone();
         ls.sort_by(f64::total_cmp);
         let opts = LadderOptions {
@@ -169,37 +169,12 @@ impl TypedKind for LadderKind {
             window: params.window,
             ..Default::default()
         };
-        let flow = params.flow;
         let fopts = FlowOptions {
             tolerance: params.flow_tol,
             ..Default::default()
         };
         // L_c per level, checked before any solve
-        let mut l_cs = Vec::new();
-        for &n in &ns {
-            let lv = levels.iter().find(|l| l.n == n).ok_or_else(|| {
-                anyhow!(
-                    "ns: grid n = {n} is not a level of the `critical` input `{}` (levels {:?}); \
-                     add it to that stage's `ns`",
-                    crit.path().display(),
-                    levels.iter().map(|l| l.n).collect::<Vec<_>>()
-                )
-            })?;
-            lv.require_unshifted(crit.path(), "the ladder")?;
-            let grid = lv.get("l_c").map(|v| v.0).unwrap_or(f64::NAN);
-            let (l_c, source) = if params.l_c == "grid" {
-                (grid, "grid")
-            } else if lv.l_c_subgrid.0.is_finite() {
-                (lv.l_c_subgrid.0, "subgrid")
-            } else {
-                ctx.warn(format!(
-                    "n = {n}: no sub-grid L_c (the channel is not resolved at the saddle-gap \
-                     samples); using the grid's bisected L_c"
-                ));
-                (grid, "grid")
-            };
-            l_cs.push((l_c, source, grid));
-        }
+        let l_cs = level_l_cs(ctx, params, crit, &levels)?;
 
         let weights: Vec<f64> = ns.iter().map(|&n| 4f64.powi(n as i32)).collect();
         let total: f64 = weights.iter().sum();
@@ -213,122 +188,262 @@ impl TypedKind for LadderKind {
             let t0 = std::time::Instant::now();
             let s = Surface::new(lattice, n)?;
             let frame = axis_saddle(&s)?;
-            let (l_c, source, l_c_grid) = l_cs[k];
-            let axis = if frame.channel_axis == 0 {
-                FlowAxis::X
-            } else {
-                FlowAxis::Y
-            };
+            let (l_c, source, _) = l_cs[k];
             let keep = k + 1 < ns.len();
-            let mut kept = Vec::new();
-            let mut flows = Vec::new();
-            let mut flow_err: Option<anyhow::Error> = None;
-            let nr = ls.len();
-            let rungs = {
-                let mut on_rung = |r: &Rung, sol: &Solution| {
-                    if keep {
-                        kept.push(sol.clone());
-                    }
-                    if flow && flow_err.is_none() {
-                        match reynolds::solve(sol.gap.view(), s.grid.lx, s.grid.ly, axis, &fopts) {
-                            Ok(f) => flows.push((f.flux, f.percolating, f.converged)),
-                            Err(e) => {
-                                flow_err = Some(anyhow!("flow at n = {n}, l = {}: {e}", r.l));
-                            }
-                        }
-                    }
-                    let f = (flows.len().max(1) as f64) / nr as f64;
-                    ctx.progress(
-                        0.95 * (done + f * weights[k]) / total,
-                        &format!("n = {n}, l = {:+}", r.l),
-                    );
-                };
-                solve_ladder(&s, &frame, l_c, &ls, &opts, coarse.as_deref(), &mut on_rung)
-                    .with_context(|| format!("{} ladder on n = {n}", lattice.name()))?
+            let step = LevelStep {
+                n,
+                s: &s,
+                frame: &frame,
+                l_c,
+                ls: &ls,
+                opts: &opts,
+                fopts: params.flow.then_some(&fopts),
+                keep,
+                progress: (done, weights[k], total),
             };
-            if let Some(e) = flow_err {
-                return Err(e);
-            }
+            let (rungs, flows, kept) = solve_level(ctx, &step, coarse.as_deref())?;
             done += weights[k];
             coarse = keep.then_some(kept);
             let at = format!("level/{n}");
             write_level(out, &at, &rungs)?;
-            out.set_attr_at(&at, "n", n as i64)?;
-            out.set_attr_at(&at, "nx", s.grid.nx as i64)?;
-            out.set_attr_at(&at, "ny", s.grid.ny as i64)?;
-            out.set_attr_at(&at, "l_c", l_c)?;
-            out.set_attr_at(&at, "l_c_source", source)?;
-            out.set_attr_at(&at, "l_c_grid", l_c_grid)?;
-            out.set_attr_at(&at, "d_par", rungs[0].window.d_par)?;
-            out.set_attr_at(&at, "d_perp", rungs[0].window.d_perp)?;
-            let iterations: usize = rungs.iter().map(|r| r.iterations).sum();
-            out.set_attr_at(&at, "iterations", iterations as i64)?;
             let wall = t0.elapsed().as_secs_f64();
-            out.set_attr_at(&at, "wall_s", wall)?;
-            let (flux, perc, fconv): (Vec<f64>, Vec<u8>, Vec<u8>) = if flow {
-                let mut a = (vec![], vec![], vec![]);
-                for (q, p, c) in &flows {
-                    a.0.push(*q);
-                    a.1.push(*p as u8);
-                    a.2.push(*c as u8);
-                }
-                a
-            } else {
-                (vec![f64::NAN; nr], vec![0; nr], vec![0; nr])
-            };
-            out.write_f64_1d(&format!("{at}/flux"), &flux)?;
-            out.write_u8_1d(&format!("{at}/percolating"), &perc)?;
-            out.write_u8_1d(&format!("{at}/flow_converged"), &fconv)?;
+            let iterations = write_level_attrs(out, &at, n, &s, l_cs[k], &rungs, wall)?;
+            write_flows(out, &at, params.flow, &flows, ls.len())?;
             unconverged += rungs.iter().filter(|r| !r.converged).count();
-            if flow {
-                for (r, (_, p, c)) in rungs.iter().zip(&flows) {
-                    if r.l < 0.0 && !p {
-                        not_flowing.push(format!("n = {n}, l = {}", r.l));
-                    }
-                    if !c && *p {
-                        ctx.warn(format!(
-                            "n = {n}, l = {}: the flow solve did not converge",
-                            r.l
-                        ));
-                    }
-                }
+            if params.flow {
+                check_flows(ctx, n, &rungs, &flows, &mut not_flowing);
             }
             per_level.push(json!({
                 "n": n, "l_c": l_c, "l_c_source": source, "iterations": iterations, "wall_s": wall,
             }));
             frame0 = Some((frame, s.grid));
         }
-        if unconverged > 0 {
-            ctx.warn(format!(
-                "{unconverged} rungs did not converge (contact solver): their windows are stored \
-                 with converged = 0"
-            ));
-        }
-        if !not_flowing.is_empty() {
-            ctx.warn(format!(
-                "the fluid does not percolate below L_c at {}: the grid closes the channel \
-                 before the sub-grid L_c",
-                not_flowing.join("; ")
-            ));
-        }
+        warn_summary(ctx, unconverged, &not_flowing);
         let (frame, grid) = frame0.expect("at least one level");
         out.set_cell(grid.lx, grid.ly)?;
         out.set_attr("lattice", lattice.name())?;
         out.set_attr("ns", json!(ns))?;
         out.set_attr("ls", json!(ls))?;
-        out.set_attr("window", opts.window)?;
-        out.set_attr("l_c", l_cs.last().expect("levels").0)?;
-        out.set_attr("saddle_x", frame.x)?;
-        out.set_attr("saddle_y", frame.y)?;
-        out.set_attr(
-            "channel_axis",
-            if frame.channel_axis == 0 { "x" } else { "y" },
-        )?;
-        out.set_attr("eta", frame.eta)?;
-        out.set_attr("saddle_height", frame.height)?;
+        write_frame(out, opts.window, l_cs.last().expect("levels").0, &frame)?;
         ctx.progress(1.0, "written");
         Ok(StageReport::with_stats(json!({ "levels": per_level })))
     }
+}
+
+/// (L_c, its source, the grid's bisected L_c) for every ladder grid, from the `critical` input.
+fn level_l_cs(
+    ctx: &mut StageContext,
+    params: &LadderParams,
+    crit: &ArtefactReader,
+    levels: &[CriticalLevel],
+) -> Result<Vec<(f64, &'static str, f64)>> {
+    let mut l_cs = Vec::new();
+    for &n in &params.ns {
+        let lv = levels.iter().find(|l| l.n == n).ok_or_else(|| {
+            anyhow!(
+                "ns: grid n = {n} is not a level of the `critical` input `{}` (levels {:?}); \
+                 add it to that stage's `ns`",
+                crit.path().display(),
+                levels.iter().map(|l| l.n).collect::<Vec<_>>()
+            )
+        })?;
+        lv.require_unshifted(crit.path(), "the ladder")?;
+        let grid = lv.get("l_c").map(|v| v.0).unwrap_or(f64::NAN);
+        let (l_c, source) = if params.l_c == "grid" {
+            (grid, "grid")
+        } else if lv.l_c_subgrid.0.is_finite() {
+            (lv.l_c_subgrid.0, "subgrid")
+        } else {
+            ctx.warn(format!(
+                "n = {n}: no sub-grid L_c (the channel is not resolved at the saddle-gap \
+                 samples); using the grid's bisected L_c"
+            ));
+            (grid, "grid")
+        };
+        l_cs.push((l_c, source, grid));
+    }
+    Ok(l_cs)
+}
+
+/// One grid of the ladder: what [`solve_level`] needs.
+struct LevelStep<'a> {
+    n: u32,
+    s: &'a Surface,
+    frame: &'a critical::ladder::SaddleFrame,
+    l_c: f64,
+    ls: &'a [f64],
+    opts: &'a LadderOptions,
+    /// Flow options; `None` without flow.
+    fopts: Option<&'a FlowOptions>,
+    /// Keep every rung's solution (to warm-start the next, finer grid).
+    keep: bool,
+    /// (work done before this level, this level's weight, total weight) for the progress bar.
+    progress: (f64, f64, f64),
+}
+
+/// (flux, percolating, converged) of one rung's flow solve.
+type RungFlow = (f64, bool, bool);
+
+/// Solves the ladder on one grid (warm-started from `coarse`) and the flux at every rung.
+fn solve_level(
+    ctx: &mut StageContext,
+    step: &LevelStep,
+    coarse: Option<&[Solution]>,
+) -> Result<(Vec<Rung>, Vec<RungFlow>, Vec<Solution>)> {
+    let (s, n) = (step.s, step.n);
+    let axis = if step.frame.channel_axis == 0 {
+        FlowAxis::X
+    } else {
+        FlowAxis::Y
+    };
+    let (done, weight, total) = step.progress;
+    let mut kept = Vec::new();
+    let mut flows = Vec::new();
+    let mut flow_err: Option<anyhow::Error> = None;
+    let nr = step.ls.len();
+    let rungs = {
+        let mut on_rung = |r: &Rung, sol: &Solution| {
+            if step.keep {
+                kept.push(sol.clone());
+            }
+            if let Some(fopts) = step.fopts
+                && flow_err.is_none()
+            {
+                match reynolds::solve(sol.gap.view(), s.grid.lx, s.grid.ly, axis, fopts) {
+                    Ok(f) => flows.push((f.flux, f.percolating, f.converged)),
+                    Err(e) => {
+                        flow_err = Some(anyhow!("flow at n = {n}, l = {}: {e}", r.l));
+                    }
+                }
+            }
+            let f = (flows.len().max(1) as f64) / nr as f64;
+            ctx.progress(
+                0.95 * (done + f * weight) / total,
+                &format!("n = {n}, l = {:+}", r.l),
+            );
+        };
+        solve_ladder(
+            s,
+            step.frame,
+            step.l_c,
+            step.ls,
+            step.opts,
+            coarse,
+            &mut on_rung,
+        )
+        .with_context(|| format!("{} ladder on n = {n}", s.lattice.name()))?
+    };
+    if let Some(e) = flow_err {
+        return Err(e);
+    }
+    Ok((rungs, flows, kept))
+}
+
+/// The attributes of `level/<n>`; returns the level's contact iterations.
+fn write_level_attrs(
+    out: &mut ArtefactWriter,
+    at: &str,
+    n: u32,
+    s: &Surface,
+    (l_c, source, l_c_grid): (f64, &str, f64),
+    rungs: &[Rung],
+    wall: f64,
+) -> Result<usize> {
+    out.set_attr_at(at, "n", n as i64)?;
+    out.set_attr_at(at, "nx", s.grid.nx as i64)?;
+    out.set_attr_at(at, "ny", s.grid.ny as i64)?;
+    out.set_attr_at(at, "l_c", l_c)?;
+    out.set_attr_at(at, "l_c_source", source)?;
+    out.set_attr_at(at, "l_c_grid", l_c_grid)?;
+    out.set_attr_at(at, "d_par", rungs[0].window.d_par)?;
+    out.set_attr_at(at, "d_perp", rungs[0].window.d_perp)?;
+    let iterations: usize = rungs.iter().map(|r| r.iterations).sum();
+    out.set_attr_at(at, "iterations", iterations as i64)?;
+    out.set_attr_at(at, "wall_s", wall)?;
+    Ok(iterations)
+}
+
+/// The per-rung flow datasets of one level (NaN / 0 without flow).
+fn write_flows(
+    out: &mut ArtefactWriter,
+    at: &str,
+    flow: bool,
+    flows: &[RungFlow],
+    nr: usize,
+) -> Result<()> {
+    let (flux, perc, fconv): (Vec<f64>, Vec<u8>, Vec<u8>) = if flow {
+        let mut a = (vec![], vec![], vec![]);
+        for (q, p, c) in flows {
+            a.0.push(*q);
+            a.1.push(*p as u8);
+            a.2.push(*c as u8);
+        }
+        a
+    } else {
+        (vec![f64::NAN; nr], vec![0; nr], vec![0; nr])
+    };
+    out.write_f64_1d(&format!("{at}/flux"), &flux)?;
+    out.write_u8_1d(&format!("{at}/percolating"), &perc)?;
+    out.write_u8_1d(&format!("{at}/flow_converged"), &fconv)?;
+    Ok(())
+}
+
+/// Warns on unconverged flow solves; collects rungs below L_c where the fluid does not percolate.
+fn check_flows(
+    ctx: &mut StageContext,
+    n: u32,
+    rungs: &[Rung],
+    flows: &[RungFlow],
+    not_flowing: &mut Vec<String>,
+) {
+    for (r, (_, p, c)) in rungs.iter().zip(flows) {
+        if r.l < 0.0 && !p {
+            not_flowing.push(format!("n = {n}, l = {}", r.l));
+        }
+        if !c && *p {
+            ctx.warn(format!(
+                "n = {n}, l = {}: the flow solve did not converge",
+                r.l
+            ));
+        }
+    }
+}
+
+/// The run's closing warnings: unconverged contact solves, no flow below L_c.
+fn warn_summary(ctx: &mut StageContext, unconverged: usize, not_flowing: &[String]) {
+    if unconverged > 0 {
+        ctx.warn(format!(
+            "{unconverged} rungs did not converge (contact solver): their windows are stored \
+             with converged = 0"
+        ));
+    }
+    if !not_flowing.is_empty() {
+        ctx.warn(format!(
+            "the fluid does not percolate below L_c at {}: the grid closes the channel \
+             before the sub-grid L_c",
+            not_flowing.join("; ")
+        ));
+    }
+}
+
+/// The root attributes `window`, `l_c` (finest level) and the saddle's.
+fn write_frame(
+    out: &mut ArtefactWriter,
+    window: f64,
+    l_c: f64,
+    frame: &critical::ladder::SaddleFrame,
+) -> Result<()> {
+    out.set_attr("window", window)?;
+    out.set_attr("l_c", l_c)?;
+    out.set_attr("saddle_x", frame.x)?;
+    out.set_attr("saddle_y", frame.y)?;
+    out.set_attr(
+        "channel_axis",
+        if frame.channel_axis == 0 { "x" } else { "y" },
+    )?;
+    out.set_attr("eta", frame.eta)?;
+    out.set_attr("saddle_height", frame.height)?;
+    Ok(())
 }
 
 fn write_level(out: &mut ArtefactWriter, at: &str, rungs: &[Rung]) -> Result<()> {

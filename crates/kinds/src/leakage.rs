@@ -249,48 +249,8 @@ impl TypedKind for LeakageKind {
         };
         let path = critical::leakage::leakage_path(&field, boundary, &loads, &opts)?;
         ctx.progress(0.4, "load path solved");
-        let g = &field.grid;
-        out.set_cell(g.lx, g.ly)?;
-        out.set_attr("boundary", boundary.name())?;
-        out.set_attr("sides", sides_name(boundary))?;
-        out.set_attr("nx", g.nx as i64)?;
-        out.set_attr("ny", g.ny as i64)?;
-        out.set_attr("p_fc", p_fc)?;
-        out.set_attr("n_points", path.points.len() as i64)?;
-        // which surface: a generated one's seed (for ensembles), the kind that made it
-        if let Ok(seed) = surf.attr_i64("seed") {
-            out.set_attr("surface_seed", seed)?;
-        }
-        if let Ok(source) = surf.attr_str("source") {
-            out.set_attr("surface_source", source.as_str())?;
-        }
-        let unconverged = write_points(out, &path.points, p_fc)?;
-        out.set_attr("n_flow_unconverged", unconverged as i64)?;
-        for p in path
-            .points
-            .iter()
-            .filter(|p| !(p.flow_x.converged && p.flow_y.converged))
-        {
-            ctx.warn(format!(
-                "load {:e}: a Reynolds solve did not converge",
-                p.load
-            ));
-        }
-        let open = path
-            .points
-            .iter()
-            .filter(|p| p.state.fluid_any())
-            .map(|p| p.load);
-        let sealed = path
-            .points
-            .iter()
-            .find(|p| !p.state.fluid_any())
-            .map(|p| p.load);
-        out.set_attr(
-            "last_percolating_load",
-            open.reduce(f64::max).unwrap_or(f64::NAN),
-        )?;
-        out.set_attr("first_sealed_load", sealed.unwrap_or(f64::NAN))?;
+        write_header(out, surf, &field.grid, boundary, p_fc, path.points.len())?;
+        write_path(ctx, out, &path.points, p_fc)?;
         let mut stats = json!({"points": path.points.len(), "wall_s_path": path.wall_s});
         if params.percolation {
             let popts = PercolationOptions {
@@ -316,6 +276,64 @@ impl TypedKind for LeakageKind {
         ctx.progress(1.0, "written");
         Ok(StageReport::with_stats(stats))
     }
+}
+
+/// Root attributes: the cell, the boundary, the grid, p_fc and which surface.
+fn write_header(
+    out: &mut ArtefactWriter,
+    surf: &ArtefactReader,
+    g: &surface::Grid,
+    boundary: Boundary,
+    p_fc: f64,
+    n_points: usize,
+) -> Result<()> {
+    out.set_cell(g.lx, g.ly)?;
+    out.set_attr("boundary", boundary.name())?;
+    out.set_attr("sides", sides_name(boundary))?;
+    out.set_attr("nx", g.nx as i64)?;
+    out.set_attr("ny", g.ny as i64)?;
+    out.set_attr("p_fc", p_fc)?;
+    out.set_attr("n_points", n_points as i64)?;
+    // which surface: a generated one's seed (for ensembles), the kind that made it
+    if let Ok(seed) = surf.attr_i64("seed") {
+        out.set_attr("surface_seed", seed)?;
+    }
+    if let Ok(source) = surf.attr_str("source") {
+        out.set_attr("surface_source", source.as_str())?;
+    }
+    Ok(())
+}
+
+/// The load path: `points/*`, the unconverged-flow count and warnings, the last percolating
+/// and first sealed loads.
+fn write_path(
+    ctx: &mut StageContext,
+    out: &mut ArtefactWriter,
+    points: &[LeakagePoint],
+    p_fc: f64,
+) -> Result<()> {
+    let unconverged = write_points(out, points, p_fc)?;
+    out.set_attr("n_flow_unconverged", unconverged as i64)?;
+    for p in points
+        .iter()
+        .filter(|p| !(p.flow_x.converged && p.flow_y.converged))
+    {
+        ctx.warn(format!(
+            "load {:e}: a Reynolds solve did not converge",
+            p.load
+        ));
+    }
+    let open = points
+        .iter()
+        .filter(|p| p.state.fluid_any())
+        .map(|p| p.load);
+    let sealed = points.iter().find(|p| !p.state.fluid_any()).map(|p| p.load);
+    out.set_attr(
+        "last_percolating_load",
+        open.reduce(f64::max).unwrap_or(f64::NAN),
+    )?;
+    out.set_attr("first_sealed_load", sealed.unwrap_or(f64::NAN))?;
+    Ok(())
 }
 
 /// Writes `points/*` from [`POINT_COLUMNS`]; returns the number of points whose flow did not

@@ -27,6 +27,7 @@
 
 pub mod constriction;
 pub mod critical;
+mod critical_write;
 pub mod exponents;
 pub mod extremes;
 pub mod flow;

@@ -194,31 +194,7 @@ impl TypedKind for ResolutionKind {
     ) -> Result<StageReport> {
         let area_order = analysis::Order::Fixed(params.area_order);
         let mut load_order = params.load_order()?;
-        let mut levels: Vec<CriticalLevel> = Vec::new();
-        for r in inputs.all("levels") {
-            levels.extend(CriticalLevel::read_all(r)?);
-        }
-        levels.sort_by_key(|l| l.n);
-        let lattice = levels[0].lattice;
-        if let Some(l) = levels.iter().find(|l| l.lattice != lattice) {
-            bail!(
-                "the levels mix models: {} and {}",
-                lattice.name(),
-                l.lattice.name()
-            );
-        }
-        if levels.windows(2).any(|w| w[0].n == w[1].n) {
-            bail!("two levels have the same n; give one critical stage per grid");
-        }
-        if levels.len() < 2 {
-            bail!(
-                "at least two levels (grids) are needed to extrapolate; got {}",
-                levels.len()
-            );
-        }
-        if levels.iter().any(|l| l.shift_rule != levels[0].shift_rule) {
-            ctx.warn("the levels use different shift rules: their averages are not one family");
-        }
+        let levels = read_levels(ctx, inputs)?;
         if load_order == analysis::Order::Free && levels.len() < 4 {
             // a fitted order needs ≥ 4 levels for a degree of freedom and leave-one-out refits
             load_order = analysis::Order::Fixed(critical::FALLBACK_ORDER);
@@ -231,41 +207,7 @@ impl TypedKind for ResolutionKind {
         let h: Vec<f64> = levels.iter().map(|l| l.h).collect();
         out.write_i64_1d("n", &levels.iter().map(|l| l.n as i64).collect::<Vec<_>>())?;
         out.write_f64_1d("h", &h)?;
-        let stat = |l: &CriticalLevel, q: &str| {
-            let (mean, sem) = l.get(q).unwrap_or((f64::NAN, f64::NAN));
-            Stat {
-                mean,
-                std: f64::NAN,
-                sem,
-                count: 0,
-            }
-        };
-        let mut ex: Vec<Extrapolated> = Vec::new();
-        for q in LOAD_QUANTITIES {
-            let s: Vec<Stat> = levels.iter().map(|l| stat(l, q)).collect();
-            ex.push(Extrapolated::new(q, &h, &s, load_order));
-        }
-        for q in AREA_QUANTITIES {
-            let s: Vec<Stat> = levels.iter().map(|l| stat(l, q)).collect();
-            ex.push(Extrapolated::new(q, &h, &s, area_order));
-        }
-        let sub: Vec<&CriticalLevel> = levels
-            .iter()
-            .filter(|l| l.l_c_subgrid.0.is_finite())
-            .collect();
-        if sub.len() >= 2 {
-            let hs: Vec<f64> = sub.iter().map(|l| l.h).collect();
-            let s: Vec<Stat> = sub
-                .iter()
-                .map(|l| Stat {
-                    mean: l.l_c_subgrid.0,
-                    std: f64::NAN,
-                    sem: 0.0,
-                    count: 1,
-                })
-                .collect();
-            ex.push(Extrapolated::new("l_c_subgrid", &hs, &s, load_order));
-        }
+        let ex = extrapolate(&levels, &h, load_order, area_order);
         for e in &ex {
             write_extrapolation(out, e)?;
             if let Some(n) = &e.note {
@@ -275,49 +217,7 @@ impl TypedKind for ResolutionKind {
                 ctx.warn(format!("{}: extrapolation failed: {m}", e.name));
             }
         }
-        let value = |q: &str| {
-            ex.iter()
-                .find(|e| e.name == q)
-                .and_then(|e| e.value())
-                .unwrap_or((f64::NAN, f64::NAN))
-        };
-        let p_fc = lattice.exact().p_fc;
-        let (l_c, l_c_e) = value("l_c");
-        let (a_r, a_r_e) = value("a_p_raw");
-        let (a_c, a_c_e) = value("a_p_corrected");
-        out.set_attr("lattice", lattice.name())?;
-        out.set_attr("shift_rule", levels[0].shift_rule as i64)?;
-        out.set_attr("p_fc_exact", p_fc)?;
-        out.set_attr("l_c", l_c)?;
-        out.set_attr("l_c_error", l_c_e)?;
-        out.set_attr("a_p_raw", a_r)?;
-        out.set_attr("a_p_raw_error", a_r_e)?;
-        out.set_attr("a_p_corrected", a_c)?;
-        out.set_attr("a_p_corrected_error", a_c_e)?;
-        out.set_attr("p_fc_over_l_c", p_fc / l_c)?;
-        out.set_attr("p_fc_over_l_c_error", p_fc / l_c * l_c_e / l_c)?;
-        let finest = levels.last().expect("levels");
-        out.set_attr("finest_n", finest.n as i64)?;
-        out.set_attr("l_c_subgrid", finest.l_c_subgrid.0)?;
-        out.set_attr("l_c_subgrid_error", finest.l_c_subgrid.1)?;
-        out.set_attr("zeta", finest.zeta.0)?;
-        out.set_attr("zeta_error", finest.zeta.1)?;
-        let (pa, pe) = paper_a_p(lattice);
-        out.set_attr("paper_a_p", pa)?;
-        out.set_attr("paper_a_p_error", pe)?;
-        out.set_attr("paper_p_fc_over_l_c", paper_ratio(lattice))?;
-        let m = lattice.name();
-        let (ratio, ratio_e) = (p_fc / l_c, p_fc / l_c * l_c_e / l_c);
-        crate::headline::write(
-            out,
-            &[
-                Headline::new(format!("a_p {m} (corrected)"), a_c, a_c_e).paper(pa, pe),
-                Headline::new(format!("a_p {m} (raw)"), a_r, a_r_e).paper(pa, pe),
-                Headline::new(format!("L_c {m}"), l_c, l_c_e),
-                Headline::new(format!("p_fc/L_c {m}"), ratio, ratio_e)
-                    .paper(paper_ratio(lattice), f64::NAN),
-            ],
-        )?;
+        let [(l_c, l_c_e), (a_r, a_r_e), (a_c, a_c_e)] = write_summary(out, &levels, &ex)?;
         Ok(StageReport::with_stats(json!({
             "levels": levels.len(),
             "l_c": [l_c, l_c_e],
@@ -325,6 +225,134 @@ impl TypedKind for ResolutionKind {
             "a_p_corrected": [a_c, a_c_e],
         })))
     }
+}
+
+/// The `levels` inputs' levels, ascending n, checked: one model, distinct grids, at least two.
+fn read_levels(ctx: &mut StageContext, inputs: &Inputs) -> Result<Vec<CriticalLevel>> {
+    let mut levels: Vec<CriticalLevel> = Vec::new();
+    for r in inputs.all("levels") {
+        levels.extend(CriticalLevel::read_all(r)?);
+    }
+    levels.sort_by_key(|l| l.n);
+    let lattice = levels[0].lattice;
+    if let Some(l) = levels.iter().find(|l| l.lattice != lattice) {
+        bail!(
+            "the levels mix models: {} and {}",
+            lattice.name(),
+            l.lattice.name()
+        );
+    }
+    if levels.windows(2).any(|w| w[0].n == w[1].n) {
+        bail!("two levels have the same n; give one critical stage per grid");
+    }
+    if levels.len() < 2 {
+        bail!(
+            "at least two levels (grids) are needed to extrapolate; got {}",
+            levels.len()
+        );
+    }
+    if levels.iter().any(|l| l.shift_rule != levels[0].shift_rule) {
+        ctx.warn("the levels use different shift rules: their averages are not one family");
+    }
+    Ok(levels)
+}
+
+/// Extrapolates every quantity to h → 0 (and the sub-grid L_c where ≥ 2 levels have one).
+fn extrapolate(
+    levels: &[CriticalLevel],
+    h: &[f64],
+    load_order: analysis::Order,
+    area_order: analysis::Order,
+) -> Vec<Extrapolated> {
+    let stat = |l: &CriticalLevel, q: &str| {
+        let (mean, sem) = l.get(q).unwrap_or((f64::NAN, f64::NAN));
+        Stat {
+            mean,
+            std: f64::NAN,
+            sem,
+            count: 0,
+        }
+    };
+    let mut ex: Vec<Extrapolated> = Vec::new();
+    for q in LOAD_QUANTITIES {
+        let s: Vec<Stat> = levels.iter().map(|l| stat(l, q)).collect();
+        ex.push(Extrapolated::new(q, h, &s, load_order));
+    }
+    for q in AREA_QUANTITIES {
+        let s: Vec<Stat> = levels.iter().map(|l| stat(l, q)).collect();
+        ex.push(Extrapolated::new(q, h, &s, area_order));
+    }
+    let sub: Vec<&CriticalLevel> = levels
+        .iter()
+        .filter(|l| l.l_c_subgrid.0.is_finite())
+        .collect();
+    if sub.len() >= 2 {
+        let hs: Vec<f64> = sub.iter().map(|l| l.h).collect();
+        let s: Vec<Stat> = sub
+            .iter()
+            .map(|l| Stat {
+                mean: l.l_c_subgrid.0,
+                std: f64::NAN,
+                sem: 0.0,
+                count: 1,
+            })
+            .collect();
+        ex.push(Extrapolated::new("l_c_subgrid", &hs, &s, load_order));
+    }
+    ex
+}
+
+/// Root attributes and headlines; returns (value, error) of L_c, raw a_p, corrected a_p.
+fn write_summary(
+    out: &mut ArtefactWriter,
+    levels: &[CriticalLevel],
+    ex: &[Extrapolated],
+) -> Result<[(f64, f64); 3]> {
+    let lattice = levels[0].lattice;
+    let value = |q: &str| {
+        ex.iter()
+            .find(|e| e.name == q)
+            .and_then(|e| e.value())
+            .unwrap_or((f64::NAN, f64::NAN))
+    };
+    let p_fc = lattice.exact().p_fc;
+    let (l_c, l_c_e) = value("l_c");
+    let (a_r, a_r_e) = value("a_p_raw");
+    let (a_c, a_c_e) = value("a_p_corrected");
+    out.set_attr("lattice", lattice.name())?;
+    out.set_attr("shift_rule", levels[0].shift_rule as i64)?;
+    out.set_attr("p_fc_exact", p_fc)?;
+    out.set_attr("l_c", l_c)?;
+    out.set_attr("l_c_error", l_c_e)?;
+    out.set_attr("a_p_raw", a_r)?;
+    out.set_attr("a_p_raw_error", a_r_e)?;
+    out.set_attr("a_p_corrected", a_c)?;
+    out.set_attr("a_p_corrected_error", a_c_e)?;
+    out.set_attr("p_fc_over_l_c", p_fc / l_c)?;
+    out.set_attr("p_fc_over_l_c_error", p_fc / l_c * l_c_e / l_c)?;
+    let finest = levels.last().expect("levels");
+    out.set_attr("finest_n", finest.n as i64)?;
+    out.set_attr("l_c_subgrid", finest.l_c_subgrid.0)?;
+    out.set_attr("l_c_subgrid_error", finest.l_c_subgrid.1)?;
+    out.set_attr("zeta", finest.zeta.0)?;
+    out.set_attr("zeta_error", finest.zeta.1)?;
+    let (pa, pe) = paper_a_p(lattice);
+    out.set_attr("paper_a_p", pa)?;
+    out.set_attr("paper_a_p_error", pe)?;
+    out.set_attr("paper_p_fc_over_l_c", paper_ratio(lattice))?;
+    let m = lattice.name();
+    let (ratio, ratio_e) = (p_fc / l_c, p_fc / l_c * l_c_e / l_c);
+    crate::headline::write(
+        out,
+        &[
+            Headline::new(format!("a_p {m} (corrected)"), a_c, a_c_e).paper(pa, pe),
+            Headline::new(format!("a_p {m} (raw)"), a_r, a_r_e).paper(pa, pe),
+            Headline::new(format!("L_c {m}"), l_c, l_c_e),
+            Headline::new(format!("p_fc/L_c {m}"), ratio, ratio_e)
+                .paper(paper_ratio(lattice), f64::NAN),
+        ],
+    )?;
+    Ok([(l_c, l_c_e), (a_r, a_r_e), (a_c, a_c_e)])
 }
 
 fn write_extrapolation(out: &mut ArtefactWriter, e: &Extrapolated) -> Result<()> {

@@ -14,6 +14,7 @@ pub mod fig2_resolution;
 pub mod fig3;
 pub mod fig4;
 pub mod fig5;
+pub mod fig5_collapse;
 pub mod fig6;
 pub mod flowtable;
 pub mod jumptable;

@@ -46,10 +46,11 @@
 
 pub mod asymptotic;
 mod io;
+mod model;
 pub mod table;
 
+use io::group_notes;
 pub use io::read;
-use io::{group_notes, write_fit, write_measure};
 
 use crate::ladder::{LadderData, LadderLevel};
 use anyhow::{Result, bail};
@@ -405,112 +406,8 @@ impl TypedKind for ExponentsKind {
                 bail!("two `ladder` inputs for the {name} model; give one per model");
             }
             models.push(name);
-            let at = format!("model/{name}");
-            let mut notes = Vec::new();
-            let mut per: [Vec<(u32, Option<ExponentFit>)>; 4] = Default::default();
-            let mut zeta_free = (f64::NAN, f64::NAN, f64::NAN);
-            for lv in &d.levels {
-                let m = measure(lv, &opts, &mut notes);
-                let fits = level_fits(&m);
-                let la = format!("{at}/level/{}", lv.n);
-                for (k, f) in fits.into_iter().enumerate() {
-                    write_fit(out, &la, NAMES[k], f.as_ref().ok())?;
-                    if let Err(e) = &f {
-                        notes.push(format!("n = {}: no {} fit: {e}", lv.n, symbol(NAMES[k])));
-                    }
-                    per[k].push((lv.n, f.ok()));
-                }
-                // ζ with L_c free (needs 4 open samples: 3 parameters and one dof)
-                let (ld, gd): (Vec<f64>, Vec<f64>) = m
-                    .load_open
-                    .iter()
-                    .zip(&m.saddle_gap)
-                    .filter(|(_, g)| g.is_finite())
-                    .map(|(l, g)| (*l, *g))
-                    .unzip();
-                if ld.len() >= 4
-                    && let Ok(f) =
-                        analysis::fit_saddle_gap(&ld, &gd, None, analysis::ErrorScale::ReducedChi2)
-                {
-                    let z = f.get("zeta").unwrap_or((f64::NAN, f64::NAN));
-                    let lc = f.get("L_c").map_or(f64::NAN, |v| v.0);
-                    out.set_attr_at(&la, "zeta_lc_free", z.0)?;
-                    out.set_attr_at(&la, "zeta_lc_free_error", z.1)?;
-                    out.set_attr_at(&la, "l_c_fit", lc)?;
-                    out.set_attr_at(&la, "l_c", lv.l_c)?;
-                    zeta_free = (z.0, z.1, lc);
-                }
-                write_measure(out, &la, &m)?;
-            }
-            if let Some(lv) = d.levels.last() {
-                let (x, y) = normalised_flux(&measure(lv, &opts, &mut Vec::new()));
-                if !x.is_empty() {
-                    out.write_f64_1d(&format!("ladder/{name}/distance"), &x)?;
-                    out.write_f64_1d(&format!("ladder/{name}/flux"), &y)?;
-                    flux_points.push((x, y));
-                }
-            }
-            let ex: Vec<Exponent> = per.iter().map(|p| combine(p)).collect();
-            for (k, e) in ex.iter().enumerate() {
-                let nm = NAMES[k];
-                out.set_attr_at(&at, nm, e.value)?;
-                out.set_attr_at(&at, &format!("{nm}_fit_error"), e.fit_error)?;
-                out.set_attr_at(&at, &format!("{nm}_grid_spread"), e.grid_spread)?;
-                out.set_attr_at(&at, &format!("{nm}_error"), e.error)?;
-                out.set_attr_at(&at, &format!("{nm}_n"), e.n as i64)?;
-                out.set_attr_at(&at, &format!("{nm}_points"), e.points as i64)?;
-                out.set_attr_at(&at, &format!("{nm}_prefactor"), e.prefactor)?;
-            }
-            for (k, e) in ex.iter().enumerate() {
-                let (pv, pe) = PAPER[k];
-                heads.push(
-                    crate::headline::Headline::new(
-                        format!("{} {name}", NAMES[k]),
-                        e.value,
-                        e.error,
-                    )
-                    .paper(pv, pe),
-                );
-            }
-            let mut asy = [Asymptotic::NONE; 4];
-            for (k, a) in asy.iter_mut().enumerate() {
-                let levels = asymptotic::resolutions(&d, asymptotic::which(k), &mut notes);
-                match asymptotic::estimate(&levels) {
-                    Ok(v) => *a = v,
-                    Err(why) => notes.push(format!("no asymptotic {}: {why}", symbol(NAMES[k]))),
-                }
-                a.write(out, &at, NAMES[k])?;
-            }
-            let asy_identity = asymptotic::identity(&asy[0], &asy[1], &asy[2]);
-            asy_identity.write(out, &at, "beta_identity")?;
-            let (bi, be) = identity(&ex[0], &ex[1], &ex[2]);
-            out.set_attr_at(&at, "beta_identity", bi)?;
-            out.set_attr_at(&at, "beta_identity_error", be)?;
-            out.set_attr_at(&at, "zeta_lc_free", zeta_free.0)?;
-            out.set_attr_at(&at, "zeta_lc_free_error", zeta_free.1)?;
-            out.set_attr_at(&at, "l_c_fit", zeta_free.2)?;
-            out.set_attr_at(&at, "eta", d.eta)?;
-            for note in group_notes(&notes) {
-                ctx.warn(format!("{name}: {note}"));
-            }
-            summary.insert(
-                name.to_string(),
-                json!({
-                    "zeta": [ex[0].value, ex[0].error],
-                    "upsilon": [ex[1].value, ex[1].error],
-                    "chi": [ex[2].value, ex[2].error],
-                    "beta": [ex[3].value, ex[3].error],
-                    "beta_identity": [bi, be],
-                    "zeta_lc_free": [zeta_free.0, zeta_free.1],
-                    "asymptotic": {
-                        "zeta": [asy[0].value, asy[0].error],
-                        "upsilon": [asy[1].value, asy[1].error],
-                        "chi": [asy[2].value, asy[2].error],
-                        "beta": [asy[3].value, asy[3].error],
-                        "beta_identity": [asy_identity.value, asy_identity.error],
-                    },
-                }),
-            );
+            let stats = model::run_model(ctx, out, &d, &opts, &mut heads, &mut flux_points)?;
+            summary.insert(name.to_string(), stats);
         }
         if models.is_empty() {
             bail!("`exponents` needs at least one `ladder` input");
