@@ -530,6 +530,23 @@ impl Plan {
                 imp,
             });
         }
+        // two stages with one key would compute the same artefact twice, race to publish the
+        // one cache file, and make the key ambiguous for `run-stage` (a cluster job)
+        let mut by_key: BTreeMap<&str, &PlannedStage> = BTreeMap::new();
+        for s in &stages {
+            if let Some(first) = by_key.insert(s.key.as_str(), s) {
+                errs.push(ConfigError::at(
+                    &s.origin,
+                    format!(
+                        "stage `{}` computes exactly what stage `{}` computes (same kind, parameters, inputs and code: key {}); let its readers take `{}` instead",
+                        s.name,
+                        first.name,
+                        &s.key[..12],
+                        first.name
+                    ),
+                ));
+            }
+        }
         // side outputs must not collide
         let mut owners: BTreeMap<&str, &str> = BTreeMap::new();
         for s in &stages {

@@ -357,3 +357,23 @@ fn duplicate_key_names_the_key() {
     let m = err(SIMPLE, "n = 5\ntol = 1e-9\nn = 6\n");
     assert_has(&m, &["params/x.toml:3:1", "duplicate key `n`"]);
 }
+
+#[test]
+fn two_stages_with_one_key_are_refused_naming_both() {
+    let dup =
+        format!("{SIMPLE}\n[stages.b]\nkind = \"add\"\nparams = {{ n = \"$n\", scale = 2.0 }}\n");
+    let m = err(&dup, "n = 5\n");
+    assert_has(
+        &m,
+        &[
+            "stage `b` computes exactly what stage `a` computes",
+            "let its readers take `a` instead",
+        ],
+    );
+    // another parameter value gives another key: accepted
+    let other =
+        format!("{SIMPLE}\n[stages.b]\nkind = \"add\"\nparams = {{ n = \"$n\", scale = 3.0 }}\n");
+    let p = Project::new(&other, "n = 5\n");
+    let add = Add::new();
+    assert_eq!(p.plan(&registry(&add)).stages.len(), 2);
+}
