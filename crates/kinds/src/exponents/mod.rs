@@ -41,8 +41,8 @@
 //! crates/stages/src/fig6.rs): per model `ladder/<lattice>/distance` ((L_c − L)/L_c of the
 //! finest grid's rungs below L_c where the fluid flows) and `ladder/<lattice>/flux` (the flux
 //! normalised by its value at the largest distance, [`normalised_flux`]); root attributes
-//! `beta`, `beta_err`, `beta_prefactor` of a power law fitted to all models' points together
-//! ([`pooled_beta`]; the per-model β are the `model/<lattice>` attributes).
+//! `beta`, `beta_err`, `beta_prefactor` of a power law fitted to all models' points in
+//! [`WINDOW`] together ([`pooled_beta`]; the per-model β are the `model/<lattice>` attributes).
 
 pub mod asymptotic;
 mod io;
@@ -214,11 +214,16 @@ pub fn normalised_flux(m: &LevelMeasure) -> (Vec<f64>, Vec<f64>) {
     pts.iter().map(|(l, q)| (*l, q / q0)).unzip()
 }
 
-/// A power law fitted to the normalised points of all models together: (β, 1σ or NaN without
-/// a degree of freedom, prefactor). None with fewer than two points.
+/// A power law fitted to the normalised points of all models together, over the distances in
+/// [`WINDOW`] like every window fit (a ladder may reach far below it; those rungs are drawn, not
+/// fitted): (β, 1σ or NaN without a degree of freedom, prefactor). None with fewer than two
+/// points in the window.
 pub fn pooled_beta(points: &[(Vec<f64>, Vec<f64>)]) -> Option<(f64, f64, f64)> {
-    let x: Vec<f64> = points.iter().flat_map(|p| p.0.iter().copied()).collect();
-    let y: Vec<f64> = points.iter().flat_map(|p| p.1.iter().copied()).collect();
+    let (x, y): (Vec<f64>, Vec<f64>) = points
+        .iter()
+        .flat_map(|p| p.0.iter().copied().zip(p.1.iter().copied()))
+        .filter(|&(d, _)| in_window(d))
+        .unzip();
     if x.len() < 2 {
         return None;
     }
@@ -429,6 +434,26 @@ impl TypedKind for ExponentsKind {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pooled_beta_fits_the_window_only() {
+        // slope 3.45 inside the window, 2.0 below it (a pre-asymptotic or unresolved tail)
+        let law = |d: f64| {
+            if d >= WINDOW.0 {
+                2.0 * d.powf(3.45)
+            } else {
+                2.0 * WINDOW.0.powf(3.45) * (d / WINDOW.0).powf(2.0)
+            }
+        };
+        let d = [5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4];
+        let pts = vec![(d.to_vec(), d.iter().map(|&x| law(x)).collect::<Vec<f64>>())];
+        let (b, _, a) = pooled_beta(&pts).unwrap();
+        // an exact power law over the window's four points: rounding only
+        assert!((b - 3.45).abs() < 1e-9, "{b}");
+        assert!((a - 2.0).abs() < 1e-6, "{a}");
+        let outside = vec![(vec![1e-3, 5e-4], vec![1.0, 0.5])];
+        assert!(pooled_beta(&outside).is_none());
+    }
 
     fn fit(v: f64, e: f64) -> Option<ExponentFit> {
         Some(ExponentFit {
