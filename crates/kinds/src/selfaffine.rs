@@ -127,16 +127,7 @@ pub fn write_height_field(
     let p_fc = critical::leakage::full_contact_pressure(field);
     out.set_cell(g.lx, g.ly)?;
     out.set_attr("source", source)?;
-    out.set_attr("nx", g.nx as i64)?;
-    out.set_attr("ny", g.ny as i64)?;
-    out.set_attr("dx", g.dx())?;
-    out.set_attr("dy", g.dy())?;
-    out.set_attr("h_min", st.min)?;
-    out.set_attr("h_max", st.max)?;
-    out.set_attr("h_mean", st.mean)?;
-    out.set_attr("h_rms", st.rms)?;
-    out.set_attr("skewness", st.skewness)?;
-    out.set_attr("excess_kurtosis", st.excess_kurtosis)?;
+    crate::surface::write_grid_and_moments(out, g, &st)?;
     out.set_attr("rms_slope", ss.rms_slope)?;
     out.set_attr("rms_curvature", ss.rms_curvature)?;
     out.set_attr("nayak", ss.nayak)?;

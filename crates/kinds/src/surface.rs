@@ -147,16 +147,7 @@ impl TypedKind for SurfaceKind {
         out.set_cell(g.lx, g.ly)?;
         out.set_attr("lattice", lattice.name())?;
         out.set_attr("n", n as i64)?;
-        out.set_attr("nx", g.nx as i64)?;
-        out.set_attr("ny", g.ny as i64)?;
-        out.set_attr("dx", g.dx())?;
-        out.set_attr("dy", g.dy())?;
-        out.set_attr("h_min", st.min)?;
-        out.set_attr("h_max", st.max)?;
-        out.set_attr("h_mean", st.mean)?;
-        out.set_attr("h_rms", st.rms)?;
-        out.set_attr("skewness", st.skewness)?;
-        out.set_attr("excess_kurtosis", st.excess_kurtosis)?;
+        write_grid_and_moments(out, g, &st)?;
         out.set_attr("p_fc_grid", s.p_fc_grid())?;
         out.write_f64_2d(fields::HEIGHT, s.heights.view())?;
         let cps = s.critical_points();
@@ -193,4 +184,25 @@ impl TypedKind for SurfaceKind {
             "critical_points": cps.len(),
         })))
     }
+}
+
+/// The part of the surface-artefact layout every height-field kind shares (this kind,
+/// `selfaffine`, `topography`): the grid's root attributes `nx`, `ny`, `dx`, `dy` and the
+/// moments of the heights `h_min`, `h_max`, `h_mean`, `h_rms`, `skewness`, `excess_kurtosis`.
+pub(crate) fn write_grid_and_moments(
+    out: &mut ArtefactWriter,
+    g: &surface::Grid,
+    st: &surface::Statistics,
+) -> Result<()> {
+    out.set_attr("nx", g.nx as i64)?;
+    out.set_attr("ny", g.ny as i64)?;
+    out.set_attr("dx", g.dx())?;
+    out.set_attr("dy", g.dy())?;
+    out.set_attr("h_min", st.min)?;
+    out.set_attr("h_max", st.max)?;
+    out.set_attr("h_mean", st.mean)?;
+    out.set_attr("h_rms", st.rms)?;
+    out.set_attr("skewness", st.skewness)?;
+    out.set_attr("excess_kurtosis", st.excess_kurtosis)?;
+    Ok(())
 }
