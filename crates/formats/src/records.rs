@@ -110,6 +110,31 @@ impl Column for usize {
     }
 }
 
+impl Column for u32 {
+    const KIND: ColumnKind = ColumnKind::I64;
+    fn write(w: &mut ArtefactWriter, path: &str, values: &[Self]) -> Result<()> {
+        let v: Vec<i64> = values.iter().map(|&x| i64::from(x)).collect();
+        w.write_i64_1d(path, &v)
+    }
+    fn read(r: &ArtefactReader, path: &str) -> Result<Vec<Self>> {
+        r.read_i64_1d(path)?
+            .into_iter()
+            .enumerate()
+            .map(|(k, x)| {
+                u32::try_from(x).map_err(|_| {
+                    anyhow!(
+                        "`{path}` row {k}: {x}; allowed: an integer in [0, {}]",
+                        u32::MAX
+                    )
+                })
+            })
+            .collect()
+    }
+    fn values(values: Vec<Self>) -> Values {
+        Values::I64(values.into_iter().map(i64::from).collect())
+    }
+}
+
 impl Column for bool {
     const KIND: ColumnKind = ColumnKind::Bool;
     fn write(w: &mut ArtefactWriter, path: &str, values: &[Self]) -> Result<()> {
@@ -229,7 +254,8 @@ impl Column for reynolds::Termination {
 pub trait Record: Sized {
     /// The columns in declaration (and writing) order.
     const COLUMNS: &'static [ColumnSpec];
-    /// Writes `rows` as `<group>/<column>` datasets (empty datasets for no rows).
+    /// Writes `rows` as `<group>/<column>` datasets (empty datasets for no rows; `group` `""`
+    /// writes them at the root).
     fn write(rows: &[Self], w: &mut ArtefactWriter, group: &str) -> Result<()>;
     /// Reads the `<group>/<column>` datasets back; all columns must have the same length.
     fn read(r: &ArtefactReader, group: &str) -> Result<Vec<Self>>;
@@ -237,10 +263,24 @@ pub trait Record: Sized {
     fn values(rows: &[Self], column: &str) -> Option<Values>;
 }
 
+/// The dataset path of column `name` under `group` (`""`: the root, the bare name).
+pub fn column_path(group: &str, name: &str) -> String {
+    let group = group.trim_end_matches('/');
+    if group.is_empty() {
+        name.to_string()
+    } else {
+        format!("{group}/{name}")
+    }
+}
+
 /// Checks that column `name` has `len` rows like the first column (used by [`record!`](crate::record)).
 pub fn check_len(group: &str, first: &str, n: usize, name: &str, len: usize) -> Result<()> {
     if len != n {
-        bail!("`{group}/{name}` has {len} entries, `{group}/{first}` has {n}");
+        bail!(
+            "`{}` has {len} entries, `{}` has {n}",
+            column_path(group, name),
+            column_path(group, first)
+        );
     }
     Ok(())
 }
@@ -249,7 +289,8 @@ pub fn check_len(group: &str, first: &str, n: usize, name: &str, len: usize) -> 
 pub fn read_in<R: Record>(r: &ArtefactReader, group: &str) -> Result<Vec<R>> {
     R::read(r, group).with_context(|| {
         format!(
-            "reading the records `{group}/*` of artefact `{}`",
+            "reading the records `{}` of artefact `{}`",
+            column_path(group, "*"),
             r.path().display()
         )
     })
@@ -286,7 +327,7 @@ macro_rules! record {
                     let col: Vec<$ty> = rows.iter().map(|r| r.$field.clone()).collect();
                     <$ty as $crate::records::Column>::write(
                         w,
-                        &format!("{group}/{}", stringify!($field)),
+                        &$crate::records::column_path(group, stringify!($field)),
                         &col,
                     )?;
                 )+
@@ -296,7 +337,7 @@ macro_rules! record {
                 $(
                     let $field = <$ty as $crate::records::Column>::read(
                         r,
-                        &format!("{group}/{}", stringify!($field)),
+                        &$crate::records::column_path(group, stringify!($field)),
                     )?;
                 )+
                 let first = Self::COLUMNS[0].name;
@@ -432,6 +473,35 @@ mod tests {
         let e = format!("{:#}", read_in::<Row>(&r, "renamed").unwrap_err());
         assert!(e.contains("renamed/branch` row 1: `sideways`"), "{e}");
         assert!(e.contains("allowed loading, unloading"), "{e}");
+    }
+
+    crate::record! {
+        /// A record with a `u32` column, stored at the root.
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Level {
+            /// A grid exponent.
+            pub n: u32,
+            /// A spacing.
+            pub h: f64,
+        }
+    }
+
+    #[test]
+    fn root_records_and_u32_columns_round_trip_and_reject_negatives() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = writer(dir.path());
+        let rows = vec![Level { n: 7, h: 0.5 }, Level { n: 8, h: 0.25 }];
+        Level::write(&rows, &mut w, "").unwrap();
+        w.write_i64_1d("bad/n", &[3, -1]).unwrap();
+        w.write_f64_1d("bad/h", &[1.0, 2.0]).unwrap();
+        let path = w.publish().unwrap();
+        let r = ArtefactReader::open(&path).unwrap();
+        // at the root: the bare dataset names
+        assert_eq!(r.read_i64_1d("n").unwrap(), [7, 8]);
+        assert_eq!(read_in::<Level>(&r, "").unwrap(), rows);
+        assert_eq!(Level::COLUMNS[0].kind, ColumnKind::I64);
+        let e = format!("{:#}", read_in::<Level>(&r, "bad").unwrap_err());
+        assert!(e.contains("`bad/n` row 1: -1"), "{e}");
     }
 
     #[test]

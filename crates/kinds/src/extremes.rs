@@ -17,18 +17,19 @@
 //!   an open axis converges and is positive and finite; above, it is exactly zero.
 //!
 //! # Artefact
-//! `cases/*` one entry per case (the columns of the table) and the side output
+//! `cases/*` one entry per case (the columns of [`Case`], also the table's) and the side output
 //! `results/tables/extremes.csv`: `case`, `n`, `load` (E* h0/λ), `value` (the checked quantity),
 //! `reference` (what it is checked against, NaN if nothing), `bound`, `passed`, `iterations`,
 //! `wall_s`, `check` (the check in words).
 
 use anyhow::{Context, Result, anyhow, bail};
 use contact::{Interaction, Lattice, Model, Solution, Surface};
+use formats::records::{Record, read_in};
 use orchestrator::{InputSpec, Inputs, ParamSpec, ParamType, StageContext, StageReport, TypedKind};
 use reynolds::{FlowAxis, FlowOptions};
 use serde::Deserialize;
 use serde_json::json;
-use store::ArtefactWriter;
+use store::{ArtefactReader, ArtefactWriter};
 use tables::Table;
 
 use crate::critical::CriticalLevel;
@@ -42,44 +43,41 @@ pub const CODE_VERSION: u64 = 1;
 /// Where the table goes.
 pub const TABLE: &str = "results/tables/extremes.csv";
 
-/// One case and its verdict.
-#[derive(Debug, Clone)]
-pub struct Case {
-    /// What was solved.
-    pub case: String,
-    /// Grid exponent.
-    pub n: u32,
-    /// Mean pressure (E* h0/λ).
-    pub load: f64,
-    /// The checked quantity.
-    pub value: f64,
-    /// What it is checked against (NaN if nothing).
-    pub reference: f64,
-    /// The bound of the check (NaN if none).
-    pub bound: f64,
-    /// Whether the check passed.
-    pub passed: bool,
-    /// Contact-solver iterations.
-    pub iterations: usize,
-    /// Wall time of the case (s).
-    pub wall_s: f64,
-    /// The check in words.
-    pub check: String,
+formats::record! {
+    /// One case and its verdict (`cases/*`, and a row of the table).
+    #[derive(Debug, Clone, PartialEq)]
+    pub struct Case {
+        /// What was solved.
+        pub case: String,
+        /// Grid exponent.
+        pub n: u32,
+        /// Mean pressure (E* h0/λ).
+        pub load: f64,
+        /// The checked quantity.
+        pub value: f64,
+        /// What it is checked against (NaN if nothing).
+        pub reference: f64,
+        /// The bound of the check (NaN if none).
+        pub bound: f64,
+        /// Whether the check passed.
+        pub passed: bool,
+        /// Contact-solver iterations.
+        pub iterations: usize,
+        /// Wall time of the case (s).
+        pub wall_s: f64,
+        /// The check in words.
+        pub check: String,
+    }
 }
 
-/// The table of the cases.
+/// The table of the cases: every column of [`Case`], in its order.
 pub fn table(cases: &[Case]) -> Table {
-    Table::new()
-        .with_str("case", cases.iter().map(|c| c.case.clone()))
-        .with_i64("n", cases.iter().map(|c| c.n as i64))
-        .with_f64("load", cases.iter().map(|c| c.load))
-        .with_f64("value", cases.iter().map(|c| c.value))
-        .with_f64("reference", cases.iter().map(|c| c.reference))
-        .with_f64("bound", cases.iter().map(|c| c.bound))
-        .with_bool("passed", cases.iter().map(|c| c.passed))
-        .with_i64("iterations", cases.iter().map(|c| c.iterations as i64))
-        .with_f64("wall_s", cases.iter().map(|c| c.wall_s))
-        .with_str("check", cases.iter().map(|c| c.check.clone()))
+    crate::record_table::table(cases)
+}
+
+/// Reads the cases of an `extremes` artefact.
+pub fn read_cases(r: &ArtefactReader) -> Result<Vec<Case>> {
+    read_in(r, "cases")
 }
 
 fn solve(model: &mut Model, load: f64, tol_gap: f64) -> Result<Solution> {
@@ -381,17 +379,7 @@ fn write_cases(
     l_c: f64,
 ) -> Result<()> {
     let t = table(cases);
-    let f = |k: &str| t.f64(k).map(|v| v.to_vec());
-    for k in ["load", "value", "reference", "bound", "wall_s"] {
-        out.write_f64_1d(&format!("cases/{k}"), &f(k)?)?;
-    }
-    for k in ["n", "iterations"] {
-        out.write_i64_1d(&format!("cases/{k}"), t.i64(k)?)?;
-    }
-    let passed: Vec<u8> = cases.iter().map(|c| c.passed as u8).collect();
-    out.write_u8_1d("cases/passed", &passed)?;
-    out.write_strings("cases/case", t.str("case")?)?;
-    out.write_strings("cases/check", t.str("check")?)?;
+    Case::write(cases, out, "cases")?;
     out.set_attr("lattice", lattice.name())?;
     out.set_attr("l_c", l_c)?;
     ctx.emit_file(TABLE, tables::csv_bytes(&t)?);

@@ -26,16 +26,17 @@
 //!   direction), `eta`, `saddle_height`, cell `lx`, `ly`;
 //! - per level `level/<n>`: attributes `n`, `nx`, `ny`, `l_c`, `l_c_source` ("subgrid" or
 //!   "grid"), `l_c_grid`, `d_par`, `d_perp` (window spacings along and across the channel, λ),
-//!   `wall_s`, `iterations`; datasets (one entry per rung, ascending l) `l`, `load`,
-//!   `contact_area`, `saddle_gap`, `iterations`, `converged`, `retried`, `flux`, `percolating`,
-//!   `flow_converged`; windows `rung/<k>/gap`, `rung/<k>/pressure` (first index along the
-//!   channel, saddle at the centre).
+//!   `wall_s`, `iterations`; datasets (one entry per rung, ascending l: the columns of
+//!   [`RungRow`]) `l`, `load`, `contact_area`, `saddle_gap`, `iterations`, `converged`,
+//!   `retried`, `flux`, `percolating`, `flow_converged`; windows `rung/<k>/gap`,
+//!   `rung/<k>/pressure` (first index along the channel, saddle at the centre).
 
 use crate::critical::CriticalLevel;
 use crate::surface::lattice_from_name;
 use anyhow::{Context, Result, anyhow, bail};
 use contact::Solution;
 use critical::ladder::{LadderOptions, Rung, Window, axis_saddle, solve_ladder};
+use formats::records::{Record, read_in};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, StageContext, StageReport, TypedKind,
 };
@@ -205,10 +206,9 @@ impl TypedKind for LadderKind {
             done += weights[k];
             coarse = keep.then_some(kept);
             let at = format!("level/{n}");
-            write_level(out, &at, &rungs)?;
+            write_level(out, &at, &rungs, params.flow.then_some(&flows[..]))?;
             let wall = t0.elapsed().as_secs_f64();
             let iterations = write_level_attrs(out, &at, n, &s, l_cs[k], &rungs, wall)?;
-            write_flows(out, &at, params.flow, &flows, ls.len())?;
             unconverged += rungs.iter().filter(|r| !r.converged).count();
             if params.flow {
                 check_flows(ctx, n, &rungs, &flows, &mut not_flowing);
@@ -363,31 +363,6 @@ fn write_level_attrs(
     Ok(iterations)
 }
 
-/// The per-rung flow datasets of one level (NaN / 0 without flow).
-fn write_flows(
-    out: &mut ArtefactWriter,
-    at: &str,
-    flow: bool,
-    flows: &[RungFlow],
-    nr: usize,
-) -> Result<()> {
-    let (flux, perc, fconv): (Vec<f64>, Vec<u8>, Vec<u8>) = if flow {
-        let mut a = (vec![], vec![], vec![]);
-        for (q, p, c) in flows {
-            a.0.push(*q);
-            a.1.push(*p as u8);
-            a.2.push(*c as u8);
-        }
-        a
-    } else {
-        (vec![f64::NAN; nr], vec![0; nr], vec![0; nr])
-    };
-    out.write_f64_1d(&format!("{at}/flux"), &flux)?;
-    out.write_u8_1d(&format!("{at}/percolating"), &perc)?;
-    out.write_u8_1d(&format!("{at}/flow_converged"), &fconv)?;
-    Ok(())
-}
-
 /// Warns on unconverged flow solves; collects rungs below L_c where the fluid does not percolate.
 fn check_flows(
     ctx: &mut StageContext,
@@ -446,35 +421,70 @@ fn write_frame(
     Ok(())
 }
 
-fn write_level(out: &mut ArtefactWriter, at: &str, rungs: &[Rung]) -> Result<()> {
-    let col = |f: &dyn Fn(&Rung) -> f64| rungs.iter().map(f).collect::<Vec<_>>();
-    out.write_f64_1d(&format!("{at}/l"), &col(&|r| r.l))?;
-    out.write_f64_1d(&format!("{at}/load"), &col(&|r| r.load))?;
-    out.write_f64_1d(&format!("{at}/contact_area"), &col(&|r| r.contact_area))?;
-    out.write_f64_1d(
-        &format!("{at}/saddle_gap"),
-        &col(&|r| r.window.saddle_gap()),
-    )?;
-    out.write_i64_1d(
-        &format!("{at}/iterations"),
-        &rungs
-            .iter()
-            .map(|r| r.iterations as i64)
-            .collect::<Vec<_>>(),
-    )?;
-    out.write_u8_1d(
-        &format!("{at}/converged"),
-        &rungs.iter().map(|r| r.converged as u8).collect::<Vec<_>>(),
-    )?;
-    out.write_u8_1d(
-        &format!("{at}/retried"),
-        &rungs.iter().map(|r| r.retried as u8).collect::<Vec<_>>(),
-    )?;
+/// The rungs of one level (`<at>/*`, one [`RungRow`] each) and their windows (`<at>/rung/<k>/*`).
+fn write_level(
+    out: &mut ArtefactWriter,
+    at: &str,
+    rungs: &[Rung],
+    flows: Option<&[RungFlow]>,
+) -> Result<()> {
+    let rows: Vec<RungRow> = rungs
+        .iter()
+        .enumerate()
+        .map(|(k, r)| RungRow::of(r, flows.and_then(|f| f.get(k).copied())))
+        .collect();
+    RungRow::write(&rows, out, at)?;
     for (k, r) in rungs.iter().enumerate() {
         out.write_f64_2d(&format!("{at}/rung/{k}/gap"), r.window.gap.view())?;
         out.write_f64_2d(&format!("{at}/rung/{k}/pressure"), r.window.pressure.view())?;
     }
     Ok(())
+}
+
+formats::record! {
+    /// One rung of a level (`level/<n>/*`, ascending l).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct RungRow {
+        /// Reduced load (L − L_c)/L_c.
+        pub l: f64,
+        /// Load (E* h0/λ).
+        pub load: f64,
+        /// Contact area fraction.
+        pub contact_area: f64,
+        /// Gap at the saddle (h0).
+        pub saddle_gap: f64,
+        /// Contact-solver iterations.
+        pub iterations: usize,
+        /// The contact solve converged.
+        pub converged: bool,
+        /// The contact solve was retried.
+        pub retried: bool,
+        /// Flux through the cell along the channel (NaN without flow).
+        pub flux: f64,
+        /// The fluid percolates along the channel axis (false without flow).
+        pub percolating: bool,
+        /// The flow solve converged (false without flow).
+        pub flow_converged: bool,
+    }
+}
+
+impl RungRow {
+    /// Rung `r` with its flow solve, if any.
+    fn of(r: &Rung, flow: Option<RungFlow>) -> Self {
+        let (flux, percolating, flow_converged) = flow.unwrap_or((f64::NAN, false, false));
+        RungRow {
+            l: r.l,
+            load: r.load,
+            contact_area: r.contact_area,
+            saddle_gap: r.window.saddle_gap(),
+            iterations: r.iterations,
+            converged: r.converged,
+            retried: r.retried,
+            flux,
+            percolating,
+            flow_converged,
+        }
+    }
 }
 
 /// One rung as read back.
@@ -529,24 +539,18 @@ impl LadderData {
         let mut levels = Vec::new();
         for name in r.members("level")? {
             let at = format!("level/{name}");
-            let l = r.read_f64_1d(&format!("{at}/l"))?;
-            let load = r.read_f64_1d(&format!("{at}/load"))?;
-            let area = r.read_f64_1d(&format!("{at}/contact_area"))?;
-            let flux = r.read_f64_1d(&format!("{at}/flux"))?;
-            let perc = r.read_u8_1d(&format!("{at}/percolating"))?;
-            let fconv = r.read_u8_1d(&format!("{at}/flow_converged"))?;
-            let conv = r.read_u8_1d(&format!("{at}/converged"))?;
+            let rows: Vec<RungRow> = read_in(r, &at)?;
             let (d_par, d_perp) = (r.attr_f64_at(&at, "d_par")?, r.attr_f64_at(&at, "d_perp")?);
             let mut rungs = Vec::new();
-            for k in 0..l.len() {
+            for (k, row) in rows.into_iter().enumerate() {
                 rungs.push(RungData {
-                    l: l[k],
-                    load: load[k],
-                    contact_area: area[k],
-                    flux: flux[k],
-                    percolating: perc[k] != 0,
-                    flow_converged: fconv[k] != 0,
-                    converged: conv[k] != 0,
+                    l: row.l,
+                    load: row.load,
+                    contact_area: row.contact_area,
+                    flux: row.flux,
+                    percolating: row.percolating,
+                    flow_converged: row.flow_converged,
+                    converged: row.converged,
                     window: Window {
                         d_par,
                         d_perp,

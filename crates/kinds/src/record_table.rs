@@ -23,6 +23,12 @@ pub fn append<R: Record>(table: Table, rows: &[R], names: &[&str]) -> Table {
     })
 }
 
+/// A table of every column of `rows`, in the record's order.
+pub fn table<R: Record>(rows: &[R]) -> Table {
+    let names: Vec<&str> = R::COLUMNS.iter().map(|c| c.name).collect();
+    append(Table::new(), rows, &names)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

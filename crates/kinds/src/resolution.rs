@@ -12,9 +12,9 @@
 //! distinct n, none twice.
 //!
 //! # Artefact
-//! - `n`, `h` (λ): one entry per level, ascending n;
+//! - `n`, `h` (λ): one entry per level, ascending n ([`LevelRow`]);
 //! - one group per quantity (`l_c`, `l_c_x`, `l_c_y`, `a_p_raw[_x|_y]`, `a_p_corrected[_x|_y]`,
-//!   `p_fc_over_l_c`, `l_c_subgrid`): datasets `v`, `sem` (and `h` for `l_c_subgrid`, which
+//!   `p_fc_over_l_c`, `l_c_subgrid`): datasets `v`, `sem`, `h` ([`ResolvedPoint`]; `l_c_subgrid`
 //!   uses only the levels with a sub-grid fit); attributes `ok`, `v0`, `v0_error`,
 //!   `v0_fit_error`, `v0_subset_spread` (NaN without), `order`, `order_error`, `c`, `c_error`,
 //!   `cov_v0_c`, `note`, `error`;
@@ -29,6 +29,7 @@ use crate::critical::CriticalLevel;
 use crate::headline::Headline;
 use anyhow::{Result, bail};
 use critical::{Extrapolated, Stat};
+use formats::records::{Record, read_in};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageReport,
     TypedKind,
@@ -194,7 +195,7 @@ impl TypedKind for ResolutionKind {
     ) -> Result<StageReport> {
         let area_order = analysis::Order::Fixed(params.area_order);
         let mut load_order = params.load_order()?;
-        let levels = read_levels(ctx, inputs)?;
+        let levels = input_levels(ctx, inputs)?;
         if load_order == analysis::Order::Free && levels.len() < 4 {
             // a fitted order needs ≥ 4 levels for a degree of freedom and leave-one-out refits
             load_order = analysis::Order::Fixed(critical::FALLBACK_ORDER);
@@ -205,8 +206,8 @@ impl TypedKind for ResolutionKind {
             ));
         }
         let h: Vec<f64> = levels.iter().map(|l| l.h).collect();
-        out.write_i64_1d("n", &levels.iter().map(|l| l.n as i64).collect::<Vec<_>>())?;
-        out.write_f64_1d("h", &h)?;
+        let rows: Vec<LevelRow> = levels.iter().map(|l| LevelRow { n: l.n, h: l.h }).collect();
+        LevelRow::write(&rows, out, "")?;
         let ex = extrapolate(&levels, &h, load_order, area_order);
         for e in &ex {
             write_extrapolation(out, e)?;
@@ -228,7 +229,7 @@ impl TypedKind for ResolutionKind {
 }
 
 /// The `levels` inputs' levels, ascending n, checked: one model, distinct grids, at least two.
-fn read_levels(ctx: &mut StageContext, inputs: &Inputs) -> Result<Vec<CriticalLevel>> {
+fn input_levels(ctx: &mut StageContext, inputs: &Inputs) -> Result<Vec<CriticalLevel>> {
     let mut levels: Vec<CriticalLevel> = Vec::new();
     for r in inputs.all("levels") {
         levels.extend(CriticalLevel::read_all(r)?);
@@ -357,9 +358,10 @@ fn write_summary(
 
 fn write_extrapolation(out: &mut ArtefactWriter, e: &Extrapolated) -> Result<()> {
     let g = e.name.as_str();
-    out.write_f64_1d(&format!("{g}/v"), &e.v)?;
-    out.write_f64_1d(&format!("{g}/sem"), &e.sem)?;
-    out.write_f64_1d(&format!("{g}/h"), &e.h)?;
+    let points: Vec<ResolvedPoint> = (e.v.iter().zip(&e.sem).zip(&e.h))
+        .map(|((&v, &sem), &h)| ResolvedPoint { v, sem, h })
+        .collect();
+    ResolvedPoint::write(&points, out, g)?;
     out.set_attr_at(g, "note", e.note.clone().unwrap_or_default())?;
     match &e.fit {
         Ok(f) => {
@@ -407,15 +409,40 @@ fn write_extrapolation(out: &mut ArtefactWriter, e: &Extrapolated) -> Result<()>
     Ok(())
 }
 
+formats::record! {
+    /// One level of a `resolution` artefact (the root datasets `n`, `h`), ascending n.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct LevelRow {
+        /// Grid exponent.
+        pub n: u32,
+        /// Grid spacing √(Δx Δy) (λ).
+        pub h: f64,
+    }
+}
+
+/// The levels of a `resolution` artefact, ascending n.
+pub fn read_levels(r: &ArtefactReader) -> Result<Vec<LevelRow>> {
+    read_in(r, "")
+}
+
+formats::record! {
+    /// One level's value of a quantity (`<quantity>/*`), coarse to fine.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct ResolvedPoint {
+        /// Value on the level.
+        pub v: f64,
+        /// Its standard error over shifts.
+        pub sem: f64,
+        /// Grid spacing (λ).
+        pub h: f64,
+    }
+}
+
 /// One quantity of a `resolution` artefact.
 #[derive(Clone, Debug)]
 pub struct ResolvedQuantity {
-    /// Grid spacings (λ).
-    pub h: Vec<f64>,
-    /// Values.
-    pub v: Vec<f64>,
-    /// Standard errors over shifts.
-    pub sem: Vec<f64>,
+    /// The levels' values, coarse to fine (descending h).
+    pub points: Vec<ResolvedPoint>,
     /// Extrapolated value, error, order, c, c error and cov(v0, c) (NaN when the fit failed).
     pub v0: f64,
     /// 1σ of v0 (fit ⊕ subset spread).
@@ -437,9 +464,7 @@ impl ResolvedQuantity {
     pub fn read(r: &ArtefactReader, q: &str) -> Result<Self> {
         let a = |k: &str| r.attr_f64_at(q, k);
         Ok(ResolvedQuantity {
-            h: r.read_f64_1d(&format!("{q}/h"))?,
-            v: r.read_f64_1d(&format!("{q}/v"))?,
-            sem: r.read_f64_1d(&format!("{q}/sem"))?,
+            points: read_in(r, q)?,
             v0: a("v0")?,
             v0_error: a("v0_error")?,
             order: a("order")?,

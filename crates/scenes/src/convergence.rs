@@ -5,7 +5,7 @@
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Result, bail};
 use figures::scenes::convergence::{ConvergenceData, ConvergenceSeries};
-use kinds::resolution::{MODEL_INPUTS, ResolvedQuantity, paper_a_p};
+use kinds::resolution::{MODEL_INPUTS, ResolvedQuantity, paper_a_p, read_levels};
 use kinds::surface::lattice_from_name;
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{Params, StageContext};
@@ -55,16 +55,14 @@ pub fn convergence_data(
         let mut q = ResolvedQuantity::read(r, quantity)?;
         if let Some(k) = finest {
             // levels are stored coarse to fine (descending h)
-            let skip = q.h.len().saturating_sub(k.max(1));
-            for v in [&mut q.h, &mut q.v, &mut q.sem] {
-                v.drain(..skip);
-            }
+            let skip = q.points.len().saturating_sub(k.max(1));
+            q.points.drain(..skip);
         }
         qs.push((*l, q));
     }
     let hmax = qs
         .iter()
-        .flat_map(|(_, q)| q.h.iter().copied())
+        .flat_map(|(_, q)| q.points.iter().map(|p| p.h))
         .fold(0.0, f64::max);
     let mut series = Vec::new();
     for (l, q) in &qs {
@@ -89,9 +87,9 @@ pub fn convergence_data(
             .collect();
         series.push(ConvergenceSeries {
             label: l.name().to_string(),
-            spacing: q.h.clone(),
-            value: q.v.iter().map(|&v| tr(v)).collect(),
-            error: q.sem.iter().map(|s| s * scale).collect(),
+            spacing: q.points.iter().map(|p| p.h).collect(),
+            value: q.points.iter().map(|p| tr(p.v)).collect(),
+            error: q.points.iter().map(|p| p.sem * scale).collect(),
             fit: if q.v0.is_finite() { fit } else { Vec::new() },
             fit_band: if q.v0.is_finite() { band } else { Vec::new() },
             extrapolated: q.v0.is_finite().then(|| (tr(q.v0), q.v0_error * scale)),
@@ -137,12 +135,12 @@ pub fn comparison_table(inputs: &Inputs) -> Result<Table> {
     let rows: Vec<_> = models.iter().map(|(l, r)| (*l, *r)).collect();
     let col = |k: &str| rows.iter().map(|(_, r)| f(r, k)).collect::<Vec<_>>();
     let levels = |r: &ArtefactReader| {
-        r.read_i64_1d("n")
-            .map(|n| {
+        read_levels(r)
+            .map(|l| {
                 format!(
                     "{}..{}",
-                    n.first().copied().unwrap_or(0),
-                    n.last().copied().unwrap_or(0)
+                    l.first().map_or(0, |l| l.n),
+                    l.last().map_or(0, |l| l.n)
                 )
             })
             .unwrap_or_default()

@@ -11,7 +11,8 @@
 //!
 //! - `ladder` (optional, any kind): the bottom-left panel, normalised flux against
 //!   (L_c − L)/L_c on log–log axes with the fitted slope β, from the near-critical study. This
-//!   module only reads it; without it the panel stays empty. Contract (see [`read_ladder`]):
+//!   module only reads it (through the `exponents` kind's readers, [`exponents::read_flux_curve`]
+//!   and [`exponents::read_pooled_beta`]); without it the panel stays empty. Contract:
 //!   per model, datasets `ladder/<lattice>/distance` ((L_c − L)/L_c > 0) and
 //!   `ladder/<lattice>/flux` (normalised flux > 0, same length), optionally
 //!   `ladder/<lattice>/flux_err` (1σ); optional root attributes `beta`, `beta_err`,
@@ -23,6 +24,7 @@ use crate::scene::{OutputSpec, Outputs, Scene, scene_params};
 use anyhow::{Result, bail};
 use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit};
 use figures::style::Model;
+use kinds::exponents;
 use kinds::flow::FlowData;
 use kinds::sweep::Branch as PathBranch;
 use orchestrator::{InputSpec, Inputs};
@@ -57,49 +59,34 @@ pub fn read_ladder(inputs: &Inputs) -> Result<(Vec<NormalisedFlux>, Option<Power
     for r in inputs.all("ladder") {
         let file = r.path().display();
         for m in Model::ALL {
-            let g = format!("ladder/{}", m.name());
-            if !r.has_dataset(&format!("{g}/distance")) {
+            let Some(curve) = exponents::read_flux_curve(r, m.name())? else {
                 continue;
-            }
-            let distance = r.read_f64_1d(&format!("{g}/distance"))?;
-            let flux = r.read_f64_1d(&format!("{g}/flux"))?;
-            let flux_err = if r.has_dataset(&format!("{g}/flux_err")) {
-                Some(r.read_f64_1d(&format!("{g}/flux_err"))?)
-            } else {
-                None
             };
-            if flux.len() != distance.len()
-                || flux_err.as_ref().is_some_and(|e| e.len() != distance.len())
+            let g = format!("ladder/{}", m.name());
+            if let Some(k) = (curve.points.iter()).position(|p| !(p.distance > 0.0 && p.flux > 0.0))
             {
-                bail!(
-                    "`{file}`: {g}/distance, {g}/flux (and {g}/flux_err) must have the same \
-                     length"
-                );
-            }
-            if let Some(k) = (0..distance.len()).find(|&k| !(distance[k] > 0.0 && flux[k] > 0.0)) {
+                let p = curve.points[k];
                 bail!(
                     "`{file}`: {g} point {k} has distance {} and flux {}; both must be > 0 \
                      (log–log panel)",
-                    distance[k],
-                    flux[k]
+                    p.distance,
+                    p.flux
                 );
             }
             points.push(NormalisedFlux {
                 model: m,
-                distance,
-                flux,
-                flux_err,
+                distance: curve.points.iter().map(|p| p.distance).collect(),
+                flux: curve.points.iter().map(|p| p.flux).collect(),
+                flux_err: curve.flux_err,
             });
         }
-        if fit.is_none() && r.has_attr("beta") && r.has_attr("beta_prefactor") {
+        if fit.is_none()
+            && let Some((exponent, exponent_err, prefactor)) = exponents::read_pooled_beta(r)?
+        {
             fit = Some(PowerLawFit {
-                exponent: r.attr_f64("beta")?,
-                exponent_err: if r.has_attr("beta_err") {
-                    Some(r.attr_f64("beta_err")?)
-                } else {
-                    None
-                },
-                prefactor: r.attr_f64("beta_prefactor")?,
+                exponent,
+                exponent_err,
+                prefactor,
             });
         }
     }
@@ -484,8 +471,11 @@ mod tests {
                 .unwrap();
             w.write_f64_1d("ladder/hexagonal/flux", &[1e-9]).unwrap();
         });
-        let e = read_ladder(&inputs).unwrap_err().to_string();
-        assert!(e.contains("same length"), "{e}");
+        let e = format!("{:#}", read_ladder(&inputs).unwrap_err());
+        assert!(
+            e.contains("`ladder/hexagonal/flux` has 1 entries, `ladder/hexagonal/distance` has 2"),
+            "{e}"
+        );
 
         let none = Inputs::new(Default::default());
         let (points, fit) = read_ladder(&none).unwrap();

@@ -4,8 +4,9 @@
 
 use super::asymptotic::Asymptotic;
 use super::{Exponent, LevelMeasure, ModelExponents, NAMES};
-use anyhow::Result;
+use anyhow::{Result, bail};
 use critical::scaling::ExponentFit;
+use formats::records::{Record, read_in};
 use store::{ArtefactReader, ArtefactWriter};
 
 /// Groups notes of the form "n = N, l = L: reason" by reason: "reason (n = N: l = L1, L2; ...)".
@@ -62,20 +63,161 @@ pub(super) fn write_fit(
     Ok(())
 }
 
+formats::record! {
+    /// One rung below L_c of a grid's measurements (`model/<lattice>/level/<n>/*`).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct OpenRow {
+        /// Reduced load l < 0.
+        pub l_open: f64,
+        /// Load (E* h0/λ).
+        pub load_open: f64,
+        /// Gap at the saddle node (h0).
+        pub saddle_gap: f64,
+        /// Open half-width r_c (λ).
+        pub half_width: f64,
+        /// Its fit error.
+        pub half_width_error: f64,
+        /// Flux (NaN where the fluid does not percolate).
+        pub flux: f64,
+    }
+}
+
+formats::record! {
+    /// One rung above L_c of a grid's measurements (same group as [`OpenRow`]).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct BlockedRow {
+        /// Reduced load l > 0.
+        pub l_blocked: f64,
+        /// Blocked half-length a (λ).
+        pub half_length: f64,
+        /// Its fit error.
+        pub half_length_error: f64,
+    }
+}
+
 pub(super) fn write_measure(out: &mut ArtefactWriter, at: &str, m: &LevelMeasure) -> Result<()> {
     out.set_attr_at(at, "n", m.n as i64)?;
-    out.write_f64_1d(&format!("{at}/l_open"), &m.l_open)?;
-    out.write_f64_1d(&format!("{at}/load_open"), &m.load_open)?;
-    out.write_f64_1d(&format!("{at}/saddle_gap"), &m.saddle_gap)?;
-    let (w, we): (Vec<f64>, Vec<f64>) = m.half_width.iter().copied().unzip();
-    out.write_f64_1d(&format!("{at}/half_width"), &w)?;
-    out.write_f64_1d(&format!("{at}/half_width_error"), &we)?;
-    out.write_f64_1d(&format!("{at}/flux"), &m.flux)?;
-    out.write_f64_1d(&format!("{at}/l_blocked"), &m.l_blocked)?;
-    let (a, ae): (Vec<f64>, Vec<f64>) = m.half_length.iter().copied().unzip();
-    out.write_f64_1d(&format!("{at}/half_length"), &a)?;
-    out.write_f64_1d(&format!("{at}/half_length_error"), &ae)?;
-    Ok(())
+    let open: Vec<OpenRow> = (0..m.l_open.len())
+        .map(|k| OpenRow {
+            l_open: m.l_open[k],
+            load_open: m.load_open[k],
+            saddle_gap: m.saddle_gap[k],
+            half_width: m.half_width[k].0,
+            half_width_error: m.half_width[k].1,
+            flux: m.flux[k],
+        })
+        .collect();
+    OpenRow::write(&open, out, at)?;
+    let blocked: Vec<BlockedRow> = (m.l_blocked.iter().zip(&m.half_length))
+        .map(
+            |(&l_blocked, &(half_length, half_length_error))| BlockedRow {
+                l_blocked,
+                half_length,
+                half_length_error,
+            },
+        )
+        .collect();
+    BlockedRow::write(&blocked, out, at)
+}
+
+/// A grid's measurements as read back from `<la>/*`.
+fn read_measure(r: &ArtefactReader, la: &str) -> Result<LevelMeasure> {
+    let open: Vec<OpenRow> = read_in(r, la)?;
+    let blocked: Vec<BlockedRow> = read_in(r, la)?;
+    Ok(LevelMeasure {
+        n: r.attr_i64_at(la, "n")? as u32,
+        l_open: open.iter().map(|o| o.l_open).collect(),
+        load_open: open.iter().map(|o| o.load_open).collect(),
+        saddle_gap: open.iter().map(|o| o.saddle_gap).collect(),
+        half_width: open
+            .iter()
+            .map(|o| (o.half_width, o.half_width_error))
+            .collect(),
+        flux: open.iter().map(|o| o.flux).collect(),
+        l_blocked: blocked.iter().map(|b| b.l_blocked).collect(),
+        half_length: blocked
+            .iter()
+            .map(|b| (b.half_length, b.half_length_error))
+            .collect(),
+    })
+}
+
+formats::record! {
+    /// One point of a model's normalised flux curve (`ladder/<lattice>/*`, Figure 6's
+    /// bottom-left panel).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct FluxPoint {
+        /// (L_c − L)/L_c.
+        pub distance: f64,
+        /// Flux normalised by its value at the largest distance.
+        pub flux: f64,
+    }
+}
+
+/// A model's normalised flux curve as read back.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FluxCurve {
+    /// The points, as written.
+    pub points: Vec<FluxPoint>,
+    /// 1σ of the flux per point: an optional column `flux_err` (this kind does not write it;
+    /// a hand-made input of Figure 6 may).
+    pub flux_err: Option<Vec<f64>>,
+}
+
+/// The group of a model's flux curve.
+fn flux_group(lattice: &str) -> String {
+    format!("ladder/{lattice}")
+}
+
+pub(super) fn write_flux_curve(
+    out: &mut ArtefactWriter,
+    lattice: &str,
+    points: &[FluxPoint],
+) -> Result<()> {
+    FluxPoint::write(points, out, &flux_group(lattice))
+}
+
+/// The flux curve of model `lattice` (`None` if the artefact has none for it).
+pub fn read_flux_curve(r: &ArtefactReader, lattice: &str) -> Result<Option<FluxCurve>> {
+    let g = flux_group(lattice);
+    if !r.has_dataset(&format!("{g}/distance")) {
+        return Ok(None);
+    }
+    let points: Vec<FluxPoint> = read_in(r, &g)?;
+    let err = format!("{g}/flux_err");
+    let flux_err = if r.has_dataset(&err) {
+        let e = r.read_f64_1d(&err)?;
+        if e.len() != points.len() {
+            bail!(
+                "`{}`: `{err}` has {} entries, `{g}/distance` has {}",
+                r.path().display(),
+                e.len(),
+                points.len()
+            );
+        }
+        Some(e)
+    } else {
+        None
+    };
+    Ok(Some(FluxCurve { points, flux_err }))
+}
+
+/// The pooled β fit of all models' flux curves: (β, its 1σ if written, prefactor); `None`
+/// when the artefact has none.
+pub fn read_pooled_beta(r: &ArtefactReader) -> Result<Option<(f64, Option<f64>, f64)>> {
+    if !(r.has_attr("beta") && r.has_attr("beta_prefactor")) {
+        return Ok(None);
+    }
+    let err = if r.has_attr("beta_err") {
+        Some(r.attr_f64("beta_err")?)
+    } else {
+        None
+    };
+    Ok(Some((
+        r.attr_f64("beta")?,
+        err,
+        r.attr_f64("beta_prefactor")?,
+    )))
 }
 
 /// Reads an `exponents` artefact: every model, in the artefact's order.
@@ -99,19 +241,7 @@ pub fn read(r: &ArtefactReader) -> Result<Vec<ModelExponents>> {
         }
         let mut levels = Vec::new();
         for lv in r.members(&format!("{at}/level"))? {
-            let la = format!("{at}/level/{lv}");
-            let f = |k: &str| r.read_f64_1d(&format!("{la}/{k}"));
-            let zip = |a: Vec<f64>, b: Vec<f64>| a.into_iter().zip(b).collect::<Vec<_>>();
-            levels.push(LevelMeasure {
-                n: r.attr_i64_at(&la, "n")? as u32,
-                l_open: f("l_open")?,
-                load_open: f("load_open")?,
-                saddle_gap: f("saddle_gap")?,
-                half_width: zip(f("half_width")?, f("half_width_error")?),
-                flux: f("flux")?,
-                l_blocked: f("l_blocked")?,
-                half_length: zip(f("half_length")?, f("half_length_error")?),
-            });
+            levels.push(read_measure(r, &format!("{at}/level/{lv}"))?);
         }
         levels.sort_by_key(|l| l.n);
         let mut asymptotic = [Asymptotic::NONE; 4];

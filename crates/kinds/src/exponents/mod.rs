@@ -33,14 +33,15 @@
 //! `<e>_asymptotic_<field>` for e in zeta, upsilon, chi, beta, beta_identity (fields
 //! [`asymptotic::Asymptotic::FIELDS`]; NaN without an estimate), `zeta_lc_free`,
 //! `zeta_lc_free_error`, `l_c_fit`, `beta_identity`, `beta_identity_error`, `eta`; per grid
-//! `model/<lattice>/level/<n>`: the same fit attributes and datasets `l_open`, `saddle_gap`,
-//! `half_width`, `half_width_error`, `flux`, `l_blocked`, `half_length`, `half_length_error`
-//! (NaN where a measurement failed).
+//! `model/<lattice>/level/<n>`: the same fit attributes and datasets ([`OpenRow`]) `l_open`,
+//! `load_open`, `saddle_gap`, `half_width`, `half_width_error`, `flux` and ([`BlockedRow`])
+//! `l_blocked`, `half_length`, `half_length_error` (NaN where a measurement failed).
 //!
-//! Figure 6's bottom-left panel reads the same artefact as its `ladder` input (contract in
-//! crates/stages/src/fig6.rs): per model `ladder/<lattice>/distance` ((L_c − L)/L_c of the
-//! finest grid's rungs below L_c where the fluid flows) and `ladder/<lattice>/flux` (the flux
-//! normalised by its value at the largest distance, [`normalised_flux`]); root attributes
+//! Figure 6's bottom-left panel reads the same artefact as its `ladder` input (through
+//! [`read_flux_curve`] and [`read_pooled_beta`]): per model ([`FluxPoint`])
+//! `ladder/<lattice>/distance` ((L_c − L)/L_c of the finest grid's rungs below L_c where the
+//! fluid flows) and `ladder/<lattice>/flux` (the flux normalised by its value at the largest
+//! distance, [`normalised_flux`]); root attributes
 //! `beta`, `beta_err`, `beta_prefactor` of a power law fitted to all models' points in
 //! [`WINDOW`] together ([`pooled_beta`]; the per-model β are the `model/<lattice>` attributes).
 
@@ -50,7 +51,7 @@ mod model;
 pub mod table;
 
 use io::group_notes;
-pub use io::read;
+pub use io::{BlockedRow, FluxCurve, FluxPoint, OpenRow, read, read_flux_curve, read_pooled_beta};
 
 use crate::ladder::{LadderData, LadderLevel};
 use anyhow::{Result, bail};

@@ -3,7 +3,7 @@
 //! statistics (split from the stage's `run`).
 
 use super::asymptotic::{self, Asymptotic};
-use super::io::{write_fit, write_measure};
+use super::io::{FluxPoint, write_fit, write_measure};
 use super::{
     Exponent, NAMES, PAPER, combine, group_notes, identity, level_fits, measure, normalised_flux,
     symbol,
@@ -128,8 +128,10 @@ fn write_flux(
     if let Some(lv) = d.levels.last() {
         let (x, y) = normalised_flux(&measure(lv, opts, &mut Vec::new()));
         if !x.is_empty() {
-            out.write_f64_1d(&format!("ladder/{name}/distance"), &x)?;
-            out.write_f64_1d(&format!("ladder/{name}/flux"), &y)?;
+            let points: Vec<FluxPoint> = (x.iter().zip(&y))
+                .map(|(&distance, &flux)| FluxPoint { distance, flux })
+                .collect();
+            super::io::write_flux_curve(out, name, &points)?;
             flux_points.push((x, y));
         }
     }
