@@ -401,3 +401,56 @@ fn write_cases(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn case(passed: bool) -> Case {
+        Case {
+            case: "tiny load".into(),
+            n: 5,
+            load: 1e-8,
+            value: 2e-4,
+            reference: f64::NAN,
+            bound: 1e-3,
+            passed,
+            iterations: 12,
+            wall_s: 0.5,
+            check: "converged".into(),
+        }
+    }
+
+    /// The table, the `cases/*` datasets and the reader share the record's columns.
+    #[test]
+    fn table_and_artefact_follow_the_case_record() {
+        let cases = [case(true), case(false)];
+        let t = table(&cases);
+        let names: Vec<&str> = t.columns().iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "case",
+                "n",
+                "load",
+                "value",
+                "reference",
+                "bound",
+                "passed",
+                "iterations",
+                "wall_s",
+                "check"
+            ]
+        );
+        assert_eq!(t.i64("n").unwrap(), [5, 5]);
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = ArtefactWriter::create(dir.path().join("x.h5")).unwrap();
+        Case::write(&cases, &mut w, "cases").unwrap();
+        let r = ArtefactReader::open(w.publish().unwrap()).unwrap();
+        assert_eq!(r.read_u8_1d("cases/passed").unwrap(), [1, 0]);
+        let back = read_cases(&r).unwrap();
+        assert_eq!(back[1].check, "converged");
+        assert!(back[0].reference.is_nan());
+        assert_eq!((back[0].passed, back[1].passed), (true, false));
+    }
+}

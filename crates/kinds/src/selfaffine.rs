@@ -12,10 +12,11 @@
 //! `nx`, `ny`, `dx`, `dy`, `h_min`, `h_max`, `h_mean`, `h_rms`, `skewness`,
 //! `excess_kurtosis`, `p_fc_grid` (−min(K h), the periodic kernel's full-contact pressure) —
 //! plus `rms_slope`, `rms_curvature`, `nayak`, `source` and the binned isotropic PSD
-//! (`psd/q`, `psd/c`, `psd/count`). This kind adds `n`, `hurst`, `qr`, `qs`, `seed` and the PSD
+//! (`psd/q`, `psd/c`, `psd/count`: [`PsdRow`], read by [`read_psd`]). This kind adds `n`, `hurst`, `qr`, `qs`, `seed` and the PSD
 //! slope fitted over q_r…q_s (`psd_slope`) beside the model's −2(1+H) (`psd_slope_model`).
 
 use anyhow::{Result, anyhow};
+use formats::records::{Record, read_in};
 use orchestrator::{
     Inputs, ParamIssue, ParamSpec, ParamType, Params, StageContext, StageReport, TypedKind,
 };
@@ -24,6 +25,7 @@ use serde_json::json;
 use store::{ArtefactWriter, fields};
 use surface::HeightField;
 use surface::self_affine::{Amplitudes, Normalisation, SelfAffine};
+use surface::spectrum::PsdBin;
 
 /// The `selfaffine` stage kind.
 pub struct SelfAffineKind;
@@ -133,12 +135,15 @@ pub fn write_height_field(
     out.set_attr("nayak", ss.nayak)?;
     out.set_attr("p_fc_grid", p_fc)?;
     out.write_f64_2d(fields::HEIGHT, field.heights.view())?;
-    out.write_f64_1d("psd/q", &psd.iter().map(|b| b.q).collect::<Vec<_>>())?;
-    out.write_f64_1d("psd/c", &psd.iter().map(|b| b.c).collect::<Vec<_>>())?;
-    out.write_i64_1d(
-        "psd/count",
-        &psd.iter().map(|b| b.count as i64).collect::<Vec<_>>(),
-    )?;
+    let rows: Vec<PsdRow> = psd
+        .iter()
+        .map(|b| PsdRow {
+            q: b.q,
+            c: b.c,
+            count: b.count,
+        })
+        .collect();
+    PsdRow::write(&rows, out, "psd")?;
     Ok(json!({
         "nodes": g.nx * g.ny,
         "h_rms": st.rms,
@@ -156,6 +161,32 @@ pub fn read_height_field(r: &store::ArtefactReader) -> Result<HeightField> {
     let (nx, ny) = heights.dim();
     let grid = surface::Grid::periodic(nx, ny, lx, ly).map_err(|e| anyhow!("{e}"))?;
     HeightField::new(grid, heights).map_err(|e| anyhow!("{e}"))
+}
+
+formats::record! {
+    /// One bin of the isotropic PSD of a height-field artefact (`psd/*`).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct PsdRow {
+        /// Mean |q| of the bin's wave vectors (1/length).
+        pub q: f64,
+        /// Mean PSD C(q) over them (length⁴).
+        pub c: f64,
+        /// Number of wave vectors.
+        pub count: usize,
+    }
+}
+
+/// The binned isotropic PSD of a height-field artefact (`selfaffine`, `topography`).
+pub fn read_psd(r: &store::ArtefactReader) -> Result<Vec<PsdBin>> {
+    let rows: Vec<PsdRow> = read_in(r, "psd")?;
+    Ok(rows
+        .into_iter()
+        .map(|b| PsdBin {
+            q: b.q,
+            c: b.c,
+            count: b.count,
+        })
+        .collect())
 }
 
 impl TypedKind for SelfAffineKind {
@@ -341,9 +372,7 @@ mod tests {
         assert!((slope - 0.5).abs() < 1e-12 * 0.5, "{slope}");
         assert_eq!(r.attr_i64("nx").unwrap(), 64);
         assert!(r.attr_f64("p_fc_grid").unwrap() > 0.0);
-        assert_eq!(
-            r.read_f64_1d("psd/q").unwrap().len(),
-            r.read_i64_1d("psd/count").unwrap().len()
-        );
+        let psd = read_psd(&r).unwrap();
+        assert!(!psd.is_empty() && psd.iter().all(|b| b.q > 0.0 && b.count > 0));
     }
 }

@@ -23,7 +23,7 @@ use kinds::leakage::{LeakageRead, SURFACE_KINDS};
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use serde_json::json;
 use store::{ArtefactReader, ArtefactWriter};
-use surface::spectrum::{PsdBin, psd_slope};
+use surface::spectrum::psd_slope;
 
 /// The `surface_leakage` scene.
 pub struct SurfaceLeakage;
@@ -31,16 +31,9 @@ pub struct SurfaceLeakage;
 /// The binned PSD of a height-field artefact, the fit range and the requested slope.
 pub fn surface_data(r: &ArtefactReader) -> Result<SurfaceFig> {
     let field = kinds::selfaffine::read_height_field(r)?;
-    let q = r.read_f64_1d("psd/q")?;
-    let c = r.read_f64_1d("psd/c")?;
-    let count = r.read_i64_1d("psd/count")?;
-    let bins: Vec<PsdBin> = (0..q.len())
-        .map(|i| PsdBin {
-            q: q[i],
-            c: c[i],
-            count: count[i] as usize,
-        })
-        .collect();
+    let bins = kinds::selfaffine::read_psd(r)?;
+    let q: Vec<f64> = bins.iter().map(|b| b.q).collect();
+    let c: Vec<f64> = bins.iter().map(|b| b.c).collect();
     let (q_lo, q_hi) = match (r.attr_f64("qr"), r.attr_f64("qs")) {
         (Ok(qr), Ok(qs)) => {
             let q0 = 2.0 * std::f64::consts::PI / field.grid.lx;
