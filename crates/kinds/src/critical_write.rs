@@ -210,6 +210,29 @@ impl SubgridFit {
     }
 }
 
+formats::record! {
+    /// One saddle direction sampled (`level/<n>/saddle/angle_deg`; the columns of
+    /// `saddle/gap`).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct SaddleDirection {
+        /// Direction (degrees).
+        pub angle_deg: f64,
+    }
+}
+
+formats::record! {
+    /// One load sample of the saddle gap (`level/<n>/saddle/*`; the rows of `saddle/gap`).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct SaddleSampleRow {
+        /// Load (E* h0/λ).
+        pub load: f64,
+        /// Reduced load (L − L_c)/L_c.
+        pub reduced: f64,
+        /// Contact area fraction.
+        pub area: f64,
+    }
+}
+
 fn write_level(out: &mut ArtefactWriter, at: &str, l: &LevelSummary) -> Result<()> {
     let results = &l.results;
     let av = &l.average;
@@ -261,23 +284,20 @@ fn write_level(out: &mut ArtefactWriter, at: &str, l: &LevelSummary) -> Result<(
 /// attributes `l_c_subgrid`, `zeta` and their errors).
 fn write_saddle(out: &mut ArtefactWriter, at: &str, r0: &CriticalResult) -> Result<()> {
     let attr = |out: &mut ArtefactWriter, k: &str, v: f64| out.set_attr_at(at, k, v);
-    let g1 = |v: Vec<f64>| v;
-    out.write_f64_1d(
-        &format!("{at}/saddle/angle_deg"),
-        &g1(r0.groups.iter().map(|g| g.angle_deg).collect()),
-    )?;
-    out.write_f64_1d(
-        &format!("{at}/saddle/load"),
-        &g1(r0.samples.iter().map(|s| s.load).collect()),
-    )?;
-    out.write_f64_1d(
-        &format!("{at}/saddle/reduced"),
-        &g1(r0.samples.iter().map(|s| s.reduced).collect()),
-    )?;
-    out.write_f64_1d(
-        &format!("{at}/saddle/area"),
-        &g1(r0.samples.iter().map(|s| s.area).collect()),
-    )?;
+    let directions: Vec<SaddleDirection> = (r0.groups.iter())
+        .map(|g| SaddleDirection {
+            angle_deg: g.angle_deg,
+        })
+        .collect();
+    SaddleDirection::write(&directions, out, &format!("{at}/saddle"))?;
+    let samples: Vec<SaddleSampleRow> = (r0.samples.iter())
+        .map(|s| SaddleSampleRow {
+            load: s.load,
+            reduced: s.reduced,
+            area: s.area,
+        })
+        .collect();
+    SaddleSampleRow::write(&samples, out, &format!("{at}/saddle"))?;
     let gaps = Array2::from_shape_fn((r0.samples.len(), r0.groups.len()), |(i, k)| {
         r0.samples[i].gap[k].unwrap_or(f64::NAN)
     });
