@@ -89,6 +89,17 @@ impl Column for i64 {
     }
 }
 
+/// Reads an int64 column as `T`; an entry out of `T`'s range names the row, value and `allowed`.
+fn read_int<T: TryFrom<i64>>(r: &ArtefactReader, path: &str, allowed: &str) -> Result<Vec<T>> {
+    r.read_i64_1d(path)?
+        .into_iter()
+        .enumerate()
+        .map(|(k, x)| {
+            T::try_from(x).map_err(|_| anyhow!("`{path}` row {k}: {x}; allowed: {allowed}"))
+        })
+        .collect()
+}
+
 impl Column for usize {
     const KIND: ColumnKind = ColumnKind::I64;
     fn write(w: &mut ArtefactWriter, path: &str, values: &[Self]) -> Result<()> {
@@ -96,14 +107,7 @@ impl Column for usize {
         w.write_i64_1d(path, &v)
     }
     fn read(r: &ArtefactReader, path: &str) -> Result<Vec<Self>> {
-        r.read_i64_1d(path)?
-            .into_iter()
-            .enumerate()
-            .map(|(k, x)| {
-                usize::try_from(x)
-                    .map_err(|_| anyhow!("`{path}` row {k}: {x}; allowed: an index ≥ 0"))
-            })
-            .collect()
+        read_int(r, path, "an index ≥ 0")
     }
     fn values(values: Vec<Self>) -> Values {
         Values::I64(values.into_iter().map(|x| x as i64).collect())
@@ -117,18 +121,7 @@ impl Column for u32 {
         w.write_i64_1d(path, &v)
     }
     fn read(r: &ArtefactReader, path: &str) -> Result<Vec<Self>> {
-        r.read_i64_1d(path)?
-            .into_iter()
-            .enumerate()
-            .map(|(k, x)| {
-                u32::try_from(x).map_err(|_| {
-                    anyhow!(
-                        "`{path}` row {k}: {x}; allowed: an integer in [0, {}]",
-                        u32::MAX
-                    )
-                })
-            })
-            .collect()
+        read_int(r, path, &format!("an integer in [0, {}]", u32::MAX))
     }
     fn values(values: Vec<Self>) -> Values {
         Values::I64(values.into_iter().map(i64::from).collect())
@@ -247,54 +240,6 @@ impl Column for reynolds::Termination {
                 .map(|t| crate::gapfile::termination_name(t).to_string())
                 .collect(),
         )
-    }
-}
-
-/// The names of [`surface::CriticalKind`] in a column.
-pub const CRITICAL_KINDS: [(surface::CriticalKind, &str); 3] = [
-    (surface::CriticalKind::Maximum, "maximum"),
-    (surface::CriticalKind::Minimum, "minimum"),
-    (surface::CriticalKind::Saddle, "saddle"),
-];
-
-/// A critical point's kind by name ([`CRITICAL_KINDS`]).
-impl Column for surface::CriticalKind {
-    const KIND: ColumnKind = ColumnKind::Text;
-    fn write(w: &mut ArtefactWriter, path: &str, values: &[Self]) -> Result<()> {
-        let name = |k: &Self| {
-            CRITICAL_KINDS
-                .iter()
-                .find(|c| c.0 == *k)
-                .expect("all kinds")
-                .1
-        };
-        let v: Vec<&str> = values.iter().map(name).collect();
-        w.write_strings(path, &v)
-    }
-    fn read(r: &ArtefactReader, path: &str) -> Result<Vec<Self>> {
-        r.read_strings(path)?
-            .into_iter()
-            .enumerate()
-            .map(|(k, s)| {
-                CRITICAL_KINDS
-                    .iter()
-                    .find(|c| c.1 == s)
-                    .map(|c| c.0)
-                    .ok_or_else(|| {
-                        anyhow!("`{path}` row {k}: `{s}`; allowed maximum, minimum, saddle")
-                    })
-            })
-            .collect()
-    }
-    fn values(values: Vec<Self>) -> Values {
-        let name = |k: &Self| {
-            CRITICAL_KINDS
-                .iter()
-                .find(|c| c.0 == *k)
-                .expect("all kinds")
-                .1
-        };
-        Values::Text(values.iter().map(|k| name(k).to_string()).collect())
     }
 }
 
@@ -550,28 +495,6 @@ mod tests {
         assert_eq!(Level::COLUMNS[0].kind, ColumnKind::I64);
         let e = format!("{:#}", read_in::<Level>(&r, "bad").unwrap_err());
         assert!(e.contains("`bad/n` row 1: -1"), "{e}");
-    }
-
-    #[test]
-    fn critical_kinds_are_stored_by_name() {
-        use surface::CriticalKind;
-        let dir = tempfile::tempdir().unwrap();
-        let mut w = writer(dir.path());
-        let kinds = [
-            CriticalKind::Saddle,
-            CriticalKind::Maximum,
-            CriticalKind::Minimum,
-        ];
-        CriticalKind::write(&mut w, "k", &kinds).unwrap();
-        w.write_strings("bad", &["saddle", "peak"]).unwrap();
-        let r = ArtefactReader::open(w.publish().unwrap()).unwrap();
-        assert_eq!(
-            r.read_strings("k").unwrap(),
-            ["saddle", "maximum", "minimum"]
-        );
-        assert_eq!(CriticalKind::read(&r, "k").unwrap(), kinds);
-        let e = CriticalKind::read(&r, "bad").unwrap_err().to_string();
-        assert!(e.contains("`bad` row 1: `peak`"), "{e}");
     }
 
     #[test]

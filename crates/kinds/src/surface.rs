@@ -8,11 +8,10 @@
 //! saddles)).
 
 use anyhow::{Result, anyhow};
-use formats::records::{Record, read_in};
 use orchestrator::{Inputs, ParamSpec, ParamType, Params, StageContext, StageReport, TypedKind};
 use serde::Deserialize;
 use serde_json::json;
-use store::{ArtefactReader, ArtefactWriter, fields};
+use store::{ArtefactWriter, fields};
 use surface::{CriticalKind, Lattice, Surface};
 
 /// The `surface` stage kind.
@@ -152,8 +151,36 @@ impl TypedKind for SurfaceKind {
         out.set_attr("p_fc_grid", s.p_fc_grid())?;
         out.write_f64_2d(fields::HEIGHT, s.heights.view())?;
         let cps = s.critical_points();
-        let rows: Vec<CriticalPointRow> = cps.iter().map(CriticalPointRow::of).collect();
-        CriticalPointRow::write(&rows, out, "critical")?;
+        let kind = |k: CriticalKind| match k {
+            CriticalKind::Maximum => "maximum",
+            CriticalKind::Minimum => "minimum",
+            CriticalKind::Saddle => "saddle",
+        };
+        // written column by column, not as a `formats::record!`: the formats crate depends on
+        // contact and reynolds, which would enter this kind's code identity (an edit of the
+        // flow solver would recompute every lattice surface)
+        let names: Vec<&str> = cps.iter().map(|c| kind(c.kind)).collect();
+        out.write_strings("critical/kind", &names)?;
+        out.write_f64_1d("critical/x", &cps.iter().map(|c| c.x).collect::<Vec<_>>())?;
+        out.write_f64_1d("critical/y", &cps.iter().map(|c| c.y).collect::<Vec<_>>())?;
+        out.write_f64_1d(
+            "critical/height",
+            &cps.iter().map(|c| c.height).collect::<Vec<_>>(),
+        )?;
+        out.write_f64_1d(
+            "critical/curvature_min",
+            &cps.iter().map(|c| c.curvatures[0]).collect::<Vec<_>>(),
+        )?;
+        out.write_f64_1d(
+            "critical/curvature_max",
+            &cps.iter().map(|c| c.curvatures[1]).collect::<Vec<_>>(),
+        )?;
+        out.write_f64_1d(
+            "critical/eta",
+            &cps.iter()
+                .map(|c| c.eta().unwrap_or(f64::NAN))
+                .collect::<Vec<_>>(),
+        )?;
         ctx.progress(1.0, "written");
         Ok(StageReport::with_stats(json!({
             "nodes": g.nx * g.ny,
@@ -181,44 +208,4 @@ pub(crate) fn write_grid_and_moments(
     out.set_attr("skewness", st.skewness)?;
     out.set_attr("excess_kurtosis", st.excess_kurtosis)?;
     Ok(())
-}
-
-formats::record! {
-    /// One critical point of the height profile (`critical/*` of the `surface` artefact).
-    #[derive(Clone, Copy, Debug, PartialEq)]
-    pub struct CriticalPointRow {
-        /// Maximum, minimum or saddle (by name).
-        pub kind: CriticalKind,
-        /// Position x (λ).
-        pub x: f64,
-        /// Position y (λ).
-        pub y: f64,
-        /// Height (h0).
-        pub height: f64,
-        /// Smaller principal curvature.
-        pub curvature_min: f64,
-        /// Larger principal curvature.
-        pub curvature_max: f64,
-        /// Curvature ratio η (NaN where undefined).
-        pub eta: f64,
-    }
-}
-
-impl CriticalPointRow {
-    fn of(c: &surface::CriticalPoint) -> Self {
-        CriticalPointRow {
-            kind: c.kind,
-            x: c.x,
-            y: c.y,
-            height: c.height,
-            curvature_min: c.curvatures[0],
-            curvature_max: c.curvatures[1],
-            eta: c.eta().unwrap_or(f64::NAN),
-        }
-    }
-}
-
-/// The critical points of a `surface` artefact.
-pub fn read_critical_points(r: &ArtefactReader) -> Result<Vec<CriticalPointRow>> {
-    read_in(r, "critical")
 }
