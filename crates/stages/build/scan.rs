@@ -5,7 +5,8 @@
 //! A kind lives in the module `crates/<c>/src/<kind>.rs` of a kind crate ([`MODULE_CRATES`]:
 //! `kinds` for compute kinds, `scenes` for report scenes). Its identity has one part per
 //! source it depends on:
-//! - `<c>/src/<m>.rs` for the module itself and every module of a kind crate it reaches
+//! - `<c>/src/<m>.rs` (a file module) or `<c>/src/<m>/` (a folder module, `mod.rs` and every
+//!   file under it) for the module itself and every module of a kind crate it reaches
 //!   through `crate::m` or `super::m` paths in its own crate, or `kinds::m` from another
 //!   (including `use crate::{a, b::c}` lists), transitively;
 //! - `crate <c>` for every workspace crate those modules name as `c::` (the `[dependencies]`
@@ -256,8 +257,8 @@ pub fn module_identities(
 ) -> io::Result<(Identities, Vec<String>)> {
     let crates_dir = stages_dir.parent().unwrap_or(Path::new(".."));
     let crates = workspace_crates(crates_dir)?;
-    // module → (crate, source)
-    let mut sources: BTreeMap<String, (String, String)> = BTreeMap::new();
+    // module → (crate, source, part label)
+    let mut sources: BTreeMap<String, (String, String, String)> = BTreeMap::new();
     let mut deps_of: BTreeMap<String, Vec<String>> = BTreeMap::new();
     for &mc in MODULE_CRATES {
         let Some(info) = crates.get(mc) else { continue };
@@ -284,7 +285,7 @@ pub fn module_identities(
             // source is all of its files (sorted, each under its relative path), so an edit to
             // any of them changes the module's identity
             let source = if p.extension().is_some_and(|x| x == "rs") && stem != "lib" {
-                Some(std::fs::read_to_string(&p)?)
+                Some((std::fs::read_to_string(&p)?, format!("{mc}/src/{stem}.rs")))
             } else if p.is_dir() && p.join("mod.rs").is_file() {
                 let mut files = Vec::new();
                 files_under(&p, false, &mut files)?;
@@ -302,32 +303,32 @@ pub fn module_identities(
                     text.push_str(&format!("// file {rel}\n"));
                     text.push_str(&std::fs::read_to_string(f)?);
                 }
-                Some(text)
+                Some((text, format!("{mc}/src/{stem}/")))
             } else {
                 None
             };
-            if let Some(source) = source {
-                if let Some((other, _)) = sources.get(&stem) {
+            if let Some((source, label)) = source {
+                if let Some((other, ..)) = sources.get(&stem) {
                     return Err(io::Error::other(format!(
                         "module `{stem}` exists in both crates `{other}` and `{mc}`: kind modules must have unique names"
                     )));
                 }
-                sources.insert(stem, (mc.to_string(), source));
+                sources.insert(stem, (mc.to_string(), source, label));
             }
         }
     }
     let reached = |m: &str| -> BTreeSet<String> {
-        let (krate, src) = &sources[m];
+        let (krate, src, _) = &sources[m];
         let mut out: BTreeSet<String> = module_refs(src)
             .into_iter()
-            .filter(|x| sources.get(x).is_some_and(|(c, _)| c == krate))
+            .filter(|x| sources.get(x).is_some_and(|(c, ..)| c == krate))
             .collect();
         for &mc in MODULE_CRATES {
             if mc != krate {
                 out.extend(
                     crate_refs(src, mc)
                         .into_iter()
-                        .filter(|x| sources.get(x).is_some_and(|(c, _)| c == mc)),
+                        .filter(|x| sources.get(x).is_some_and(|(c, ..)| c == mc)),
                 );
             }
         }
@@ -356,7 +357,7 @@ pub fn module_identities(
         let named: BTreeSet<String> = mods
             .iter()
             .flat_map(|x| {
-                let (krate, src) = &sources[x];
+                let (krate, src, _) = &sources[x];
                 deps_of[krate]
                     .iter()
                     .filter(|c| names_crate(src, c))
@@ -366,10 +367,9 @@ pub fn module_identities(
             .collect();
         let mut parts = BTreeMap::new();
         for x in &mods {
-            let (krate, src) = &sources[x];
-            let rel = format!("{krate}/src/{x}.rs");
+            let (_, src, label) = &sources[x];
             let h = blake3::hash(src.as_bytes()).to_hex().to_string();
-            let (k, v) = apply(rel, h);
+            let (k, v) = apply(label.clone(), h);
             parts.insert(k, v);
         }
         for c in crate_closure(&named, &crates) {

@@ -132,7 +132,7 @@ fn a_module_folder_is_one_module_whose_every_file_counts() {
     let after = ids(dir.path(), "");
     let users: BTreeSet<String> = before
         .iter()
-        .filter(|(_, parts)| parts.contains_key("kinds/src/exponents.rs"))
+        .filter(|(_, parts)| parts.contains_key("kinds/src/exponents/"))
         .map(|(m, _)| m.clone())
         .collect();
     assert!(users.contains("exponents"), "{users:?}");
@@ -141,6 +141,27 @@ fn a_module_folder_is_one_module_whose_every_file_counts() {
         "{users:?}"
     );
     assert_eq!(changed(&before, &after), users);
+}
+
+/// A folder module's part is labelled by its folder (`kinds/src/exponents/`), not as a file
+/// that does not exist, and an override names it by that label.
+#[test]
+fn a_folder_module_is_labelled_by_its_folder_and_overrides_match_that_label() {
+    let dir = workspace_copy();
+    let before = ids(dir.path(), "");
+    let parts = &before["exponents"];
+    assert!(parts.contains_key("kinds/src/exponents/"), "{parts:?}");
+    assert!(parts.contains_key("kinds/src/ladder.rs"), "{parts:?}");
+    assert!(!parts.contains_key("kinds/src/exponents.rs"), "{parts:?}");
+    let was = parts["kinds/src/exponents/"].clone();
+    append(
+        &dir.path().join("crates/kinds/src/exponents/mod.rs"),
+        "\n// a comment\n",
+    );
+    let now = ids(dir.path(), "")["exponents"]["kinds/src/exponents/"].clone();
+    assert_ne!(now, was);
+    let pinned = ids(dir.path(), &format!("kinds/src/exponents/ {now} {was}\n"));
+    assert!(changed(&before, &pinned).is_empty());
 }
 
 #[test]
@@ -172,8 +193,10 @@ fn the_engine_is_no_part_of_a_kind_identity_and_every_kind_has_one() {
     for name in reg.names() {
         let code = reg.code_identity(name);
         assert!(
-            code.contains_key(&format!("kinds/src/{name}.rs"))
-                || code.contains_key(&format!("scenes/src/{name}.rs")),
+            ["kinds", "scenes"].iter().any(|c| {
+                code.contains_key(&format!("{c}/src/{name}.rs"))
+                    || code.contains_key(&format!("{c}/src/{name}/"))
+            }),
             "kind `{name}`: {code:?}"
         );
         assert!(
