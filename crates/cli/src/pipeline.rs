@@ -263,7 +263,8 @@ pub fn run(cmd: Command) -> Result<()> {
                 return Ok(());
             }
             println!("{} with {}", plan.pipeline, plan.params);
-            let w = st.iter().map(|s| s.name.len()).max().unwrap_or(5).max(5);
+            let w = column_width(st.iter().map(|s| s.name.as_str()), "stage");
+            let kw = column_width(st.iter().map(|s| s.kind.as_str()), "kind");
             let (mut cached, mut bytes) = (0, 0);
             for s in &st {
                 if s.state == EntryState::Valid {
@@ -272,7 +273,7 @@ pub fn run(cmd: Command) -> Result<()> {
                 let state = s.state.label();
                 bytes += s.bytes;
                 println!(
-                    "  {state:<8} {:<w$} {:<10} {}  {:>10}  {}{}",
+                    "  {state:<8} {:<w$} {:<kw$} {}  {:>10}  {}{}",
                     s.name,
                     s.kind,
                     short(&s.key),
@@ -465,6 +466,15 @@ fn expensive_line(summary: &orchestrator::RunSummary) -> Option<String> {
     ))
 }
 
+/// Width of a left-aligned text column: its widest entry or its header (in characters).
+fn column_width<'a>(entries: impl Iterator<Item = &'a str>, header: &str) -> usize {
+    entries
+        .map(|e| e.chars().count())
+        .chain([header.chars().count()])
+        .max()
+        .unwrap_or(0)
+}
+
 /// The `status --costs` table.
 fn print_costs(plan: &orchestrator::Plan, r: &ops::CostReport, top: usize) {
     println!(
@@ -477,14 +487,10 @@ fn print_costs(plan: &orchestrator::Plan, r: &ops::CostReport, top: usize) {
     } else {
         top.min(r.stages.len())
     };
-    let w = r.stages[..shown]
-        .iter()
-        .map(|s| s.name.len())
-        .max()
-        .unwrap_or(5)
-        .max(5);
+    let w = column_width(r.stages[..shown].iter().map(|s| s.name.as_str()), "stage");
+    let kw = column_width(r.stages[..shown].iter().map(|s| s.kind.as_str()), "kind");
     println!(
-        "  {:<w$} {:<10} {:>9} {:>6} {:>6} {:>9}  scenes",
+        "  {:<w$} {:<kw$} {:>9} {:>6} {:>6} {:>9}  scenes",
         "stage", "kind", "wall", "share", "cum.", "peak MiB"
     );
     let mut cum = 0.0;
@@ -498,7 +504,7 @@ fn print_costs(plan: &orchestrator::Plan, r: &ops::CostReport, top: usize) {
             }
         };
         println!(
-            "  {:<w$} {:<10} {:>9} {:>6} {:>6} {:>9}  {}",
+            "  {:<w$} {:<kw$} {:>9} {:>6} {:>6} {:>9}  {}",
             s.name,
             s.kind,
             human_duration(s.wall_s),
@@ -562,4 +568,24 @@ fn hashing_line(summary: &orchestrator::RunSummary) -> String {
         h.file.calls,
         h.file.seconds,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::column_width;
+
+    #[test]
+    fn columns_are_as_wide_as_their_widest_entry_or_header() {
+        let kinds = ["sweep", "constriction", "flow"];
+        assert_eq!(column_width(kinds.iter().copied(), "kind"), 12);
+        let w = column_width(kinds.iter().copied(), "kind");
+        for k in kinds {
+            // every entry fits with a space to the next column
+            assert_eq!(format!("{k:<w$} |").find('|'), Some(13));
+        }
+        assert_eq!(column_width(["ab"].into_iter(), "stage"), 5);
+        assert_eq!(column_width(std::iter::empty(), "kind"), 4);
+        // characters, not bytes
+        assert_eq!(column_width(["γ0_sweep"].into_iter(), "kind"), 8);
+    }
 }
