@@ -14,24 +14,7 @@ fn s(p: &Path) -> &str {
 
 fn generate(dir: &Path) -> std::path::PathBuf {
     let out = dir.join("s.h5");
-    let (ok, _, err) = run(&[
-        "surface",
-        "generate",
-        "--n",
-        "6",
-        "--hurst",
-        "0.8",
-        "--qr",
-        "2",
-        "--qs",
-        "8",
-        "--rms-slope",
-        "1",
-        "--seed",
-        "3",
-        "--out",
-        s(&out),
-    ]);
+    let (ok, _, err) = common::generate(&out, &[("--qs", "8"), ("--seed", "3")]);
     assert!(ok, "{err}");
     out
 }

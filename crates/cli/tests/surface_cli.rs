@@ -22,6 +22,20 @@ fn fails(args: &[&str]) -> String {
     err
 }
 
+/// `surface generate --out <out>` with `opts` over the tests' defaults; its JSON summary.
+fn generate(out: &Path, opts: &[(&str, &str)]) -> Value {
+    let (success, v, err) = common::generate(out, opts);
+    assert!(success, "surface generate {opts:?} failed:\n{err}");
+    v
+}
+
+/// `surface generate` that must fail; its stderr.
+fn generate_fails(out: &Path, opts: &[(&str, &str)]) -> String {
+    let (success, _, err) = common::generate(out, opts);
+    assert!(!success, "surface generate {opts:?} should fail");
+    err
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
@@ -128,26 +142,10 @@ fn generate_then_stats_round_trip() {
     ];
     for ext in ["h5", "npy", "txt"] {
         let out = dir.path().join(format!("s.{ext}"));
-        let g = ok(&[
-            "surface",
-            "generate",
-            "--n",
-            "6",
-            "--hurst",
-            "0.8",
-            "--qr",
-            "2",
-            "--qs",
-            "16",
-            "--rms-height",
-            "0.5",
-            "--seed",
-            "11",
-            "--length",
-            "2",
-            "--out",
-            s(&out),
-        ]);
+        let g = generate(
+            &out,
+            &[("--rms-height", "0.5"), ("--seed", "11"), ("--length", "2")],
+        );
         // the requested rms to rounding, and the PSD slope near −2(1 + H) (±0.05 is the issue's
         // target on larger grids; exact amplitudes follow the power law mode by mode)
         assert!((num(&g, "rms_height") - 0.5).abs() < 1e-12);
@@ -170,26 +168,10 @@ fn generate_then_stats_round_trip() {
     let a = dir.path().join("a.npy");
     let b = dir.path().join("b.npy");
     for (p, seed) in [(&a, "11"), (&b, "12")] {
-        ok(&[
-            "surface",
-            "generate",
-            "--n",
-            "6",
-            "--hurst",
-            "0.8",
-            "--qr",
-            "2",
-            "--qs",
-            "16",
-            "--rms-height",
-            "0.5",
-            "--seed",
-            seed,
-            "--length",
-            "2",
-            "--out",
-            s(p),
-        ]);
+        generate(
+            p,
+            &[("--rms-height", "0.5"), ("--seed", seed), ("--length", "2")],
+        );
     }
     let first = std::fs::read(dir.path().join("s.npy")).unwrap();
     assert_eq!(std::fs::read(&a).unwrap(), first);
@@ -261,44 +243,10 @@ fn bad_surfaces_are_refused_by_name() {
         &["GiB", "64 nodes"],
     );
     // a grid beyond the largest: refused with its memory cost before anything is allocated
-    let err = fails(&[
-        "surface",
-        "generate",
-        "--n",
-        "14",
-        "--hurst",
-        "0.8",
-        "--qr",
-        "2",
-        "--qs",
-        "64",
-        "--rms-slope",
-        "1",
-        "--seed",
-        "1",
-        "--out",
-        s(&d.join("big.h5")),
-    ]);
+    let err = generate_fails(&d.join("big.h5"), &[("--n", "14"), ("--qs", "64")]);
     assert!(err.contains("--n 14") && err.contains("GiB"), "{err}");
     // a parameter out of range names the option
-    let err = fails(&[
-        "surface",
-        "generate",
-        "--n",
-        "6",
-        "--hurst",
-        "1.5",
-        "--qr",
-        "2",
-        "--qs",
-        "16",
-        "--rms-slope",
-        "1",
-        "--seed",
-        "1",
-        "--out",
-        s(&d.join("h.h5")),
-    ]);
+    let err = generate_fails(&d.join("h.h5"), &[("--hurst", "1.5")]);
     assert!(err.contains("--hurst") && err.contains("1.5"), "{err}");
     assert!(!d.join("h.h5").exists() && !d.join("big.h5").exists());
 }
@@ -310,24 +258,7 @@ fn bad_surfaces_are_refused_by_name() {
 fn leakage_and_critical_on_a_random_surface() {
     let dir = tempfile::tempdir().unwrap();
     let f = dir.path().join("r.h5");
-    ok(&[
-        "surface",
-        "generate",
-        "--n",
-        "6",
-        "--hurst",
-        "0.8",
-        "--qr",
-        "2",
-        "--qs",
-        "16",
-        "--rms-slope",
-        "1",
-        "--seed",
-        "5",
-        "--out",
-        s(&f),
-    ]);
+    generate(&f, &[("--seed", "5")]);
     for boundary in ["periodic", "free"] {
         let crit = ok(&[
             "critical",

@@ -62,3 +62,40 @@ pub fn run(args: &[&str]) -> (bool, Value, String) {
     };
     (out.status.success(), json, stderr)
 }
+
+/// The `surface generate` options of the CLI tests when not given: a 2^6 self-affine surface,
+/// H = 0.8, q_r = 2, q_s = 16 (units of 2π/L), rms slope 1, seed 1.
+pub const GENERATE_DEFAULTS: [(&str, &str); 6] = [
+    ("--n", "6"),
+    ("--hurst", "0.8"),
+    ("--qr", "2"),
+    ("--qs", "16"),
+    ("--rms-slope", "1"),
+    ("--seed", "1"),
+];
+
+/// The arguments of `surface generate --out <out>`: [`GENERATE_DEFAULTS`] with `opts` in
+/// place of the defaults of the same option (either rms option replaces the default rms
+/// slope), then the other `opts` in order.
+pub fn generate_args(out: &Path, opts: &[(&str, &str)]) -> Vec<String> {
+    let is_rms = |k: &str| k.starts_with("--rms-");
+    let given = |k: &str| {
+        opts.iter()
+            .any(|(o, _)| *o == k || (is_rms(k) && is_rms(o)))
+    };
+    let mut args = vec!["surface".to_string(), "generate".to_string()];
+    for (k, v) in GENERATE_DEFAULTS.iter().filter(|(k, _)| !given(k)) {
+        args.extend([k.to_string(), v.to_string()]);
+    }
+    for (k, v) in opts {
+        args.extend([k.to_string(), v.to_string()]);
+    }
+    args.extend(["--out".to_string(), out.to_str().unwrap().to_string()]);
+    args
+}
+
+/// Runs `surface generate` ([`generate_args`]); returns what [`run`] returns.
+pub fn generate(out: &Path, opts: &[(&str, &str)]) -> (bool, Value, String) {
+    let args = generate_args(out, opts);
+    run(&args.iter().map(String::as_str).collect::<Vec<_>>())
+}
