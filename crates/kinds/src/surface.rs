@@ -156,7 +156,7 @@ impl TypedKind for SurfaceKind {
             CriticalKind::Minimum => "minimum",
             CriticalKind::Saddle => "saddle",
         };
-        // written column by column, not as a `formats::record!`: the formats crate depends on
+        // written column by column, not as a record of the formats crate: that crate depends on
         // contact and reynolds, which would enter this kind's code identity (an edit of the
         // flow solver would recompute every lattice surface)
         let names: Vec<&str> = cps.iter().map(|c| kind(c.kind)).collect();
