@@ -495,6 +495,61 @@ impl ResolvedQuantity {
     }
 }
 
+/// The summary of a `resolution` artefact: its root attributes (value, 1σ; NaN where an
+/// attribute is missing, −1 for a missing integer) and its levels.
+#[derive(Clone, Debug)]
+pub struct ResolutionSummary {
+    /// Model.
+    pub lattice: Lattice,
+    /// The levels (`None` if they cannot be read).
+    pub levels: Option<Vec<LevelRow>>,
+    /// m of the m × m shifts per grid.
+    pub shift_rule: i64,
+    /// Finest grid exponent.
+    pub finest_n: i64,
+    /// Exact continuum full-contact pressure.
+    pub p_fc_exact: f64,
+    /// Extrapolated L_c.
+    pub l_c: (f64, f64),
+    /// Extrapolated raw a_p.
+    pub a_p_raw: (f64, f64),
+    /// Extrapolated perimeter-corrected a_p.
+    pub a_p_corrected: (f64, f64),
+    /// p_fc_exact / L_c.
+    pub p_fc_over_l_c: (f64, f64),
+    /// The finest grid's sub-grid L_c.
+    pub l_c_subgrid: (f64, f64),
+    /// The finest grid's ζ.
+    pub zeta: (f64, f64),
+    /// The paper's a_p.
+    pub paper_a_p: (f64, f64),
+    /// The paper's p_fc/L_c (NaN where it gives none).
+    pub paper_p_fc_over_l_c: f64,
+}
+
+impl ResolutionSummary {
+    /// Reads the summary of a `resolution` artefact (an error only without a known `lattice`).
+    pub fn read(r: &ArtefactReader) -> Result<Self> {
+        let f = |k: &str| r.attr_f64(k).unwrap_or(f64::NAN);
+        let pair = |k: &str| (f(k), f(&format!("{k}_error")));
+        Ok(ResolutionSummary {
+            lattice: crate::surface::lattice_from_name(&r.attr_str("lattice")?)?,
+            levels: read_levels(r).ok(),
+            shift_rule: r.attr_i64("shift_rule").unwrap_or(-1),
+            finest_n: r.attr_i64("finest_n").unwrap_or(-1),
+            p_fc_exact: f("p_fc_exact"),
+            l_c: pair("l_c"),
+            a_p_raw: pair("a_p_raw"),
+            a_p_corrected: pair("a_p_corrected"),
+            p_fc_over_l_c: pair("p_fc_over_l_c"),
+            l_c_subgrid: pair("l_c_subgrid"),
+            zeta: pair("zeta"),
+            paper_a_p: pair("paper_a_p"),
+            paper_p_fc_over_l_c: f("paper_p_fc_over_l_c"),
+        })
+    }
+}
+
 /// The three models' `resolution` artefacts, by input name, in the paper's order.
 pub const MODEL_INPUTS: [(&str, Lattice); 3] = [
     ("hexagonal", Lattice::Hexagonal),

@@ -5,13 +5,11 @@
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Result, bail};
 use figures::scenes::convergence::{ConvergenceData, ConvergenceSeries};
-use kinds::resolution::{MODEL_INPUTS, ResolvedQuantity, paper_a_p, read_levels};
-use kinds::surface::lattice_from_name;
+use kinds::resolution::{MODEL_INPUTS, ResolutionSummary, ResolvedQuantity, paper_a_p};
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{Params, StageContext};
 use store::ArtefactReader;
 use store::ArtefactWriter;
-use surface::Lattice;
 use tables::Table;
 
 /// Inputs of the convergence figures and the table: one `resolution` stage per model.
@@ -24,15 +22,16 @@ pub fn scene_inputs() -> Vec<InputSpec> {
         .collect()
 }
 
-fn read_models(inputs: &Inputs) -> Result<Vec<(Lattice, &ArtefactReader)>> {
+/// Each model's `resolution` artefact and its summary, checked to be that model's.
+fn read_models(inputs: &Inputs) -> Result<Vec<(&ArtefactReader, ResolutionSummary)>> {
     let mut out = Vec::new();
     for (name, l) in MODEL_INPUTS {
         let r = inputs.one(name)?;
-        let got = lattice_from_name(&r.attr_str("lattice")?)?;
-        if got != l {
-            bail!("input `{name}` is the {} model's study", got.name());
+        let s = ResolutionSummary::read(r)?;
+        if s.lattice != l {
+            bail!("input `{name}` is the {} model's study", s.lattice.name());
         }
-        out.push((l, r));
+        out.push((r, s));
     }
     Ok(out)
 }
@@ -51,7 +50,8 @@ pub fn convergence_data(
     let models = read_models(inputs)?;
     let relative = quantity.starts_with("l_c");
     let mut qs = Vec::new();
-    for (l, r) in &models {
+    for (r, summary) in &models {
+        let l = &summary.lattice;
         let mut q = ResolvedQuantity::read(r, quantity)?;
         if let Some(k) = finest {
             // levels are stored coarse to fine (descending h)
@@ -131,11 +131,11 @@ pub fn convergence_data(
 /// `p_fc_over_l_c_paper` (NaN for the square model) and `p_fc_over_l_c_minus_paper_percent`.
 pub fn comparison_table(inputs: &Inputs) -> Result<Table> {
     let models = read_models(inputs)?;
-    let f = |r: &ArtefactReader, k: &str| r.attr_f64(k).unwrap_or(f64::NAN);
-    let rows: Vec<_> = models.iter().map(|(l, r)| (*l, *r)).collect();
-    let col = |k: &str| rows.iter().map(|(_, r)| f(r, k)).collect::<Vec<_>>();
-    let levels = |r: &ArtefactReader| {
-        read_levels(r)
+    let rows: Vec<&ResolutionSummary> = models.iter().map(|(_, s)| s).collect();
+    let col = |v: &dyn Fn(&ResolutionSummary) -> f64| rows.iter().map(|s| v(s)).collect::<Vec<_>>();
+    let grids = |s: &ResolutionSummary| {
+        s.levels
+            .as_ref()
             .map(|l| {
                 format!(
                     "{}..{}",
@@ -145,50 +145,40 @@ pub fn comparison_table(inputs: &Inputs) -> Result<Table> {
             })
             .unwrap_or_default()
     };
-    let sigma = |k: &str| {
-        rows.iter()
-            .map(|(l, r)| {
-                let (pa, pe) = paper_a_p(*l);
-                let (v, e) = (f(r, k), f(r, &format!("{k}_error")));
-                (v - pa) / e.hypot(pe)
-            })
-            .collect::<Vec<_>>()
+    let sigma = |v: &dyn Fn(&ResolutionSummary) -> (f64, f64)| {
+        col(&|s| {
+            let (pa, pe) = paper_a_p(s.lattice);
+            let (v, e) = v(s);
+            (v - pa) / e.hypot(pe)
+        })
     };
-    let ratio_dev = rows
-        .iter()
-        .map(|(_, r)| 100.0 * (f(r, "p_fc_over_l_c") / f(r, "paper_p_fc_over_l_c") - 1.0))
-        .collect::<Vec<_>>();
+    let ratio_dev = col(&|s| 100.0 * (s.p_fc_over_l_c.0 / s.paper_p_fc_over_l_c - 1.0));
     Ok(Table::new()
-        .with_str("model", rows.iter().map(|(l, _)| l.name().to_string()))
-        .with_str("grids_n", rows.iter().map(|(_, r)| levels(r)))
-        .with_i64(
-            "shift_rule",
-            rows.iter()
-                .map(|(_, r)| r.attr_i64("shift_rule").unwrap_or(-1)),
+        .with_str("model", rows.iter().map(|s| s.lattice.name().to_string()))
+        .with_str("grids_n", rows.iter().map(|s| grids(s)))
+        .with_i64("shift_rule", rows.iter().map(|s| s.shift_rule))
+        .with_i64("finest_n", rows.iter().map(|s| s.finest_n))
+        .with_f64("l_c", col(&|s| s.l_c.0))
+        .with_f64("l_c_error", col(&|s| s.l_c.1))
+        .with_f64("l_c_subgrid_finest", col(&|s| s.l_c_subgrid.0))
+        .with_f64("l_c_subgrid_finest_error", col(&|s| s.l_c_subgrid.1))
+        .with_f64("zeta_finest", col(&|s| s.zeta.0))
+        .with_f64("zeta_finest_error", col(&|s| s.zeta.1))
+        .with_f64("a_p_raw", col(&|s| s.a_p_raw.0))
+        .with_f64("a_p_raw_error", col(&|s| s.a_p_raw.1))
+        .with_f64("a_p_corrected", col(&|s| s.a_p_corrected.0))
+        .with_f64("a_p_corrected_error", col(&|s| s.a_p_corrected.1))
+        .with_f64("a_p_paper", col(&|s| s.paper_a_p.0))
+        .with_f64("a_p_paper_error", col(&|s| s.paper_a_p.1))
+        .with_f64(
+            "a_p_corrected_minus_paper_sigma",
+            sigma(&|s| s.a_p_corrected),
         )
-        .with_i64(
-            "finest_n",
-            rows.iter()
-                .map(|(_, r)| r.attr_i64("finest_n").unwrap_or(-1)),
-        )
-        .with_f64("l_c", col("l_c"))
-        .with_f64("l_c_error", col("l_c_error"))
-        .with_f64("l_c_subgrid_finest", col("l_c_subgrid"))
-        .with_f64("l_c_subgrid_finest_error", col("l_c_subgrid_error"))
-        .with_f64("zeta_finest", col("zeta"))
-        .with_f64("zeta_finest_error", col("zeta_error"))
-        .with_f64("a_p_raw", col("a_p_raw"))
-        .with_f64("a_p_raw_error", col("a_p_raw_error"))
-        .with_f64("a_p_corrected", col("a_p_corrected"))
-        .with_f64("a_p_corrected_error", col("a_p_corrected_error"))
-        .with_f64("a_p_paper", col("paper_a_p"))
-        .with_f64("a_p_paper_error", col("paper_a_p_error"))
-        .with_f64("a_p_corrected_minus_paper_sigma", sigma("a_p_corrected"))
-        .with_f64("a_p_raw_minus_paper_sigma", sigma("a_p_raw"))
-        .with_f64("p_fc", col("p_fc_exact"))
-        .with_f64("p_fc_over_l_c", col("p_fc_over_l_c"))
-        .with_f64("p_fc_over_l_c_error", col("p_fc_over_l_c_error"))
-        .with_f64("p_fc_over_l_c_paper", col("paper_p_fc_over_l_c"))
+        .with_f64("a_p_raw_minus_paper_sigma", sigma(&|s| s.a_p_raw))
+        .with_f64("p_fc", col(&|s| s.p_fc_exact))
+        .with_f64("p_fc_over_l_c", col(&|s| s.p_fc_over_l_c.0))
+        .with_f64("p_fc_over_l_c_error", col(&|s| s.p_fc_over_l_c.1))
+        .with_f64("p_fc_over_l_c_paper", col(&|s| s.paper_p_fc_over_l_c))
         .with_f64("p_fc_over_l_c_minus_paper_percent", ratio_dev))
 }
 
