@@ -55,11 +55,7 @@ pub fn acquire(path: &Path, mode: LockMode, wait: bool, command: &str) -> Result
         .truncate(false)
         .open(path)
         .with_context(|| format!("cannot open lock file `{}`", path.display()))?;
-    let attempt = match mode {
-        LockMode::Exclusive => file.try_lock(),
-        LockMode::Shared => file.try_lock_shared(),
-    };
-    match attempt {
+    match try_lock(&mut file, path, mode) {
         Ok(()) => {}
         Err(TryLockError::WouldBlock) => {
             let holder = holder_text(&mut file);
@@ -105,10 +101,76 @@ pub fn acquire(path: &Path, mode: LockMode, wait: bool, command: &str) -> Result
         let _ = file.write_all(text.as_bytes());
         let _ = file.flush();
     }
+    *HELD
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .entry(path.to_path_buf())
+        .or_insert(0) += 1;
     Ok(ResultsLock {
         _file: file,
         path: path.to_path_buf(),
     })
+}
+
+/// One attempt at the lock, retried for up to [`OWN_RETRY`] while the holder recorded is this
+/// very process although no lock of this process on `path` is alive. A lock released by this
+/// process can stay held for a moment: a child that another thread of this process is starting
+/// (e.g. `git rev-parse` at the end of a run) holds copies of every open file from its fork
+/// until its exec closes them, and a `flock` lives as long as any copy. A library that runs
+/// twice in one process (the test suite does, in parallel threads) would otherwise see its own
+/// finished run as a live holder. A live lock of this process ([`HELD`]) is refused at once,
+/// like any other holder.
+fn try_lock(file: &mut File, path: &Path, mode: LockMode) -> Result<(), TryLockError> {
+    let own = format!(
+        "pid {} on host {} ",
+        std::process::id(),
+        store::fsutil::host_name()
+    );
+    let start = std::time::Instant::now();
+    loop {
+        let attempt = match mode {
+            LockMode::Exclusive => file.try_lock(),
+            LockMode::Shared => file.try_lock_shared(),
+        };
+        match attempt {
+            Err(TryLockError::WouldBlock)
+                if start.elapsed() < OWN_RETRY
+                    && !held_here(path)
+                    && holder_text(file).contains(&own) =>
+            {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            other => return other,
+        }
+    }
+}
+
+/// How long a lock recorded as held by this very process is retried (see [`try_lock`]): far
+/// longer than a fork-to-exec window, far shorter than any run.
+const OWN_RETRY: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// The lock files this process holds a live [`ResultsLock`] on, with how many (shared locks
+/// may be taken more than once). Process-wide state, needed only to tell a live lock of this
+/// process from a released one whose open file lingers in a starting child (see [`try_lock`]).
+static HELD: std::sync::Mutex<std::collections::BTreeMap<PathBuf, usize>> =
+    std::sync::Mutex::new(std::collections::BTreeMap::new());
+
+fn held_here(path: &Path) -> bool {
+    HELD.lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .contains_key(path)
+}
+
+impl Drop for ResultsLock {
+    fn drop(&mut self) {
+        let mut held = HELD.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(n) = held.get_mut(&self.path) {
+            *n -= 1;
+            if *n == 0 {
+                held.remove(&self.path);
+            }
+        }
+    }
 }
 
 fn holder_text(file: &mut File) -> String {
@@ -120,5 +182,39 @@ fn holder_text(file: &mut File) -> String {
         "a process that recorded no details (a `run-stage` holds it shared)".into()
     } else {
         s.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_released_lock_whose_file_lingers_in_a_copy_is_taken_after_the_copy_closes() {
+        // the copy plays the child between fork and exec: it keeps the flock alive after this
+        // process dropped its lock
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("results/.lock");
+        let first = acquire(&path, LockMode::Exclusive, false, "first").unwrap();
+        let copy = first._file.try_clone().unwrap();
+        drop(first);
+        let closer = std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_millis(200));
+            drop(copy);
+        });
+        let second = acquire(&path, LockMode::Exclusive, false, "second");
+        closer.join().unwrap();
+        assert!(second.is_ok(), "{:#}", second.unwrap_err());
+    }
+
+    #[test]
+    fn a_live_lock_of_this_process_is_refused_at_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("results/.lock");
+        let _first = acquire(&path, LockMode::Exclusive, false, "first").unwrap();
+        let t0 = std::time::Instant::now();
+        let err = acquire(&path, LockMode::Exclusive, false, "second").unwrap_err();
+        assert!(t0.elapsed() < OWN_RETRY / 4, "{:?}", t0.elapsed());
+        assert!(format!("{err:#}").contains("locked by another saddleflow process"));
     }
 }

@@ -248,7 +248,6 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
         }
     }
     let mut index = Index::load(ws);
-    let mut index_dirty = false;
     let to_run: Vec<&Decision> = decisions
         .iter()
         .filter(|d| d.action == Action::Run)
@@ -257,6 +256,114 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
     let progress = Progress::new(opts.progress, to_run.len(), total_cost);
 
     // cached stages: nothing to compute; restore side outputs that are missing or edited
+    let mut index_dirty = settle_cached(
+        ws,
+        plan,
+        &decisions,
+        &log,
+        &progress,
+        &mut index,
+        &mut summary,
+    );
+    if index_dirty {
+        save_index(&index, ws, &mut summary.warnings);
+        index_dirty = false;
+    }
+
+    // stages to run: wait for the inputs that run too
+    let mut sched = Schedule::new(plan, &to_run);
+    let (tx, rx) = mpsc::channel::<(usize, Result<Executed>)>();
+    let started = Instant::now();
+    let mut last_index_save = Instant::now();
+    let cluster = match &opts.executor {
+        Executor::Local => None,
+        Executor::Slurm(o) => {
+            let keys = to_run.iter().map(|d| d.key.clone()).collect();
+            Some(crate::slurm::Controller::start(
+                ws, o, &keys, &log, &progress,
+            )?)
+        }
+    };
+    let slurm = cluster.as_ref().map(|c| c.slurm.as_ref());
+
+    let result = std::thread::scope(|scope| -> Result<()> {
+        let mut running = 0usize;
+        loop {
+            while running < jobs {
+                let Some(i) = sched.ready.pop_first() else {
+                    break;
+                };
+                let s = &plan.stages[i];
+                log.push(&s.name, &s.kind, &s.key, What::Started);
+                let sink = progress.started(&s.name, &s.kind, s.cost);
+                let tx = tx.clone();
+                let ws = ws.clone();
+                let log = &log;
+                scope.spawn(move || {
+                    let r = match slurm {
+                        None => execute(&ws, plan, s, Some(sink), jobs == 1),
+                        Some(c) => crate::slurm::execute_stage(c, &ws, s, log),
+                    };
+                    let _ = tx.send((i, r));
+                });
+                running += 1;
+            }
+            if running == 0 {
+                break;
+            }
+            let (i, result) = rx.recv().map_err(|_| anyhow!("a stage worker vanished"))?;
+            running -= 1;
+            let s = &plan.stages[i];
+            match result {
+                Ok(x) => {
+                    report_ran(s, x, &log, &progress, &mut summary);
+                    index.record(plan, s);
+                    index_dirty = true;
+                    // the index only explains reruns; saving it at most once a second keeps
+                    // two fsyncs per stage off the critical path
+                    if last_index_save.elapsed().as_secs_f64() >= 1.0 {
+                        index_dirty = !save_index(&index, ws, &mut summary.warnings);
+                        last_index_save = Instant::now();
+                    }
+                    sched.done(i);
+                }
+                Err(e) => report_failed(plan, &mut sched, i, &e, &log, &progress, &mut summary),
+            }
+        }
+        Ok(())
+    });
+    if let Some(c) = cluster {
+        c.stop();
+    }
+    result?;
+    drop(tx);
+    progress.finish();
+    if index_dirty {
+        save_index(&index, ws, &mut summary.warnings);
+    }
+    record_outputs(ws, plan, &summary);
+    ws.save_verified();
+    summary.wall_s = started.elapsed().as_secs_f64();
+    summary.hashing = store::HashStats::now().since(&hash0);
+    log.push("", "", "", finished_event(&summary, log.elapsed()));
+    summary.events = log.events();
+    summary.decisions = decisions;
+    Ok(summary)
+}
+
+/// Stages taken from the cache: their log lines and index entries, and side outputs restored
+/// where missing or edited (a stage is done only when its declared outputs are in place).
+/// Returns whether the index changed.
+fn settle_cached(
+    ws: &Workspace,
+    plan: &Plan,
+    decisions: &[Decision],
+    log: &EventLog,
+    progress: &Progress,
+    index: &mut Index,
+    summary: &mut RunSummary,
+) -> bool {
+    let mut index_dirty = false;
     for d in decisions.iter().filter(|d| d.action == Action::Cached) {
         let s = &plan.stages[d.index];
         log.push(&s.name, &s.kind, &s.key, What::Cached);
@@ -300,193 +407,171 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
             }
         }
     }
-    if index_dirty {
-        save_index(&index, ws, &mut summary.warnings);
-        index_dirty = false;
-    }
+    index_dirty
+}
 
-    // stages to run: wait for the inputs that run too
-    let run_set: BTreeSet<usize> = to_run.iter().map(|d| d.index).collect();
-    let mut waiting_on: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
-    for &i in &run_set {
-        let deps: BTreeSet<usize> = plan.stages[i]
-            .inputs
-            .values()
-            .flatten()
-            .filter_map(|n| plan.index_of(n))
-            .filter(|j| run_set.contains(j))
+/// The stages a run computes, in dependency order: which are ready, which wait for inputs
+/// that run too, and which are blocked by a failure upstream.
+struct Schedule {
+    run_set: BTreeSet<usize>,
+    waiting_on: BTreeMap<usize, BTreeSet<usize>>,
+    ready: BTreeSet<usize>,
+    blocked: BTreeSet<usize>,
+}
+
+impl Schedule {
+    fn new(plan: &Plan, to_run: &[&Decision]) -> Schedule {
+        let run_set: BTreeSet<usize> = to_run.iter().map(|d| d.index).collect();
+        let mut waiting_on: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
+        for &i in &run_set {
+            let deps: BTreeSet<usize> = plan.stages[i]
+                .inputs
+                .values()
+                .flatten()
+                .filter_map(|n| plan.index_of(n))
+                .filter(|j| run_set.contains(j))
+                .collect();
+            waiting_on.insert(i, deps);
+        }
+        let ready = waiting_on
+            .iter()
+            .filter(|(_, d)| d.is_empty())
+            .map(|(i, _)| *i)
             .collect();
-        waiting_on.insert(i, deps);
-    }
-    let mut ready: BTreeSet<usize> = waiting_on
-        .iter()
-        .filter(|(_, d)| d.is_empty())
-        .map(|(i, _)| *i)
-        .collect();
-    let mut blocked: BTreeSet<usize> = BTreeSet::new();
-    let (tx, rx) = mpsc::channel::<(usize, Result<Executed>)>();
-    let started = Instant::now();
-    let mut last_index_save = Instant::now();
-    let cluster = match &opts.executor {
-        Executor::Local => None,
-        Executor::Slurm(o) => {
-            let keys = to_run.iter().map(|d| d.key.clone()).collect();
-            Some(crate::slurm::Controller::start(
-                ws, o, &keys, &log, &progress,
-            )?)
+        Schedule {
+            run_set,
+            waiting_on,
+            ready,
+            blocked: BTreeSet::new(),
         }
-    };
-    let slurm = cluster.as_ref().map(|c| c.slurm.as_ref());
+    }
 
-    let result = std::thread::scope(|scope| -> Result<()> {
-        let mut running = 0usize;
-        loop {
-            while running < jobs {
-                let Some(i) = ready.pop_first() else { break };
-                let s = &plan.stages[i];
-                log.push(&s.name, &s.kind, &s.key, What::Started);
-                let sink = progress.started(&s.name, &s.kind, s.cost);
-                let tx = tx.clone();
-                let ws = ws.clone();
-                let log = &log;
-                scope.spawn(move || {
-                    let r = match slurm {
-                        None => execute(&ws, plan, s, Some(sink), jobs == 1),
-                        Some(c) => crate::slurm::execute_stage(c, &ws, s, log),
-                    };
-                    let _ = tx.send((i, r));
-                });
-                running += 1;
-            }
-            if running == 0 {
-                break;
-            }
-            let (i, result) = rx.recv().map_err(|_| anyhow!("a stage worker vanished"))?;
-            running -= 1;
-            let s = &plan.stages[i];
-            match result {
-                Ok(x) => {
-                    progress.finished(
-                        &s.name,
-                        s.cost,
-                        &format!(
-                            "ran {} ({} {}) in {}{}",
-                            s.name,
-                            s.kind,
-                            short(&s.key),
-                            human_duration(x.wall_s),
-                            if x.warnings.is_empty() {
-                                String::new()
-                            } else {
-                                format!("; warnings: {}", x.warnings.join("; "))
-                            }
-                        ),
-                    );
-                    summary.stage_s += x.wall_s;
-                    log.push(
-                        &s.name,
-                        &s.kind,
-                        &s.key,
-                        What::Ran {
-                            wall_s: x.wall_s,
-                            warnings: x.warnings,
-                            bytes: x.bytes,
-                        },
-                    );
-                    summary.ran.push(s.name.clone());
-                    index.record(plan, s);
-                    index_dirty = true;
-                    // the index only explains reruns; saving it at most once a second keeps
-                    // two fsyncs per stage off the critical path
-                    if last_index_save.elapsed().as_secs_f64() >= 1.0 {
-                        index_dirty = !save_index(&index, ws, &mut summary.warnings);
-                        last_index_save = Instant::now();
-                    }
-                    for (j, deps) in waiting_on.iter_mut() {
-                        if deps.remove(&i) && deps.is_empty() && !blocked.contains(j) {
-                            ready.insert(*j);
-                        }
-                    }
-                }
-                Err(e) => {
-                    let msg = format!("{e:#}");
-                    progress.finished(
-                        &s.name,
-                        s.cost,
-                        &format!("FAILED {} ({} {}): {msg}", s.name, s.kind, short(&s.key)),
-                    );
-                    log.push(
-                        &s.name,
-                        &s.kind,
-                        &s.key,
-                        What::Failed { error: msg.clone() },
-                    );
-                    summary.failed.push((s.name.clone(), s.key.clone(), msg));
-                    for j in plan.downstream(i) {
-                        if run_set.contains(&j) && blocked.insert(j) {
-                            ready.remove(&j);
-                            let d = &plan.stages[j];
-                            progress.finished(
-                                &d.name,
-                                d.cost,
-                                &format!("skipped {} (upstream {} failed)", d.name, s.name),
-                            );
-                            log.push(
-                                &d.name,
-                                &d.kind,
-                                &d.key,
-                                What::Skipped {
-                                    because: s.name.clone(),
-                                },
-                            );
-                            summary.skipped.push((d.name.clone(), s.name.clone()));
-                        }
-                    }
-                }
+    /// Stage `i` ran: the stages waiting for nothing else become ready.
+    fn done(&mut self, i: usize) {
+        for (j, deps) in self.waiting_on.iter_mut() {
+            if deps.remove(&i) && deps.is_empty() && !self.blocked.contains(j) {
+                self.ready.insert(*j);
             }
         }
-        Ok(())
-    });
-    if let Some(c) = cluster {
-        c.stop();
     }
-    result?;
-    drop(tx);
-    progress.finish();
-    if index_dirty {
-        save_index(&index, ws, &mut summary.warnings);
+
+    /// Stage `i` failed: the stages to run downstream of it are blocked; returns those newly
+    /// blocked.
+    fn fail(&mut self, plan: &Plan, i: usize) -> Vec<usize> {
+        let mut newly = Vec::new();
+        for j in plan.downstream(i) {
+            if self.run_set.contains(&j) && self.blocked.insert(j) {
+                self.ready.remove(&j);
+                newly.push(j);
+            }
+        }
+        newly
     }
-    record_outputs(ws, plan, &summary);
-    ws.save_verified();
-    summary.wall_s = started.elapsed().as_secs_f64();
-    summary.hashing = store::HashStats::now().since(&hash0);
-    let h = &summary.hashing;
+}
+
+/// A stage that ran: its progress line, log event and summary entry.
+fn report_ran(
+    s: &PlannedStage,
+    x: Executed,
+    log: &EventLog,
+    progress: &Progress,
+    summary: &mut RunSummary,
+) {
+    progress.finished(
+        &s.name,
+        s.cost,
+        &format!(
+            "ran {} ({} {}) in {}{}",
+            s.name,
+            s.kind,
+            short(&s.key),
+            human_duration(x.wall_s),
+            if x.warnings.is_empty() {
+                String::new()
+            } else {
+                format!("; warnings: {}", x.warnings.join("; "))
+            }
+        ),
+    );
+    summary.stage_s += x.wall_s;
     log.push(
-        "",
-        "",
-        "",
-        What::RunFinished {
-            ran: summary.ran.len(),
-            cached: summary.cached.len(),
-            failed: summary.failed.len(),
-            skipped: summary.skipped.len(),
-            wall_s: log.elapsed(),
-            stage_s: summary.stage_s,
-            hashing: crate::events::Hashing {
-                seconds: h.seconds(),
-                bytes: h.bytes(),
-                publish_s: h.publish.seconds,
-                publish_n: h.publish.calls,
-                verify_s: h.verify.seconds,
-                verify_n: h.verify.calls,
-                files_s: h.file.seconds,
-                files_n: h.file.calls,
-            },
+        &s.name,
+        &s.kind,
+        &s.key,
+        What::Ran {
+            wall_s: x.wall_s,
+            warnings: x.warnings,
+            bytes: x.bytes,
         },
     );
-    summary.events = log.events();
-    summary.decisions = decisions;
-    Ok(summary)
+    summary.ran.push(s.name.clone());
+}
+
+/// A stage that failed: its progress line, log event and summary entry, and the same for every
+/// stage downstream that was to run and is now skipped.
+fn report_failed(
+    plan: &Plan,
+    sched: &mut Schedule,
+    i: usize,
+    e: &anyhow::Error,
+    log: &EventLog,
+    progress: &Progress,
+    summary: &mut RunSummary,
+) {
+    let s = &plan.stages[i];
+    let msg = format!("{e:#}");
+    progress.finished(
+        &s.name,
+        s.cost,
+        &format!("FAILED {} ({} {}): {msg}", s.name, s.kind, short(&s.key)),
+    );
+    log.push(
+        &s.name,
+        &s.kind,
+        &s.key,
+        What::Failed { error: msg.clone() },
+    );
+    summary.failed.push((s.name.clone(), s.key.clone(), msg));
+    for j in sched.fail(plan, i) {
+        let d = &plan.stages[j];
+        progress.finished(
+            &d.name,
+            d.cost,
+            &format!("skipped {} (upstream {} failed)", d.name, s.name),
+        );
+        log.push(
+            &d.name,
+            &d.kind,
+            &d.key,
+            What::Skipped {
+                because: s.name.clone(),
+            },
+        );
+        summary.skipped.push((d.name.clone(), s.name.clone()));
+    }
+}
+
+/// The run's closing event from its summary.
+fn finished_event(summary: &RunSummary, wall_s: f64) -> What {
+    let h = &summary.hashing;
+    What::RunFinished {
+        ran: summary.ran.len(),
+        cached: summary.cached.len(),
+        failed: summary.failed.len(),
+        skipped: summary.skipped.len(),
+        wall_s,
+        stage_s: summary.stage_s,
+        hashing: crate::events::Hashing {
+            seconds: h.seconds(),
+            bytes: h.bytes(),
+            publish_s: h.publish.seconds,
+            publish_n: h.publish.calls,
+            verify_s: h.verify.seconds,
+            verify_n: h.verify.calls,
+            files_s: h.file.seconds,
+            files_n: h.file.calls,
+        },
+    }
 }
 
 /// Saves the index; a failure (disk full, read-only folder) is a warning of the run, not its
