@@ -18,9 +18,10 @@
 //! - root attributes (one realisation, [`SUMMARY`] order): `seed`, `hurst`, `qr`, `qs`, `p_fc`,
 //!   `l_c`, `l_c_lo`, `l_c_hi`, `l_c_x`, `l_c_y`, `a_p_raw`, `a_p_corrected`, `axis` (0 = x,
 //!   1 = y), `node_i`, `node_j`, `x`, `y`, `gap`, `eta_height`, `eta_gap` (NaN where contact is
-//!   within the stencil), `drop_fraction`, `drop_axial`, `beta`, `beta_err`, `beta_points`,
+//!   within the stencil: `eta_gap_status` says why), `drop_fraction`, `drop_axial`, `beta`, `beta_err`, `beta_points`,
 //!   `gap_exponent`, `gap_exponent_err`, `n_rungs`, `n_resolved`, `wall_s`;
-//!   also `lx`, `ly`, `nx`, `ny`;
+//!   also `lx`, `ly`, `nx`, `ny`, and the string `eta_gap_status` ([`eta_gap_status`]:
+//!   `eighth`, `second`, `contact_in_3x3`, `stencil_error`, or `no_constriction`);
 //! - `rungs/<column>` ([`RUNG_COLUMNS`]), largest d first;
 //! - `running/beta/{d_hi,d_lo,value,error}` and `running/gap/…`;
 //! - `map/gap`: the gap just below L_c (the bracket's lower end).
@@ -43,7 +44,7 @@ use store::{ArtefactReader, ArtefactWriter};
 pub struct ConstrictionKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 1;
+pub const CODE_VERSION: u64 = 2;
 
 /// The kind's parameters.
 #[derive(Clone, Debug, Deserialize)]
@@ -208,6 +209,16 @@ pub const SUMMARY: [&str; 30] = [
     "wall_s",
 ];
 
+/// How `eta_gap` was measured or why it is NaN: the stencil (`eighth`, `second`), or
+/// `contact_in_3x3` (a throat whose neighbours touch: the gap is only C¹ across a contact line,
+/// no curvature), `stencil_error`, `no_constriction` (the fluid does not wind just below L_c).
+pub fn eta_gap_status(s: &ConstrictionStudy) -> &'static str {
+    s.at_l_c
+        .constriction
+        .as_ref()
+        .map_or("no_constriction", |c| c.gap_curvature_status.code())
+}
+
 /// The summary values of a study ([`SUMMARY`] order, the surface's four first).
 pub fn summary(s: &ConstrictionStudy, surface: [f64; 4]) -> Vec<f64> {
     let c = s.at_l_c.constriction.as_ref();
@@ -353,6 +364,7 @@ impl TypedKind for ConstrictionKind {
         for (k, v) in SUMMARY.iter().zip(&values) {
             out.set_attr(k, *v)?;
         }
+        out.set_attr("eta_gap_status", eta_gap_status(&s))?;
         for c in &RUNG_COLUMNS {
             let v: Vec<f64> = s.rungs.iter().map(|r| (c.get)(r)).collect();
             out.write_f64_1d(&format!("rungs/{}", c.name), &v)?;
@@ -414,6 +426,8 @@ pub struct SlopesRead {
 pub struct ConstrictionRead {
     /// [`SUMMARY`] by name.
     pub summary: BTreeMap<String, f64>,
+    /// [`eta_gap_status`].
+    pub eta_gap_status: String,
     /// `rungs/*` by column name.
     pub rungs: BTreeMap<String, Vec<f64>>,
     /// Running β.
@@ -455,6 +469,7 @@ impl ConstrictionRead {
         };
         Ok(ConstrictionRead {
             summary,
+            eta_gap_status: r.attr_str("eta_gap_status")?,
             rungs,
             running_beta: slopes("running/beta")?,
             running_gap: slopes("running/gap")?,
@@ -512,6 +527,14 @@ mod tests {
         let c = direct.at_l_c.constriction.as_ref().unwrap();
         assert_eq!(r.get("node_i"), c.node.0 as f64);
         assert_eq!(r.get("drop_fraction"), direct.at_l_c.drop.unwrap());
+        // η of the gap: a value exactly when the status names a stencil
+        assert_eq!(r.eta_gap_status, c.gap_curvature_status.code());
+        assert_eq!(
+            r.get("eta_gap").is_finite(),
+            matches!(r.eta_gap_status.as_str(), "eighth" | "second"),
+            "{}",
+            r.eta_gap_status
+        );
         assert_eq!(
             r.get("n_resolved"),
             direct.rungs.iter().filter(|q| q.resolved).count() as f64

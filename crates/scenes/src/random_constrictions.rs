@@ -9,7 +9,9 @@
 //! - `random_constrictions.csv`, one row per realisation: the columns of
 //!   [`kinds::constriction::SUMMARY`] but `wall_s` (seed, L_c, a_p, the constriction's node, gap, η of
 //!   heights and gap, pressure-drop fraction just below L_c, β window fit with 1σ and points,
-//!   the constriction-gap exponent, rungs used) and `running_beta` (the local slopes between
+//!   the constriction-gap exponent, rungs used), `eta_gap_status` (the stencil of `eta_gap`, or
+//!   why it is NaN: `contact_in_3x3` for a one-node throat whose neighbours touch) and
+//!   `running_beta` (the local slopes between
 //!   neighbouring used rungs, farthest first, `;`-separated);
 //! - `random_constrictions_summary.csv`: mean, sd, sem and count over the realisations of a_p,
 //!   η, β, the gap exponent and the drop fraction, and the Pearson correlation of β with ln η;
@@ -77,6 +79,10 @@ pub fn table(rows: &[ConstrictionRead]) -> Table {
         t = t.with_f64(k, rows.iter().map(|r| r.get(k)));
     }
     t.with_str(
+        "eta_gap_status",
+        rows.iter().map(|r| r.eta_gap_status.clone()),
+    )
+    .with_str(
         "running_beta",
         rows.iter().map(|r| {
             r.running_beta
