@@ -12,7 +12,8 @@
 //! - `random_constrictions.csv`, one row per realisation: the columns of
 //!   [`kinds::constriction::SUMMARY`] but `wall_s` (seed, H, q_s, L_c, a_p, the constriction's
 //!   node, gap, η of heights and gap, pressure-drop fraction just below L_c, β window fit with
-//!   1σ and points, the constriction-gap exponent, rungs used), `eta_gap_status` (the stencil of
+//!   1σ and points, the constriction-gap exponent, rungs used; `eta_gap_nearest`: η of the gap
+//!   at the rung nearest L_c where it is defined), `eta_gap_status` (the stencil of
 //!   `eta_gap`, or why it is NaN: `contact_in_3x3` for a one-node throat whose neighbours touch)
 //!   and `running_beta` (the local slopes between neighbouring used rungs, farthest first,
 //!   `;`-separated);
@@ -60,7 +61,14 @@ pub fn stats(v: &[f64]) -> (f64, f64, f64, usize) {
     (m, sd, sd / n.sqrt(), v.len())
 }
 
-/// Pearson correlation of the pairs where both are finite (NaN with fewer than 3).
+/// The values are not all equal (a constant has no correlation and no slope; its computed
+/// spread is rounding, not zero).
+fn spread(v: &[f64]) -> bool {
+    v.iter().any(|x| *x != v[0])
+}
+
+/// Pearson correlation of the pairs where both are finite (NaN with fewer than 3, or if either
+/// is constant).
 pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
     let (x, y): (Vec<f64>, Vec<f64>) = a
         .iter()
@@ -68,7 +76,7 @@ pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
         .filter(|(x, y)| x.is_finite() && y.is_finite())
         .map(|(x, y)| (*x, *y))
         .unzip();
-    if x.len() < 3 {
+    if x.len() < 3 || !spread(&x) || !spread(&y) {
         return f64::NAN;
     }
     let (mx, sx, _, _) = stats(&x);
@@ -107,10 +115,11 @@ pub fn table(rows: &[ConstrictionRead]) -> Table {
 }
 
 /// Columns summarised over the realisations.
-pub const SUMMARISED: [&str; 6] = [
+pub const SUMMARISED: [&str; 7] = [
     "a_p_raw",
     "eta_height",
     "eta_gap",
+    "eta_gap_nearest",
     "beta",
     "gap_exponent",
     "drop_fraction",
@@ -197,7 +206,7 @@ pub fn slope(x: &[f64], y: &[f64]) -> (f64, f64) {
         .map(|(a, b)| (*a, *b))
         .unzip();
     let n = x.len();
-    if n < 3 {
+    if n < 3 || !spread(&x) {
         return (f64::NAN, f64::NAN);
     }
     let (mx, _, _, _) = stats(&x);
@@ -495,6 +504,13 @@ mod tests {
             assert!((m - (0.3 + 0.2 * h)).abs() < 1e-12, "{h}: {m}");
         }
         assert_eq!(series[0].points.len(), 6);
+        // the single-H group: no correlation with H
+        let csv_q64 = String::from_utf8(tables::csv_bytes(&t).unwrap()).unwrap();
+        let last = csv_q64.lines().last().unwrap().to_string();
+        assert!(
+            last.starts_with("64.0,0.8,1.0,") && last.ends_with("NaN,NaN,NaN"),
+            "{last}"
+        );
         let csv = String::from_utf8(tables::csv_bytes(&t).unwrap()).unwrap();
         assert_eq!(csv.lines().count(), 1 + 4, "{csv}");
         let (s, _) = slope(
@@ -528,6 +544,8 @@ mod tests {
         assert!((s + 2.0).abs() < 1e-12 && e.abs() < 1e-12, "{s} {e}");
         let (s, e) = slope(&[0.0, 1.0, 2.0, 3.0], &[0.0, 1.0, 0.0, 1.0]);
         assert!((s - 0.2).abs() < 1e-12 && (e - (0.4f64 / 5.0).sqrt()).abs() < 1e-12);
-        assert!(slope(&[1.0, 1.0, 1.0], &[0.0, 1.0, 2.0]).0.is_nan());
+        // one H only (0.8 three times: its rounded spread is not zero): no slope, no correlation
+        assert!(slope(&[0.8, 0.8, 0.8], &[0.0, 1.0, 2.0]).0.is_nan());
+        assert!(pearson(&[0.8, 0.8, 0.8], &[0.0, 1.0, 2.0]).is_nan());
     }
 }
