@@ -116,9 +116,12 @@ pub fn group_color(k: usize) -> crate::style::Rgb {
     CYCLE[k % CYCLE.len()]
 }
 
-/// `(d, flux / flux(d_ref))` of the positive finite points, and the d used as reference:
-/// [`D_REF`] if the curve has it (to 1e-9 relative), else its largest d.
-pub fn normalise(d: &[f64], flux: &[f64]) -> Option<(Vec<(usize, f64, f64)>, f64)> {
+/// A normalised point: its index in the curve, d, flux / flux(d_ref).
+pub type NormPoint = (usize, f64, f64);
+
+/// `(index, d, flux / flux(d_ref))` of the positive finite points, and the d used as
+/// reference: [`D_REF`] if the curve has it (to 1e-9 relative), else its largest d.
+pub fn normalise(d: &[f64], flux: &[f64]) -> Option<(Vec<NormPoint>, f64)> {
     let ok: Vec<usize> = (0..d.len().min(flux.len()))
         .filter(|&i| flux[i] > 0.0 && flux[i].is_finite() && d[i] > 0.0)
         .collect();
