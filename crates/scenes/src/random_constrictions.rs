@@ -15,11 +15,13 @@
 //!   1σ and points, the constriction-gap exponent, rungs used; `eta_gap_nearest`: η of the gap
 //!   at the rung nearest L_c where it is defined), `eta_gap_status` (the stencil of
 //!   `eta_gap`, or why it is NaN: `contact_in_3x3` for a one-node throat whose neighbours touch)
-//!   and `running_beta` (the local slopes between neighbouring used rungs, farthest first,
+//!   `beta_converged` (± `_err`, `_points`: the β fit over the used rungs with d ≥ 5e-3, the
+//!   grid-converged range, [`beta_converged`]) and `running_beta` (the local slopes between
+//!   neighbouring used rungs, farthest first,
 //!   `;`-separated);
 //! - `random_constrictions_summary.csv`: per group (H, q_s) mean, sd, sem and count of a_p, η,
-//!   β, the gap exponent and the drop fraction, and the group's Pearson correlation of β with
-//!   ln η;
+//!   β, the gap exponent, the drop fraction and `beta_converged`, and the group's Pearson
+//!   correlation of β with ln η;
 //! - `random_constrictions_hurst.csv`: per q_s and H the count, a_p (mean, sd, sem) and β (mean,
 //!   sem); per q_s the correlation of a_p with H over the realisations and the least-squares
 //!   slope da_p/dH with its standard error;
@@ -89,6 +91,34 @@ pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
         / ((n - 1.0) * sx * sy)
 }
 
+/// The smallest distance of the grid-converged β fit: on 4 surfaces (q_s = 8) solved on 2^9 and
+/// 2^10 the local exponents agree to ≤ 0.05 for d ≥ 5e-3 and differ by up to 0.2 below
+/// (README, "Seals on random surfaces"); nearer L_c the throat becomes one node again.
+pub const D_CONVERGED: f64 = 5e-3;
+
+/// The β fit over a realisation's used rungs with d ≥ [`D_CONVERGED`]: value, 1σ, points
+/// (NaN, NaN, count where fewer than 3 rungs: the fit's error needs one degree of freedom).
+pub fn beta_converged(r: &ConstrictionRead) -> (f64, f64, usize) {
+    let (Some(d), Some(flux), Some(used)) = (
+        r.rungs.get("d"),
+        r.rungs.get("flux"),
+        r.rungs.get("resolved"),
+    ) else {
+        return (f64::NAN, f64::NAN, 0);
+    };
+    let (ls, q): (Vec<f64>, Vec<f64>) = (0..d.len())
+        .filter(|&i| used[i] > 0.5 && d[i] >= D_CONVERGED * (1.0 - 1e-12))
+        .map(|i| (-d[i], flux[i]))
+        .unzip();
+    if ls.len() < 3 {
+        return (f64::NAN, f64::NAN, ls.len());
+    }
+    match critical::scaling::fit_exponent(&ls, &q) {
+        Ok(f) => (f.value, f.error, f.points),
+        Err(_) => (f64::NAN, f64::NAN, ls.len()),
+    }
+}
+
 /// The per-realisation table.
 pub fn table(rows: &[ConstrictionRead]) -> Table {
     let mut t = Table::new();
@@ -97,21 +127,25 @@ pub fn table(rows: &[ConstrictionRead]) -> Table {
     for k in SUMMARY.iter().filter(|k| **k != "wall_s") {
         t = t.with_f64(k, rows.iter().map(|r| r.get(k)));
     }
-    t.with_str(
-        "eta_gap_status",
-        rows.iter().map(|r| r.eta_gap_status.clone()),
-    )
-    .with_str(
-        "running_beta",
-        rows.iter().map(|r| {
-            r.running_beta
-                .value
-                .iter()
-                .map(|v| format!("{v:.4}"))
-                .collect::<Vec<_>>()
-                .join(";")
-        }),
-    )
+    let bc: Vec<(f64, f64, usize)> = rows.iter().map(beta_converged).collect();
+    t.with_f64("beta_converged", bc.iter().map(|b| b.0))
+        .with_f64("beta_converged_err", bc.iter().map(|b| b.1))
+        .with_f64("beta_converged_points", bc.iter().map(|b| b.2 as f64))
+        .with_str(
+            "eta_gap_status",
+            rows.iter().map(|r| r.eta_gap_status.clone()),
+        )
+        .with_str(
+            "running_beta",
+            rows.iter().map(|r| {
+                r.running_beta
+                    .value
+                    .iter()
+                    .map(|v| format!("{v:.4}"))
+                    .collect::<Vec<_>>()
+                    .join(";")
+            }),
+        )
 }
 
 /// Columns summarised over the realisations.
@@ -173,8 +207,19 @@ pub fn summary(rows: &[ConstrictionRead]) -> Table {
         };
         let ln_eta: Vec<f64> = col("eta_height").iter().map(|e| e.ln()).collect();
         let r = pearson(&col("beta"), &ln_eta);
-        for c in SUMMARISED {
-            let (m, s, e, n) = stats(&col(c));
+        let bc: Vec<f64> = rows
+            .iter()
+            .zip(&idx)
+            .filter(|(_, i)| **i == k)
+            .map(|(r, _)| beta_converged(r).0)
+            .collect();
+        for c in SUMMARISED.iter().copied().chain(["beta_converged"]) {
+            let v = if c == "beta_converged" {
+                bc.clone()
+            } else {
+                col(c)
+            };
+            let (m, s, e, n) = stats(&v);
             hs.push(h);
             qs.push(q);
             qty.push(c.to_string());
@@ -321,7 +366,7 @@ impl Scene for RandomConstrictions {
         "the last constriction and β on random surfaces, per realisation and per spectrum (H, q_s) (tables, gap map with zoom, flux vs L_c − L beside the lattices' ladders, β vs η, a_p vs H)"
     }
     fn code_version(&self) -> u64 {
-        2
+        3
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
@@ -522,7 +567,41 @@ mod tests {
         );
         assert!((s - 0.2).abs() < 1e-9, "{s}");
         let sum = String::from_utf8(tables::csv_bytes(&summary(&rows)).unwrap()).unwrap();
-        assert_eq!(sum.lines().count(), 1 + 4 * SUMMARISED.len(), "{sum}");
+        assert_eq!(sum.lines().count(), 1 + 4 * (SUMMARISED.len() + 1), "{sum}");
+    }
+
+    /// Oracle: flux = d^3.6 on d ≥ 5e-3 and a one-node tail ∝ d³ below (continuous at 5e-3):
+    /// the converged fit is 3.6 exactly (to rounding), whatever the tail; an unused rung in the
+    /// range is left out; fewer than 3 rungs give NaN.
+    #[test]
+    fn beta_converged_fits_the_grid_converged_rungs_only() {
+        let d = vec![5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3];
+        let flux: Vec<f64> = d
+            .iter()
+            .map(|x: &f64| {
+                if *x >= 5e-3 {
+                    x.powf(3.6)
+                } else {
+                    5e-3f64.powf(3.6) * (x / 5e-3).powi(3)
+                }
+            })
+            .collect();
+        let mut r = row(0.8, 8.0, 0.4, 3.3);
+        r.rungs.insert("d".into(), d.clone());
+        r.rungs.insert("flux".into(), flux.clone());
+        r.rungs.insert("resolved".into(), vec![1.0; 6]);
+        let (b, _, n) = beta_converged(&r);
+        assert_eq!(n, 4);
+        assert!((b - 3.6).abs() < 1e-9, "{b}");
+        r.rungs
+            .insert("resolved".into(), vec![1.0, 0.0, 1.0, 1.0, 1.0, 1.0]);
+        let (b, _, n) = beta_converged(&r);
+        assert_eq!(n, 3);
+        assert!((b - 3.6).abs() < 1e-9, "{b}");
+        r.rungs
+            .insert("resolved".into(), vec![1.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+        let (b, _, n) = beta_converged(&r);
+        assert!(b.is_nan() && n == 2);
     }
 
     /// Oracles: mean 2, sd 1, sem 1/√3 of (1, 2, 3); a perfect linear relation correlates 1,

@@ -313,7 +313,7 @@ pub fn beta_eta_figure(d: &BetaEtaFig) -> Result<Figure> {
         stroke: Stroke::dotted(GREY),
         label: Some("3".into()),
     });
-    Ok(single_panel(540.0, 420.0, p, LegendPos::TopLeft))
+    Ok(single_panel(540.0, 420.0, p, LegendPos::BottomRight))
 }
 
 /// a_p against H: every realisation (small open markers) and the mean ± standard error per H
