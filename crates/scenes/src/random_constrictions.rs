@@ -21,7 +21,7 @@
 //!   `;`-separated);
 //! - `random_constrictions_summary.csv`: per group (H, q_s) mean, sd, sem and count of a_p, η,
 //!   β, the gap exponent, the drop fraction and `beta_converged`, and the group's Pearson
-//!   correlation of β with ln η;
+//!   correlations of β and of `beta_converged` with ln η of the heights;
 //! - `random_constrictions_hurst.csv`: per q_s and H the count, a_p (mean, sd, sem) and β (mean,
 //!   sem); per q_s the correlation of a_p with H over the realisations and the least-squares
 //!   slope da_p/dH with its standard error;
@@ -29,7 +29,7 @@
 //!   constriction circled, and a zoom), `random_constrictions_flux` (flux against
 //!   d = (L_c − L)/L_c, all realisations and the lattices' ladders, each normalised at d = 5e-2,
 //!   with the paper's slope 3.45 and the one-node slope 3), `random_constrictions_beta_eta`
-//!   (β against η) and `random_constrictions_ap_hurst` (a_p against H, mean ± sem).
+//!   (`beta_converged` against η) and `random_constrictions_ap_hurst` (a_p against H, mean ± sem).
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
@@ -195,8 +195,14 @@ pub fn group_label((h, qs): (f64, f64)) -> String {
 pub fn summary(rows: &[ConstrictionRead]) -> Table {
     let (g, idx) = groups(rows);
     let (mut hs, mut qs, mut qty) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut mean, mut sd, mut sem, mut count, mut corr) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut mean, mut sd, mut sem, mut count, mut corr, mut corr_c) = (
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+    );
     for (k, &(h, q)) in g.iter().enumerate() {
         let col = |c: &str| {
             rows.iter()
@@ -213,6 +219,7 @@ pub fn summary(rows: &[ConstrictionRead]) -> Table {
             .filter(|(_, i)| **i == k)
             .map(|(r, _)| beta_converged(r).0)
             .collect();
+        let rc = pearson(&bc, &ln_eta);
         for c in SUMMARISED.iter().copied().chain(["beta_converged"]) {
             let v = if c == "beta_converged" {
                 bc.clone()
@@ -228,6 +235,7 @@ pub fn summary(rows: &[ConstrictionRead]) -> Table {
             sem.push(e);
             count.push(n as f64);
             corr.push(r);
+            corr_c.push(rc);
         }
     }
     Table::new()
@@ -239,6 +247,7 @@ pub fn summary(rows: &[ConstrictionRead]) -> Table {
         .with_f64("sem", sem)
         .with_f64("count", count)
         .with_f64("corr_beta_ln_eta", corr)
+        .with_f64("corr_beta_converged_ln_eta", corr_c)
 }
 
 /// Least-squares slope of y on x over the finite pairs and its standard error (NaN with fewer
@@ -366,7 +375,7 @@ impl Scene for RandomConstrictions {
         "the last constriction and β on random surfaces, per realisation and per spectrum (H, q_s) (tables, gap map with zoom, flux vs L_c − L beside the lattices' ladders, β vs η, a_p vs H)"
     }
     fn code_version(&self) -> u64 {
-        3
+        4
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
@@ -462,12 +471,14 @@ impl Scene for RandomConstrictions {
             lattices,
         })?;
         let col = |k: &str| rows.iter().map(|r| r.get(k)).collect::<Vec<_>>();
+        let bc: Vec<(f64, f64, usize)> = rows.iter().map(beta_converged).collect();
         let be = beta_eta_figure(&BetaEtaFig {
             groups: labels,
             group: idx.clone(),
             eta: col("eta_height"),
-            beta: col("beta"),
-            beta_err: col("beta_err"),
+            beta: bc.iter().map(|b| b.0).collect(),
+            beta_err: bc.iter().map(|b| b.1).collect(),
+            beta_label: format!("β (fit over {D_CONVERGED} ≤ $d$ ≤ 0.05)"),
         })?;
         let (hurst, ap_series) = hurst_table(&rows);
         let ap = ap_hurst_figure(&ap_series)?;

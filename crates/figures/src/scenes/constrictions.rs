@@ -90,10 +90,12 @@ pub struct BetaEtaFig {
     pub group: Vec<usize>,
     /// η of the heights at the constriction.
     pub eta: Vec<f64>,
-    /// β window fit.
+    /// β (a fit per realisation).
     pub beta: Vec<f64>,
     /// Its 1σ (NaN: none).
     pub beta_err: Vec<f64>,
+    /// The y axis' label (which fit).
+    pub beta_label: String,
 }
 
 /// a_p against H, one series per q_s.
@@ -261,7 +263,7 @@ pub fn flux_figure(d: &FluxFig) -> Result<Figure> {
     Ok(single_panel(600.0, 460.0, p, LegendPos::BottomRight))
 }
 
-/// β (window fit, 1σ bars) against η of the constriction's heights, one colour per group, the
+/// β (1σ bars) against η of the constriction's heights, one colour per group, the
 /// paper's β marked.
 pub fn beta_eta_figure(d: &BetaEtaFig) -> Result<Figure> {
     let n = d.eta.len();
@@ -277,7 +279,10 @@ pub fn beta_eta_figure(d: &BetaEtaFig) -> Result<Figure> {
         "a group index ≥ {}",
         d.groups.len()
     );
-    let mut p = XyPanel::new(Axis::log("η = −$h$''_∥/$h$''_⊥"), Axis::linear("β"));
+    let mut p = XyPanel::new(
+        Axis::log("η = −$h$''_∥/$h$''_⊥"),
+        Axis::linear(&d.beta_label),
+    );
     for (g, label) in d.groups.iter().enumerate() {
         let keep: Vec<usize> = (0..n)
             .filter(|&i| d.group[i] == g && d.eta[i] > 0.0 && d.beta[i].is_finite())
@@ -313,7 +318,7 @@ pub fn beta_eta_figure(d: &BetaEtaFig) -> Result<Figure> {
         stroke: Stroke::dotted(GREY),
         label: Some("3".into()),
     });
-    Ok(single_panel(540.0, 420.0, p, LegendPos::BottomRight))
+    Ok(single_panel(540.0, 420.0, p, LegendPos::TopRight))
 }
 
 /// a_p against H: every realisation (small open markers) and the mean ± standard error per H
@@ -421,6 +426,7 @@ mod tests {
             eta: vec![0.5, 1.0, 2.0],
             beta: vec![3.0, 3.3, f64::NAN],
             beta_err: vec![0.1, f64::NAN, 0.2],
+            beta_label: "β".into(),
         };
         assert!(
             !beta_eta_figure(&b)
