@@ -121,6 +121,7 @@ pub fn rung_json(r: &ConstrictionRung) -> Value {
             "width_nodes": c.width_nodes,
             "height_curvature": curvature_json(&c.height),
             "gap_curvature": curvature_json(&c.gap_curvature),
+            "gap_curvature_status": c.gap_curvature_status.code(),
         })
     });
     json!({

@@ -6,32 +6,24 @@
 //!
 //! ```sh
 //! cargo run --release -p critical --example random_constrictions -- N SEED_FIRST SEED_LAST \
-//!     [D_MIN [MIN_WIDTH [Q_S [SUB]]]]
+//!     [D_MIN [MIN_WIDTH [Q_S [SUB [HURST]]]]]
 //! ```
 //! `SUB` > 0: the surface generated on 2^N × 2^N is sampled at every 2^SUB-th node (the same
 //! continuum surface on a coarser grid while q_s stays below the coarse Nyquist wavenumber): a
 //! resolution study of β on the same surfaces.
-//! H = 0.8, q_r = 2, q_s = Q_S (default 64; units of 2π/L), rms slope 1, exact amplitudes, periodic; L_c to
+//! H = HURST (default 0.8), q_r = 2, q_s = Q_S (default 64; units of 2π/L), rms slope 1, exact amplitudes, periodic; L_c to
 //! 1e-9 relative; ladder 5e-2 … D_MIN (1-2-5, default 1e-4); rungs with a throat narrower than
 //! MIN_WIDTH nodes (default 2) are not used.
 
 use critical::constriction::{ConstrictionOptions, constriction_study, ladder_125};
-use surface::{Amplitudes, Normalisation, SelfAffine};
+use surface::Amplitudes;
 
-fn mean_sem_sd(v: &[f64]) -> (f64, f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let sd = if v.len() > 1 {
-        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        f64::NAN
-    };
-    (m, sd / n.sqrt(), sd)
-}
+mod common;
+use common::{EnsembleSurface, Positional, mean_sem_sd};
 
 fn pearson(a: &[f64], b: &[f64]) -> f64 {
-    let (ma, _, sa) = mean_sem_sd(a);
-    let (mb, _, sb) = mean_sem_sd(b);
+    let (ma, _, sa, _) = mean_sem_sd(a);
+    let (mb, _, sb, _) = mean_sem_sd(b);
     let n = a.len() as f64;
     a.iter()
         .zip(b)
@@ -49,47 +41,29 @@ fn j(v: f64) -> String {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let num = |k: usize, d: &str| -> String { args.get(k).cloned().unwrap_or(d.into()) };
-    let n: u32 = num(0, "9").parse().expect("N: grid exponent");
-    let first: u64 = num(1, "1").parse().expect("SEED_FIRST");
-    let last: u64 = num(2, "8").parse().expect("SEED_LAST");
-    let d_min: f64 = num(3, "1e-4").parse().expect("D_MIN");
-    let min_width: usize = num(4, "2").parse().expect("MIN_WIDTH");
-    let q_s: f64 = num(5, "64").parse().expect("Q_S");
-    let sub: u32 = num(6, "0").parse().expect("SUB");
+    let args = Positional::from_env();
+    let (n, seeds) = args.grid_and_seeds("9");
+    let d_min: f64 = args.get(3, "1e-4", "D_MIN");
+    let min_width: usize = args.get(4, "2", "MIN_WIDTH");
+    let q_s: f64 = args.get(5, "64", "Q_S");
+    let sub: u32 = args.get(6, "0", "SUB");
+    let hurst: f64 = args.get(7, "0.8", "HURST");
     let opts = ConstrictionOptions {
         ladder: ladder_125(5e-2, d_min),
         min_width,
         ..Default::default()
     };
+    let surfaces = EnsembleSurface {
+        n,
+        hurst,
+        q_s,
+        amplitudes: Amplitudes::Exact,
+        sub,
+    };
     let t0 = std::time::Instant::now();
     let mut rows: Vec<[f64; 6]> = Vec::new(); // a_p, eta_h, eta_g, beta, beta_err, drop
-    for seed in first..=last {
-        let field = SelfAffine {
-            n,
-            length: 1.0,
-            hurst: 0.8,
-            q_r: 2.0,
-            q_s,
-            normalisation: Normalisation::RmsSlope(1.0),
-            amplitudes: Amplitudes::Exact,
-            seed,
-        }
-        .generate()
-        .expect("surface");
-        let field = if sub == 0 {
-            field
-        } else {
-            let step = 1usize << sub;
-            let nn = (1usize << n) / step;
-            let heights = field
-                .heights
-                .slice(ndarray::s![..;step, ..;step])
-                .to_owned();
-            let grid = surface::Grid::periodic(nn, nn, 1.0, 1.0).expect("grid");
-            surface::HeightField::new(grid, heights).expect("field")
-        };
+    for seed in seeds {
+        let field = surfaces.generate(seed);
         let s = match constriction_study(&field, &opts) {
             Ok(s) => s,
             Err(e) => {
@@ -127,7 +101,7 @@ fn main() {
             })
             .collect();
         println!(
-            "{{\"n\": {n}, \"sub\": {sub}, \"q_s\": {q_s}, \"seed\": {seed}, \"l_c\": {}, \"l_c_over_p_fc\": {}, \"a_p_raw\": {}, \
+            "{{\"n\": {n}, \"sub\": {sub}, \"hurst\": {hurst}, \"q_s\": {q_s}, \"seed\": {seed}, \"l_c\": {}, \"l_c_over_p_fc\": {}, \"a_p_raw\": {}, \
              \"axis\": \"{:?}\", \"node\": {}, \"constriction_gap\": {}, \"eta_height\": {}, \"eta_gap\": {}, \
              \"drop_at_l_c\": {}, \"beta\": {}, \"beta_err\": {}, \"beta_points\": {pts}, \
              \"gap_exponent\": {}, \"running_beta\": [{}], \"rungs\": [{}], \"wall_s\": {}}}",
@@ -163,8 +137,8 @@ fn main() {
     };
     let stat = |k: usize| {
         let v = col(k);
-        let (m, e, sd) = mean_sem_sd(&v);
-        format!("[{}, {}, {}, {}]", j(m), j(e), j(sd), v.len())
+        let (m, e, sd, count) = mean_sem_sd(&v);
+        format!("[{}, {}, {}, {count}]", j(m), j(e), j(sd))
     };
     let both: Vec<(f64, f64)> = rows
         .iter()

@@ -14,46 +14,30 @@
 //! periodic boundary.
 
 use critical::leakage::{Boundary, PercolationOptions, percolation_load};
-use surface::{Amplitudes, Normalisation, SelfAffine};
+use surface::Amplitudes;
+
+mod common;
+use common::{EnsembleSurface, Positional, mean_sem_sd};
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let num = |k: usize, d: &str| -> String { args.get(k).cloned().unwrap_or(d.into()) };
-    let n: u32 = num(0, "10").parse().expect("N: grid exponent");
-    let first: u64 = num(1, "1").parse().expect("SEED_FIRST");
-    let last: u64 = num(2, "8").parse().expect("SEED_LAST");
-    let rel_width: f64 = num(3, "1e-6").parse().expect("REL_WIDTH");
-    let amplitudes = match num(4, "exact").as_str() {
+    let args = Positional::from_env();
+    let (n, seeds) = args.grid_and_seeds("10");
+    let rel_width: f64 = args.get(3, "1e-6", "REL_WIDTH");
+    let amplitudes = match args.get::<String>(4, "exact", "exact|gaussian").as_str() {
         "gaussian" => Amplitudes::Gaussian,
         _ => Amplitudes::Exact,
     };
-    let sub: u32 = num(5, "0").parse().expect("SUB");
+    let sub: u32 = args.get(5, "0", "SUB");
+    let surfaces = EnsembleSurface {
+        n,
+        hurst: 0.8,
+        q_s: 64.0,
+        amplitudes,
+        sub,
+    };
     let mut a = Vec::new();
-    for seed in first..=last {
-        let field = SelfAffine {
-            n,
-            length: 1.0,
-            hurst: 0.8,
-            q_r: 2.0,
-            q_s: 64.0,
-            normalisation: Normalisation::RmsSlope(1.0),
-            amplitudes,
-            seed,
-        }
-        .generate()
-        .expect("surface");
-        let field = if sub == 0 {
-            field
-        } else {
-            let step = 1usize << sub;
-            let nn = (1usize << n) / step;
-            let heights = field
-                .heights
-                .slice(ndarray::s![..;step, ..;step])
-                .to_owned();
-            let grid = surface::Grid::periodic(nn, nn, 1.0, 1.0).expect("grid");
-            surface::HeightField::new(grid, heights).expect("field")
-        };
+    for seed in seeds {
+        let field = surfaces.generate(seed);
         let opts = PercolationOptions {
             rel_width,
             ..Default::default()
@@ -86,9 +70,8 @@ fn main() {
         a.push((r.any.a_p_raw(), r.any.a_p_corrected()));
     }
     let stat = |v: Vec<f64>| {
-        let m = v.iter().sum::<f64>() / v.len() as f64;
-        let sd = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)).sqrt();
-        (m, sd, sd / (v.len() as f64).sqrt())
+        let (m, sem, sd, _) = mean_sem_sd(&v);
+        (m, sd, sem)
     };
     let (m, sd, sem) = stat(a.iter().map(|x| x.0).collect());
     let (mc, sdc, semc) = stat(a.iter().map(|x| x.1).collect());

@@ -20,7 +20,8 @@
 //! Hessian with the eighth-order stencil (the undeformed surface is smooth to its sampling);
 //! the gap's with the eighth-order stencil if no node of its 9 × 9 block is in contact, else
 //! second order if its 3 × 3 block is open, else none (the gap is only C¹ across contact lines,
-//! [`surface::curvature`]). η = −f''∥/f''⊥ with the channel descending in h and ascending in g.
+//! [`surface::curvature`]); [`GapCurvatureStatus`] says which, or why there is none (a one-node
+//! throat just below L_c has contact in its 3 × 3 block on most random surfaces). η = −f''∥/f''⊥ with the channel descending in h and ascending in g.
 //! `width_nodes`: the number of contiguous open nodes through the bottleneck along x and along y,
 //! the smaller of the two — how many nodes resolve the throat.
 //!
@@ -236,8 +237,37 @@ pub struct ConstrictionInfo {
     pub height: Option<Curvature>,
     /// Gap's curvatures at the node (channel ascending); None where contact is too close.
     pub gap_curvature: Option<Curvature>,
+    /// Which stencil gave `gap_curvature`, or why there is none ([`GapCurvatureStatus`]).
+    pub gap_curvature_status: GapCurvatureStatus,
     /// Open nodes through the bottleneck, the smaller of the x and y runs.
     pub width_nodes: usize,
+}
+
+/// How the gap's curvature at the bottleneck was measured, or why it was not: the gap is only
+/// C¹ across a contact line, so no stencil that reaches a contact node measures a curvature.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GapCurvatureStatus {
+    /// Eighth-order stencil: the 9 × 9 block around the node is open.
+    Eighth,
+    /// Second-order stencil: contact within the 9 × 9 block, the 3 × 3 block open.
+    Second,
+    /// Undefined: this many nodes of the 3 × 3 block are in contact (a throat one or two nodes
+    /// wide whose walls touch the neighbours).
+    ContactInStencil(usize),
+    /// Undefined: the stencil could not be evaluated (a grid smaller than the stencil).
+    StencilError,
+}
+
+impl GapCurvatureStatus {
+    /// A short code for tables: `eighth`, `second`, `contact_in_3x3`, `stencil_error`.
+    pub fn code(&self) -> &'static str {
+        match self {
+            GapCurvatureStatus::Eighth => "eighth",
+            GapCurvatureStatus::Second => "second",
+            GapCurvatureStatus::ContactInStencil(_) => "contact_in_3x3",
+            GapCurvatureStatus::StencilError => "stencil_error",
+        }
+    }
 }
 
 fn curvature(
@@ -261,17 +291,21 @@ fn curvature(
     })
 }
 
-/// Whether every node of the (2k+1)² block around `node` is open (g > 0), periodic.
-fn block_open(gap: ArrayView2<f64>, node: (usize, usize), k: usize) -> bool {
+/// Nodes in contact (g ≤ 0) in the (2k+1)² block around `node`, periodic.
+fn block_contacts(gap: ArrayView2<f64>, node: (usize, usize), k: usize) -> usize {
     let (nx, ny) = gap.dim();
     let k = k as isize;
-    (-k..=k).all(|a| {
-        (-k..=k).all(|b| {
+    let mut count = 0;
+    for a in -k..=k {
+        for b in -k..=k {
             let i = (node.0 as isize + a).rem_euclid(nx as isize) as usize;
             let j = (node.1 as isize + b).rem_euclid(ny as isize) as usize;
-            gap[[i, j]] > 0.0
-        })
-    })
+            if gap[[i, j]] <= 0.0 {
+                count += 1;
+            }
+        }
+    }
+    count
 }
 
 /// Contiguous open nodes through `node` along x and along y (periodic; capped at the grid).
@@ -383,12 +417,29 @@ pub fn analyse_constriction(
         .unwrap_or(c.completing);
     let node = (pick.i, pick.j);
     let height = curvature(heights, dx, dy, node, Channel::Descending, Stencil::Eighth);
-    let gap_curvature = if block_open(gap, node, Stencil::Eighth.half_width()) {
-        curvature(gap, dx, dy, node, Channel::Ascending, Stencil::Eighth)
-    } else if block_open(gap, node, 1) {
-        curvature(gap, dx, dy, node, Channel::Ascending, Stencil::Second)
+    let (gap_curvature, gap_curvature_status) =
+        if block_contacts(gap, node, Stencil::Eighth.half_width()) == 0 {
+            (
+                curvature(gap, dx, dy, node, Channel::Ascending, Stencil::Eighth),
+                GapCurvatureStatus::Eighth,
+            )
+        } else {
+            match block_contacts(gap, node, 1) {
+                0 => (
+                    curvature(gap, dx, dy, node, Channel::Ascending, Stencil::Second),
+                    GapCurvatureStatus::Second,
+                ),
+                k => (None, GapCurvatureStatus::ContactInStencil(k)),
+            }
+        };
+    let gap_curvature_status = if gap_curvature.is_none()
+        && matches!(
+            gap_curvature_status,
+            GapCurvatureStatus::Eighth | GapCurvatureStatus::Second
+        ) {
+        GapCurvatureStatus::StencilError
     } else {
-        None
+        gap_curvature_status
     };
     let (rx, ry) = open_runs(gap, node);
     Ok(Some(ConstrictionInfo {
@@ -401,6 +452,7 @@ pub fn analyse_constriction(
         essential: pick.essential,
         height,
         gap_curvature,
+        gap_curvature_status,
         width_nodes: rx.min(ry),
     }))
 }

@@ -4,7 +4,8 @@
 //! against the lattices' own ladder.
 
 use critical::constriction::{
-    ConstrictionOptions, analyse_constriction, constriction_study, ladder_125, throat_flow,
+    ConstrictionOptions, GapCurvatureStatus, analyse_constriction, constriction_study, ladder_125,
+    throat_flow,
 };
 use critical::ladder::{LadderOptions, axis_saddle, solve_ladder};
 use critical::scaling::fit_exponent;
@@ -125,6 +126,7 @@ fn planted_bottleneck_is_found_with_its_curvatures() {
         let eta = -gxx / gyy;
         let gc = c.gap_curvature.expect("the 9 × 9 block is open");
         assert_eq!(gc.stencil, "eighth");
+        assert_eq!(c.gap_curvature_status, GapCurvatureStatus::Eighth);
         assert!(gc.is_saddle);
         assert!((gc.along - gxx).abs() < 1e-6 * gxx.abs(), "{}", gc.along);
         assert!(
@@ -157,6 +159,49 @@ fn planted_bottleneck_is_found_with_its_curvatures() {
         .unwrap();
     assert_eq!(c.node, (100, 96));
     assert!((c.gap - 0.15).abs() < 1e-12);
+}
+
+/// A throat `w` nodes wide (rows y0 − w/2 … of a channel along x, gap 1, contact elsewhere)
+/// narrowed at (x0, y0) to gap 0.5 − 0.1 (u² + v²) in nodes: the gap's curvature there needs a
+/// stencil inside the open channel. One node wide: contact in the 3 × 3 block (6 of its 9
+/// nodes), no curvature and the status says why; three wide: the second-order stencil; a
+/// channel wider than 9: the eighth-order one, with the planted curvatures.
+#[test]
+fn gap_curvature_status_says_why_eta_of_the_gap_is_missing() {
+    let (n, x0, y0) = (32usize, 10usize, 16usize);
+    for (w, status) in [
+        (1, GapCurvatureStatus::ContactInStencil(6)),
+        (3, GapCurvatureStatus::Second),
+        (11, GapCurvatureStatus::Eighth),
+    ] {
+        let half = (w / 2) as isize;
+        let g = Array2::from_shape_fn((n, n), |(i, j)| {
+            let (u, v) = (i as f64 - x0 as f64, j as f64 - y0 as f64);
+            if (j as isize - y0 as isize).abs() > half {
+                0.0
+            } else {
+                // a saddle of the gap: rising along the channel, falling across it; gap at the
+                // node 0.5 < 1 everywhere else in the channel's row
+                (0.5 + 0.01 * u * u - 0.001 * v * v).min(1.0)
+            }
+        });
+        let heights = g.mapv(|v| -v);
+        let c = analyse_constriction(heights.view(), g.view(), 1.0, 1.0, Axis::X, 0.0)
+            .unwrap()
+            .unwrap();
+        assert_eq!(c.node, (x0, y0), "w = {w}");
+        assert_eq!(c.gap_curvature_status, status, "w = {w}");
+        assert_eq!(c.gap_curvature.is_some(), w > 1, "w = {w}");
+        if let Some(gc) = c.gap_curvature {
+            // a quadratic: every stencil is exact up to rounding; h = 1/32:
+            // g_xx = 0.02·32², g_yy = −0.002·32², η = −g∥/g⊥ = 10
+            assert!((gc.eta - 10.0).abs() < 1e-6, "w = {w}: η_g = {}", gc.eta);
+        }
+    }
+    assert_eq!(
+        GapCurvatureStatus::ContactInStencil(6).code(),
+        "contact_in_3x3"
+    );
 }
 
 #[test]

@@ -18,10 +18,13 @@
 //! - root attributes (one realisation, [`SUMMARY`] order): `seed`, `hurst`, `qr`, `qs`, `p_fc`,
 //!   `l_c`, `l_c_lo`, `l_c_hi`, `l_c_x`, `l_c_y`, `a_p_raw`, `a_p_corrected`, `axis` (0 = x,
 //!   1 = y), `node_i`, `node_j`, `x`, `y`, `gap`, `eta_height`, `eta_gap` (NaN where contact is
-//!   within the stencil), `drop_fraction`, `drop_axial`, `beta`, `beta_err`, `beta_points`,
+//!   within the stencil: `eta_gap_status` says why), `eta_gap_nearest` and `eta_gap_nearest_d`
+//!   (η of the gap at the rung nearest L_c where it is defined, on the same constriction, and
+//!   that rung's d; NaN if none), `drop_fraction`, `drop_axial`, `beta`, `beta_err`, `beta_points`,
 //!   `gap_exponent`, `gap_exponent_err`, `n_rungs`, `n_resolved`, `wall_s`;
-//!   also `lx`, `ly`, `nx`, `ny`;
-//! - `rungs/<column>` ([`RUNG_COLUMNS`]), largest d first;
+//!   also `lx`, `ly`, `nx`, `ny`, and the string `eta_gap_status` ([`eta_gap_status`]:
+//!   `eighth`, `second`, `contact_in_3x3`, `stencil_error`, or `no_constriction`);
+//! - `rungs/<column>` ([`RUNG_COLUMNS`], among them `eta_gap`), largest d first;
 //! - `running/beta/{d_hi,d_lo,value,error}` and `running/gap/…`;
 //! - `map/gap`: the gap just below L_c (the bracket's lower end).
 
@@ -43,7 +46,7 @@ use store::{ArtefactReader, ArtefactWriter};
 pub struct ConstrictionKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 1;
+pub const CODE_VERSION: u64 = 3;
 
 /// The kind's parameters.
 #[derive(Clone, Debug, Deserialize)]
@@ -107,7 +110,7 @@ fn cgap(r: &ConstrictionRung) -> f64 {
 }
 
 /// The per-rung columns.
-pub const RUNG_COLUMNS: [RungColumn; 13] = [
+pub const RUNG_COLUMNS: [RungColumn; 14] = [
     RungColumn {
         name: "d",
         get: |r| r.d,
@@ -131,6 +134,15 @@ pub const RUNG_COLUMNS: [RungColumn; 13] = [
     RungColumn {
         name: "gap",
         get: cgap,
+    },
+    RungColumn {
+        name: "eta_gap",
+        get: |r| {
+            r.constriction
+                .as_ref()
+                .and_then(|c| c.gap_curvature)
+                .map_or(f64::NAN, |g| g.eta)
+        },
     },
     RungColumn {
         name: "node_i",
@@ -175,7 +187,7 @@ pub const RUNG_COLUMNS: [RungColumn; 13] = [
 ];
 
 /// The per-realisation summary attributes, in table order.
-pub const SUMMARY: [&str; 30] = [
+pub const SUMMARY: [&str; 32] = [
     "seed",
     "hurst",
     "qr",
@@ -196,6 +208,8 @@ pub const SUMMARY: [&str; 30] = [
     "gap",
     "eta_height",
     "eta_gap",
+    "eta_gap_nearest",
+    "eta_gap_nearest_d",
     "drop_fraction",
     "drop_axial",
     "beta",
@@ -208,6 +222,16 @@ pub const SUMMARY: [&str; 30] = [
     "wall_s",
 ];
 
+/// How `eta_gap` was measured or why it is NaN: the stencil (`eighth`, `second`), or
+/// `contact_in_3x3` (a throat whose neighbours touch: the gap is only C¹ across a contact line,
+/// no curvature), `stencil_error`, `no_constriction` (the fluid does not wind just below L_c).
+pub fn eta_gap_status(s: &ConstrictionStudy) -> &'static str {
+    s.at_l_c
+        .constriction
+        .as_ref()
+        .map_or("no_constriction", |c| c.gap_curvature_status.code())
+}
+
 /// The summary values of a study ([`SUMMARY`] order, the surface's four first).
 pub fn summary(s: &ConstrictionStudy, surface: [f64; 4]) -> Vec<f64> {
     let c = s.at_l_c.constriction.as_ref();
@@ -218,6 +242,13 @@ pub fn summary(s: &ConstrictionStudy, surface: [f64; 4]) -> Vec<f64> {
     };
     let (beta, beta_err, beta_points) = fit(&s.beta_fit);
     let (ge, ge_err, _) = fit(&s.gap_fit);
+    // η of the gap at the rung nearest L_c where it is defined (and the throat is the one at L_c)
+    let near = s
+        .rungs
+        .iter()
+        .filter(|r| r.same_constriction)
+        .filter_map(|r| Some((r.d, r.constriction.as_ref()?.gap_curvature?.eta)))
+        .min_by(|a, b| a.0.total_cmp(&b.0));
     let mut v = surface.to_vec();
     v.extend([
         s.p_fc,
@@ -236,6 +267,8 @@ pub fn summary(s: &ConstrictionStudy, surface: [f64; 4]) -> Vec<f64> {
         c.map_or(nan, |c| c.gap),
         c.and_then(|c| c.height).map_or(nan, |h| h.eta),
         c.and_then(|c| c.gap_curvature).map_or(nan, |h| h.eta),
+        near.map_or(nan, |r| r.1),
+        near.map_or(nan, |r| r.0),
         s.at_l_c.drop.unwrap_or(nan),
         s.at_l_c.drop_axial.map_or(nan, |d| d.fraction),
         beta,
@@ -353,6 +386,7 @@ impl TypedKind for ConstrictionKind {
         for (k, v) in SUMMARY.iter().zip(&values) {
             out.set_attr(k, *v)?;
         }
+        out.set_attr("eta_gap_status", eta_gap_status(&s))?;
         for c in &RUNG_COLUMNS {
             let v: Vec<f64> = s.rungs.iter().map(|r| (c.get)(r)).collect();
             out.write_f64_1d(&format!("rungs/{}", c.name), &v)?;
@@ -414,6 +448,8 @@ pub struct SlopesRead {
 pub struct ConstrictionRead {
     /// [`SUMMARY`] by name.
     pub summary: BTreeMap<String, f64>,
+    /// [`eta_gap_status`].
+    pub eta_gap_status: String,
     /// `rungs/*` by column name.
     pub rungs: BTreeMap<String, Vec<f64>>,
     /// Running β.
@@ -455,6 +491,7 @@ impl ConstrictionRead {
         };
         Ok(ConstrictionRead {
             summary,
+            eta_gap_status: r.attr_str("eta_gap_status")?,
             rungs,
             running_beta: slopes("running/beta")?,
             running_gap: slopes("running/gap")?,
@@ -512,6 +549,26 @@ mod tests {
         let c = direct.at_l_c.constriction.as_ref().unwrap();
         assert_eq!(r.get("node_i"), c.node.0 as f64);
         assert_eq!(r.get("drop_fraction"), direct.at_l_c.drop.unwrap());
+        // η of the gap: a value exactly when the status names a stencil
+        assert_eq!(r.eta_gap_status, c.gap_curvature_status.code());
+        assert_eq!(
+            r.get("eta_gap").is_finite(),
+            matches!(r.eta_gap_status.as_str(), "eighth" | "second"),
+            "{}",
+            r.eta_gap_status
+        );
+        // the nearest defined η of the gap: the rung at eta_gap_nearest_d carries it, and no
+        // nearer rung on the same constriction has one
+        let (dn, en) = (r.get("eta_gap_nearest_d"), r.get("eta_gap_nearest"));
+        let rung_eta = &r.rungs["eta_gap"];
+        for (k, d) in r.rungs["d"].iter().enumerate() {
+            let same = r.rungs["same_constriction"][k] > 0.5;
+            if *d == dn {
+                assert_eq!(rung_eta[k], en);
+            } else if same && (dn.is_nan() || *d < dn) {
+                assert!(rung_eta[k].is_nan(), "d = {d}: η_g = {}", rung_eta[k]);
+            }
+        }
         assert_eq!(
             r.get("n_resolved"),
             direct.rungs.iter().filter(|q| q.resolved).count() as f64

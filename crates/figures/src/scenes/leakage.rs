@@ -123,17 +123,32 @@ pub fn surface_figure(d: &SurfaceFig) -> Result<Figure> {
     Ok(f)
 }
 
-/// Gap map with the contact in white.
-pub fn map_figure(d: &MapFig) -> Result<Figure> {
-    let (w, h) = (460.0, 420.0);
-    let mut f = Figure::new(w, h);
-    let mut m = HeatmapPanel::new(d.gap.clone(), d.lx, d.ly);
+/// A gap map panel as both random-surface scenes draw it: magma, contact (g ≤ 0) white, axes
+/// $x$, $y$ in cell units, colour bar "gap $g$".
+pub fn gap_panel(gap: &Array2<f64>, lx: f64, ly: f64) -> HeatmapPanel {
+    let mut m = HeatmapPanel::new(gap.clone(), lx, ly);
     m.colormap = Colormap::Magma;
-    m.mask = Some(d.gap.mapv(|g| g <= 0.0));
+    m.mask = Some(gap.mapv(|g| g <= 0.0));
     m.mask_color = WHITE;
     m.x_label = "$x$".into();
     m.y_label = "$y$".into();
     m.colorbar_label = "gap $g$".into();
+    m
+}
+
+/// A figure of one x–y panel filling `w × h`, the legend at `legend`.
+pub fn single_panel(w: f64, h: f64, mut p: XyPanel, legend: LegendPos) -> Figure {
+    let mut f = Figure::new(w, h);
+    p.legend = legend;
+    f.xy(Rect::new(0.0, 0.0, w, h), p);
+    f
+}
+
+/// Gap map with the contact in white.
+pub fn map_figure(d: &MapFig) -> Result<Figure> {
+    let (w, h) = (460.0, 420.0);
+    let mut f = Figure::new(w, h);
+    let mut m = gap_panel(&d.gap, d.lx, d.ly);
     m.title = Some(format!(
         "$p$/$p$_{{fc}} = {:.3}, contact area {:.3}",
         d.load_over_p_fc, d.contact_area
@@ -151,8 +166,6 @@ pub fn leakage_figure(d: &LeakageFig) -> Result<Figure> {
         d.conductivity_x.len(),
         d.conductivity_y.len()
     );
-    let (w, h) = (520.0, 400.0);
-    let mut f = Figure::new(w, h);
     let mut p = XyPanel::new(
         Axis::linear("load $p$/$p$_{fc}"),
         Axis::log("conductivity (uniform gap $g$: $g$^3)"),
@@ -182,9 +195,7 @@ pub fn leakage_figure(d: &LeakageFig) -> Result<Figure> {
             label: Some(format!("$L$_p = {l:.4}, $a$_p = {a:.3}")),
         });
     }
-    p.legend = LegendPos::BottomLeft;
-    f.xy(Rect::new(0.0, 0.0, w, h), p);
-    Ok(f)
+    Ok(single_panel(520.0, 400.0, p, LegendPos::BottomLeft))
 }
 
 #[cfg(test)]
