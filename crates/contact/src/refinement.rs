@@ -180,6 +180,20 @@
 
 pub mod blocks;
 pub mod coupled;
+pub mod twolevel;
+
+/// The preconditioner of the composite solve (see the module docs, "Preconditioner").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Preconditioner {
+    /// Pᵀ K_f P, the fine stiffness seen through the composite basis (the first design).
+    Galerkin,
+    /// Exact coarse solve C⁻¹ on the base grid plus K_f on R's fine nodes, added
+    /// ([`twolevel`]).
+    #[default]
+    Additive,
+    /// The same with the fine space restricted to R's non-base nodes (hierarchical basis).
+    Hierarchical,
+}
 
 /// Points per axis of the far field's Lagrange interpolation in the blockwise operator.
 pub const ORDER: usize = 8;
@@ -336,8 +350,12 @@ impl Refined {
 pub struct Composite {
     /// The fine lattice's kernel (the full application), or None (blockwise, [`blocks`]).
     fine: Option<ElasticKernel>,
-    /// Blockwise operators: compliance and stiffness.
-    blocks: Option<Box<[blocks::Blocks; 2]>>,
+    /// Blockwise operators: compliance and (Galerkin preconditioner only) stiffness.
+    blocks: Option<Box<[Option<blocks::Blocks>; 2]>>,
+    /// The two-level preconditioner, if chosen.
+    twolevel: Option<Box<twolevel::TwoLevel>>,
+    /// Whether each base node lies on R.
+    on_r: Vec<bool>,
     parallel: bool,
     point: f64,
     nx: usize,
@@ -379,6 +397,7 @@ impl Composite {
         f: usize,
         window: Window,
         margin: Option<usize>,
+        pre: Preconditioner,
     ) -> Self {
         let (fnx, fny) = (nx * f, ny * f);
         let geometry = blocks::Geometry {
@@ -407,15 +426,19 @@ impl Composite {
             }
             Some(_) => {
                 let pair = [
-                    blocks::Blocks::new(geometry, blocks::Kernel::Compliance),
-                    blocks::Blocks::new(geometry, blocks::Kernel::Stiffness),
+                    Some(blocks::Blocks::new(geometry, blocks::Kernel::Compliance)),
+                    (pre == Preconditioner::Galerkin)
+                        .then(|| blocks::Blocks::new(geometry, blocks::Kernel::Stiffness)),
                 ];
                 (None, Some(Box::new(pair)))
             }
         };
         let (parallel, point) = match (&fine, &blocks) {
             (Some(k), _) => (k.parallel(), k.point_compliance()),
-            (None, Some(b)) => (rayon::current_num_threads() > 1, b[0].point),
+            (None, Some(b)) => (
+                rayon::current_num_threads() > 1,
+                b[0].as_ref().expect("compliance").point,
+            ),
             _ => unreachable!(),
         };
         let origin = (window.i0 * f, window.j0 * f);
@@ -441,6 +464,7 @@ impl Composite {
             }
         }
         let n = next;
+        let on_r: Vec<bool> = base_index.iter().map(|&k| k < n_fine).collect();
         let cols = ry + ry % 2;
         let rows = n.div_ceil(cols);
         let rows = rows + rows % 2;
@@ -449,6 +473,8 @@ impl Composite {
             pad_compliance: point,
             fine,
             blocks,
+            twolevel: None,
+            on_r,
             parallel,
             point,
             nx,
@@ -485,6 +511,15 @@ impl Composite {
             weight[..rx * ry].copy_from_slice(&wr);
             c.weight = weight;
         }
+        if pre != Preconditioner::Galerkin {
+            c.twolevel = Some(Box::new(twolevel::TwoLevel::new(
+                geometry,
+                rx,
+                ry,
+                &c.weight[..rx * ry],
+                pre == Preconditioner::Hierarchical,
+            )));
+        }
         c
     }
 
@@ -507,7 +542,9 @@ impl Composite {
                 .collect()
         };
         let v: Vec<f64> = self.base_index.iter().map(|&k| q[k]).collect();
-        let b = &mut self.blocks.as_mut().expect("blockwise")[usize::from(stiffness)];
+        let b = self.blocks.as_mut().expect("blockwise")[usize::from(stiffness)]
+            .as_mut()
+            .expect("blocks of this kernel");
         let (gf, gv) = b.apply(&q[..nf], &v);
         self.out[..nf].copy_from_slice(&gf);
         for (k, &idx) in self.base_index.iter().enumerate() {
@@ -523,6 +560,36 @@ impl Composite {
         let c = self.pad_compliance;
         for k in n..self.out.len() {
             self.out[k] = if stiffness { x[k] / c } else { x[k] * c };
+        }
+    }
+
+    /// out = W B W x, the two-level preconditioner ([`twolevel`]), padding diagonal.
+    fn apply_twolevel(&mut self, x: &[f64]) {
+        let (n, nf) = (self.n, self.rx * self.ry);
+        let y: Vec<f64> = x[..n]
+            .iter()
+            .zip(&self.weight)
+            .map(|(a, w)| a * w)
+            .collect();
+        let y_out: Vec<f64> = self
+            .base_index
+            .iter()
+            .map(|&k| if k >= nf { y[k] } else { 0.0 })
+            .collect();
+        let t = self.twolevel.as_mut().expect("two-level");
+        let (z_r, z_v) = t.apply(&y[..nf], &y_out, &self.on_r);
+        self.out[..nf].copy_from_slice(&z_r);
+        for (k, &idx) in self.base_index.iter().enumerate() {
+            if idx >= nf {
+                self.out[idx] = z_v[k];
+            }
+        }
+        for (o, w) in self.out[..n].iter_mut().zip(&self.weight) {
+            *o *= w;
+        }
+        let c = self.pad_compliance;
+        for k in n..self.out.len() {
+            self.out[k] = x[k] / c;
         }
     }
 
@@ -617,6 +684,9 @@ impl Composite {
 
     /// out = A' x (compliance: W⁻¹ Pᵀ G P W⁻¹) or M x (stiffness: Pᵀ K P), padding diagonal.
     fn apply(&mut self, stiffness: bool, x: &[f64]) {
+        if stiffness && self.twolevel.is_some() {
+            return self.apply_twolevel(x);
+        }
         if self.blocks.is_some() {
             return self.apply_blocks(stiffness, x);
         }
@@ -736,6 +806,26 @@ fn check(surface: &Surface, pressure: f64, o: &RefineOptions) -> Result<(), Cont
     Ok(())
 }
 
+fn check_margin(
+    surface: &Surface,
+    opts: &RefineOptions,
+    margin: usize,
+) -> Result<(), ContactError> {
+    let g = &surface.grid;
+    let w = opts.window;
+    if margin < ORDER / 2 + 1 || w.wx + 2 * margin + 2 > g.nx || w.wy + 2 * margin + 2 > g.ny {
+        return Err(ContactError::Parameter {
+            name: "margin",
+            value: format!(
+                "{margin} base cells (window {} × {}, grid {} × {})",
+                w.wx, w.wy, g.nx, g.ny
+            ),
+            allowed: "ORDER/2 + 1 ..= (n − w − 2)/2 along both axes (ORDER = 8)",
+        });
+    }
+    Ok(())
+}
+
 /// A refined problem: build once, solve many loads (warm-started from a previous solution).
 pub struct RefinedModel {
     model: Model,
@@ -749,7 +839,7 @@ pub struct RefinedModel {
 impl RefinedModel {
     /// The composite problem of `surface` (its grid is the base grid) refined as `opts` asks.
     pub fn new(surface: &Surface, opts: &RefineOptions) -> Result<Self, ContactError> {
-        Self::build(surface, opts, None)
+        Self::build(surface, opts, None, Preconditioner::default())
     }
 
     /// The same composite problem with its operator applied blockwise ([`blocks`]): the fine
@@ -761,30 +851,38 @@ impl RefinedModel {
         opts: &RefineOptions,
         margin: usize,
     ) -> Result<Self, ContactError> {
-        let g = &surface.grid;
-        let w = opts.window;
-        if margin < ORDER / 2 + 1 || w.wx + 2 * margin + 2 > g.nx || w.wy + 2 * margin + 2 > g.ny {
-            return Err(ContactError::Parameter {
-                name: "margin",
-                value: format!(
-                    "{margin} base cells (window {} × {}, grid {} × {})",
-                    w.wx, w.wy, g.nx, g.ny
-                ),
-                allowed: "ORDER/2 + 1 ..= (n − w − 2)/2 along both axes (ORDER = 8)",
-            });
+        check_margin(surface, opts, margin)?;
+        Self::build(surface, opts, Some(margin), Preconditioner::default())
+    }
+
+    /// The composite problem with the operator applied in full (`margin` None, as
+    /// [`RefinedModel::new`]) or blockwise (as [`RefinedModel::blockwise`]) and the given
+    /// preconditioner.
+    pub fn with_preconditioner(
+        surface: &Surface,
+        opts: &RefineOptions,
+        margin: Option<usize>,
+        pre: Preconditioner,
+    ) -> Result<Self, ContactError> {
+        match margin {
+            None => Self::build(surface, opts, None, pre),
+            Some(m) => {
+                check_margin(surface, opts, m)?;
+                Self::build(surface, opts, Some(m), pre)
+            }
         }
-        Self::build(surface, opts, Some(margin))
     }
 
     fn build(
         surface: &Surface,
         opts: &RefineOptions,
         margin: Option<usize>,
+        pre: Preconditioner,
     ) -> Result<Self, ContactError> {
         check(surface, 1.0, opts)?;
         let g = surface.grid;
         let f = 1usize << opts.levels;
-        let mut comp = Composite::new(g.nx, g.ny, g.lx, g.ly, f, opts.window, margin);
+        let mut comp = Composite::new(g.nx, g.ny, g.lx, g.ly, f, opts.window, margin, pre);
         // Heights at the fine nodes (the analytic profile; base node i is fine node f i),
         // averaged by the unknowns' weights: b' = W⁻¹ Pᵀ h.
         let (dx, dy) = (g.dx(), g.dy());
@@ -994,7 +1092,7 @@ mod tests {
             wx: 4,
             wy: 6,
         };
-        let mut c = Composite::new(16, 16, 1.0, 1.0, 4, w, None);
+        let mut c = Composite::new(16, 16, 1.0, 1.0, 4, w, None, Preconditioner::Galerkin);
         let total: f64 = c.weight.iter().sum();
         // a sum of O(1e3) small integers and quarter-integers: exact
         assert_eq!(total, (64 * 64) as f64);
@@ -1170,8 +1268,17 @@ mod tests {
             wy: 5,
         };
         for (f, margin) in [(2, 5), (4, 5), (4, 8), (4, 12)] {
-            let mut full = Composite::new(32, 32, 1.0, 1.3, f, w, None);
-            let mut cheap = Composite::new(32, 32, 1.0, 1.3, f, w, Some(margin));
+            let mut full = Composite::new(32, 32, 1.0, 1.3, f, w, None, Preconditioner::Galerkin);
+            let mut cheap = Composite::new(
+                32,
+                32,
+                1.0,
+                1.3,
+                f,
+                w,
+                Some(margin),
+                Preconditioner::Galerkin,
+            );
             assert_eq!(full.weight, cheap.weight);
             let m = full.rows * full.cols;
             let a: Vec<f64> = (0..m).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
@@ -1314,6 +1421,100 @@ mod tests {
                 pk / pc - 1.0,
                 rel.join(", ")
             );
+        }
+    }
+
+    /// The two-level preconditioner solves the same discrete problem (same saddle gap and
+    /// window gaps to the solver tolerance) in at most twice the uniform fine solve's
+    /// iterations, and in fewer than the Galerkin one (32² base, k = 2, window 8², margin 6,
+    /// near percolation). Measured: 57 (additive) and 118 (Galerkin) against 36 uniform.
+    #[test]
+    fn the_two_level_preconditioner_needs_few_iterations() {
+        let s = Surface::new(Lattice::Square, 5).unwrap();
+        let fine = Surface::new(Lattice::Square, 7).unwrap();
+        let load = 0.215 * s.p_fc_grid();
+        let uni = Model::new(&fine)
+            .unwrap()
+            .solve(Interaction::HardWall, load, &solver(), None)
+            .unwrap();
+        let opts = RefineOptions {
+            levels: 2,
+            window: Window::centred(&s.grid, 0.5, 0.0, 8, 8),
+            solver: solver(),
+        };
+        let solve = |pre| {
+            let r = RefinedModel::with_preconditioner(&s, &opts, Some(6), pre)
+                .unwrap()
+                .solve(load, None)
+                .unwrap();
+            assert!(r.stats.converged, "{pre:?}: {:?}", r.stats);
+            r
+        };
+        let (a, g) = (
+            solve(Preconditioner::Additive),
+            solve(Preconditioner::Galerkin),
+        );
+        eprintln!(
+            "iterations: additive {}, galerkin {}, uniform {}",
+            a.stats.iterations, g.stats.iterations, uni.stats.iterations
+        );
+        assert!(uni.stats.converged);
+        assert!(a.stats.iterations <= 2 * uni.stats.iterations);
+        assert!(a.stats.iterations < g.stats.iterations);
+        let dg = a
+            .window_gap
+            .iter()
+            .zip(&g.window_gap)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        // both meet the violation bound 1e-13 h0 on the same discrete problem; the window gap
+        // differs by the solver's tolerance times the conditioning, not by the discretisation
+        assert!(dg < 1e-11, "window gaps differ by {dg:e}");
+    }
+
+    /// Diagnostic (ignored; `--ignored --nocapture`): iterations of the composite solve by
+    /// preconditioner and operator against the uniform fine solve's, square model near
+    /// percolation (32² base, window 8², k = 2 and 3).
+    #[test]
+    #[ignore]
+    fn iterations_by_preconditioner() {
+        let s = Surface::new(Lattice::Square, 5).unwrap();
+        let load = 0.215 * s.p_fc_grid();
+        for levels in [2u32, 3] {
+            let fine = Surface::new(Lattice::Square, 5 + levels).unwrap();
+            let uni = Model::new(&fine)
+                .unwrap()
+                .solve(Interaction::HardWall, load, &solver(), None)
+                .unwrap();
+            eprintln!(
+                "k {levels}: uniform {} iterations, saddle gap {:.10e}",
+                uni.stats.iterations,
+                uni.gap[[fine.grid.nx / 2, 0]]
+            );
+            let opts = RefineOptions {
+                levels,
+                window: Window::centred(&s.grid, 0.5, 0.0, 8, 8),
+                solver: solver(),
+            };
+            for margin in [None, Some(6)] {
+                for pre in [
+                    Preconditioner::Galerkin,
+                    Preconditioner::Additive,
+                    Preconditioner::Hierarchical,
+                ] {
+                    let t = std::time::Instant::now();
+                    let r = RefinedModel::with_preconditioner(&s, &opts, margin, pre)
+                        .unwrap()
+                        .solve(load, None)
+                        .unwrap();
+                    eprintln!(
+                        "  margin {margin:?} {pre:?}: {} iterations, converged {}, saddle gap {:.10e}, {:.2} s",
+                        r.stats.iterations,
+                        r.stats.converged,
+                        r.fine_gap(r.lattice.0 / 2, 0).unwrap(),
+                        t.elapsed().as_secs_f64()
+                    );
+                }
+            }
         }
     }
 

@@ -67,7 +67,7 @@ impl Geometry {
             -(((m + 1) * f) as isize) + 1,
         )
     }
-    fn base(&self, rel_i: isize, rel_j: isize) -> usize {
+    pub(crate) fn base(&self, rel_i: isize, rel_j: isize) -> usize {
         let i = (self.i0 as isize + rel_i).rem_euclid(self.nx as isize) as usize;
         let j = (self.j0 as isize + rel_j).rem_euclid(self.ny as isize) as usize;
         i * self.ny + j
@@ -98,7 +98,7 @@ impl Geometry {
 }
 
 /// Hat weight 1 − |a|/f.
-fn hat(a: isize, f: usize) -> f64 {
+pub(crate) fn hat(a: isize, f: usize) -> f64 {
     1.0 - a.unsigned_abs() as f64 / f as f64
 }
 
@@ -118,7 +118,7 @@ fn lagrange(t: f64, order: usize) -> Vec<f64> {
 /// Real-space table t[dx·(by+1) + dy] = kernel(dx, dy) of the fine circulant for 0 ≤ dx ≤ bx,
 /// 0 ≤ dy ≤ by (the kernel is even in each coordinate). Two passes of 1-D transforms; the work
 /// array holds (F_x/2 + 1) × (by + 1) values, never the fine lattice.
-fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f64> {
+pub(crate) fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f64> {
     let (fx, fy) = g.fine();
     let (bx, by) = (bx.min(fx - 1), by.min(fy - 1));
     let half = fx / 2 + 1;
@@ -162,7 +162,7 @@ fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f64> {
 /// Half spectra (natural layout, normalised for [`Spectral`]) of C = Hᵀ K H and
 /// C' = (K ∗ hat) sampled on the base lattice: alias sums over the f² fine modes of each base
 /// mode.
-fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>) {
     let (f, nx, ny) = (g.f, g.nx, g.ny);
     let (fx, fy) = g.fine();
     let phi = |k: usize, n: usize| -> f64 {
