@@ -18,8 +18,8 @@
 //! pixels an unknown covers: 1 inside R, f² for a coarse hat) the operator
 //! A' = W⁻¹ Pᵀ G_f P W⁻¹ is symmetric and positive on zero-mean fields, the load is Σ r = N_f p̄,
 //! and the crate's preconditioned Polonsky–Keer iteration solves it unchanged (through
-//! [`FreeKernel::composite`]; preconditioner Pᵀ K_f P with K_f the fine stiffness, exact inside
-//! R). There is no outer iteration and no coupling tolerance: `solver.tol_gap` bounds the
+//! [`FreeKernel::composite`]; preconditioner: see "Preconditioner" below). There is no outer
+//! iteration and no coupling tolerance: `solver.tol_gap` bounds the
 //! violation of the composite conditions (fine gaps in R, hat-mean gaps outside), as it bounds
 //! the fine gaps of a uniform solve.
 //!
@@ -98,8 +98,8 @@
 //! the fine lattice. It is kept as the reference of the blockwise application.
 //!
 //! # Blockwise application ([`RefinedModel::blockwise`], [`blocks`])
-//! The same discrete problem (same unknowns, weights, heights W⁻¹Pᵀh and preconditioner
-//! Pᵀ K_f P) with A' applied without the fine lattice. Write p = H v + d (H v the bilinear
+//! The same discrete problem (same unknowns, weights, heights W⁻¹Pᵀh and preconditioner)
+//! with A' applied without the fine lattice. Write p = H v + d (H v the bilinear
 //! interpolant of nodal values on every base node, d the fine remainder on R, zero at R's base
 //! nodes). Then, with E the base nodes within `margin` cells of R and F the rest:
 //! - hats–hats: C = Hᵀ G_f H is a base-grid circulant; its spectrum is an alias sum over the f²
@@ -155,6 +155,50 @@
 //!   CPU-minutes (50 and 26 min wall, load average ~12 on 2 cores) when the session ended: not
 //!   measured, and clearly not yet comparable to a uniform 2048² solve (the iteration count at
 //!   these k is unknown; the composite's grew from 153 at k = 2 to 308 at k = 4).
+//!
+//! # Preconditioner ([`Preconditioner`], [`twolevel`])
+//! The solver needs M ≈ A'⁻¹ = W (Pᵀ G_f P)⁻¹ W (force variables). The first design used
+//! M = Pᵀ K_f P ([`Preconditioner::Galerkin`]): exact for R covering the cell, but on a hat it
+//! is the alias sum Σ φ² K_f, not the inverse of the hats' own block W⁻¹ C W⁻¹ (C = Hᵀ G_f H,
+//! Σ φ² G_f): the two differ at every base mode above the smoothest, and near R's edge it
+//! couples the fine nodes to the hats' stiffness. The default ([`Preconditioner::Additive`]) is
+//! an additive two-level (overlapping Schwarz) one, M = W Π (J_c C⁻¹ J_cᵀ + J_r S K_R S J_rᵀ) Πᵀ W:
+//! - coarse space: the bilinear fields H v of all base nodes, solved exactly by C⁻¹ (C is a
+//!   base-grid circulant, so C⁻¹ is diagonal in Fourier: one base FFT pair);
+//! - fine space: every node of R with K_R, the fine stiffness's real-space table restricted to R
+//!   (zero-padded FFT on 2 rx × 2 ry; no margin, no box). R's edge base nodes (weight w > 1: their
+//!   basis also carries the coarse hats next to R) enter scaled by S = 1/w; unscaled they get
+//!   w² K_f(0), up to f⁴/4 too stiff, and left out the iterations grew with the window (k = 1,
+//!   window 16² of a 32² base: 113 iterations against 36 scaled);
+//! - Π = I − w 1ᵀ/Σw: a uniform gap (the rigid approach the solver estimates) gives no force and
+//!   the output's net force is removed as a uniform pressure (the solver then removes its mean on
+//!   the free set as a uniform force, which on unknowns of unequal area is a pressure step).
+//!   Measured: 81 → 76 iterations (k = 3 below), a small effect. Making the solver's own mean
+//!   removal weighted on one side only (tried in polonsky_keer, reverted) broke the symmetry and
+//!   the solve did not converge.
+//!
+//! [`Preconditioner::Hierarchical`] (the same with the fine space restricted to R's non-base
+//! nodes: the block-diagonal inverse in the blockwise operator's (v, d) basis) is worse, as
+//! hierarchical bases are: 104 and 346–402 iterations below. Neither two-level preconditioner
+//! needs the margin box for K, so each iteration applies one box FFT pair (G) instead of two.
+//!
+//! Iterations (square model at 0.215 p_fc, tol_gap 1e-13, 32² base, window 8²; ignored test
+//! `iterations_by_preconditioner`; the solution is the same to 1e-11 h0 in the window gaps,
+//! test `the_two_level_preconditioner_needs_few_iterations`):
+//!
+//! | k | uniform fine | Galerkin | additive | hierarchical |
+//! |---|---|---|---|---|
+//! | 2 (128²) | 36 | 118 | 50 | 104 |
+//! | 3 (256²) | 26 | 169–170 | 73 | 346–402 |
+//!
+//! By window (ignored test `iterations_by_window`, full operator, additive / Galerkin): k = 1:
+//! 31/66, 49/63, 36/71, 36/75, 30/45 for windows 1, 4, 8, 16, 32 (the whole cell); k = 2:
+//! 40/120, 38/93, 50/118, 49/114, 34/36; k = 3: 43/110, 82/101, 73/170, 75/159, 30/26 (the base
+//! grid alone: 20). So the additive preconditioner is as good as the uniform one when R is the
+//! cell and when R is nearly empty, and 1.5–3× the uniform count for partial windows; what is
+//! left is the interface (K_R truncated at R's edge, and the free set cutting the coarse
+//! corrections there). Weighting the fine space by 0.5, 2 or 4 changed the counts within their
+//! scatter (±30 %), no trend.
 //!
 //! # Fit to drive the near-critical ladder?
 //! Not yet below |l| ~ 1e-4. What holds: the discretisation is the composite one (local slopes
@@ -387,6 +431,7 @@ pub struct Composite {
 }
 
 impl Composite {
+    #[allow(clippy::too_many_arguments)]
     /// The operator for a base grid of `nx × ny` nodes on `lx × ly`, refined `f` times in
     /// `window` (already checked).
     fn new(

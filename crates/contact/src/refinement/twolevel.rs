@@ -86,7 +86,7 @@ impl TwoLevel {
             fine,
             in_fine: (0..rx * ry)
                 .map(|k| {
-                    let base = (k / ry) % g.f == 0 && (k % ry) % g.f == 0;
+                    let base = (k / ry).is_multiple_of(g.f) && (k % ry).is_multiple_of(g.f);
                     if hierarchical && base {
                         0.0
                     } else {
