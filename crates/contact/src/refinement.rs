@@ -142,8 +142,9 @@
 //!   +1.8e-3, +1.7e-3, +1.9e-3 relative to uniform (composite +7.7e-4, +1.0e-3, +1.7e-3, +1.4e-3;
 //!   base alone −1.4e-2, −4.1e-2, −0.14, −0.13, +0.11).
 //!
-//! Cost (2 cores shared with ~5 other builds and solves, load average 13: wall times are
-//! indicative; setup included; square model at 0.227 p_fc, saddle (1/2, 0), margin 8):
+//! Cost with the Galerkin preconditioner (superseded: see "Cost with the two-level
+//! preconditioner"; 2 cores shared with ~5 other builds and solves, load average 13: wall
+//! times are indicative; setup included; square model at 0.227 p_fc, saddle (1/2, 0), margin 8):
 //! - 256² base, k = 3, window 32² (fine spacing of 2048²): 23 s, 200 iterations, against
 //!   18 s, 40 iterations for the uniform 2048² solve in the same run; saddle gap −5.7e-4 from
 //!   uniform at this fixed load (base alone +2.6e-4: at a fixed load near p_c the comparison
@@ -198,25 +199,71 @@
 //! cell and when R is nearly empty, and 1.5–3× the uniform count for partial windows; what is
 //! left is the interface (K_R truncated at R's edge, and the free set cutting the coarse
 //! corrections there). Weighting the fine space by 0.5, 2 or 4 changed the counts within their
-//! scatter (±30 %), no trend.
+//! scatter (±30 %), no trend. Replacing K_R by the inverse of G_f|R's circulant embedding (as
+//! [`FreeKernel`] does for free boundaries) gave 45 and 67 at windows 8² (k = 2, 3), but did not
+//! converge (> 4000) for windows of half the cell, where the embedded table is not positive:
+//! not used.
+//!
+//! # Cost with the two-level preconditioner
+//! `cargo bench -p contact --bench refinement` with `REFINE_METHOD=blockwise` (margin 8) and
+//! the variables below; square model at 0.227 p_fc (saddle gap 2.08e-3 h0), saddle (1/2, 0),
+//! tol_gap 1e-13, cold start. The machine was shared (load average 7–13 on 2 cores: wall times
+//! inflated 2–4×; CPU times from `/usr/bin/time -v`):
+//!
+//! | k | base, window | fine spacing | wall (setup) | CPU | iterations | peak RSS |
+//! |---|---|---|---|---|---|---|
+//! | 3 | 256², 32² | 2048² | 10.0 s (0.9 s) | – | 108 | 326 MiB (with the uniform) |
+//! | 3, Galerkin | 256², 32² | 2048² | 21.6 s (0.9 s) | – | 200 | 105 MiB |
+//! | 4 | 256², 16² | 4096² | 20.8 s (3.2 s) | 9.6 s | 109 | 208 MiB |
+//! | 5 | 256², 16² | 8192² | 208 s (14 s) | 91 s | 207 | 774 MiB |
+//! | 6 | 256², 8² | 16384² | 278 s (78 s) | 86 s | 76 | 502 MiB |
+//!
+//! The uniform 2048² solve in the k = 3 run: 15.2 s wall, 40 iterations; the refined saddle gap
+//! −5.65e-4 from it at this fixed load (the p_c shift, as above), the Galerkin and additive
+//! solves equal to 8e-12 relative (`REFINE_BASE=8 REFINE_LEVELS=3 REFINE_WINDOWS=32`,
+//! `REFINE_PRECONDITIONER=galerkin` for the second row, `REFINE_SKIP_REFERENCE=1` for k ≥ 4).
+//! So at k = 3 a solve now costs less than the uniform 2048² one (was 1.5×), k = 4 about one
+//! and a half uniform 2048² solves (was 3×), and k = 5, 6 finish (did not before) at 86–91
+//! CPU-seconds, about 5–6 uniform 2048² solves: not yet "comparable to a uniform 1024²–2048²
+//! solve". Where it goes at k = 5, 6: the box of (w + 2 margin + 2) 2^k fine nodes per side
+//! (1088² and 1664², FFT on twice that), 100–200 iterations of one box FFT pair each, and at
+//! k = 6 the setup (the real-space tables by 1-D transforms over the 16384-node period, and
+//! the alias sums over f² = 4096 fine modes per base mode: 78 s wall of 278). The iteration
+//! count depends on where R's edge cuts the contact lines (207 at k = 5 with window 16², 76 at
+//! k = 6 with 8²), not only on k.
 //!
 //! # Fit to drive the near-critical ladder?
 //! Not yet below |l| ~ 1e-4. What holds: the discretisation is the composite one (local slopes
-//! within 6.4e-4 of the uniform ones at fixed l), the fine lattice is never allocated, and at
-//! k = 3 one solve costs about a uniform 2048² solve. What does not: (i) the far-field
+//! within 6.4e-4 of the uniform ones at fixed l), the fine lattice is never allocated, at k = 3
+//! one solve costs less than a uniform 2048² solve and at k = 4 about 1.5 of them, and k = 5, 6
+//! run (86–91 CPU-seconds per cold solve, 0.5–0.8 GB). What does not: (i) the far-field
 //! interpolation adds an error that acts like a shift of the reduced load by ~1e-7 … 1e-6
 //! (falling with the margin and the base resolution, see above), which at |l| = 1e-5 would be
 //! 1–10 % of the saddle gap unless the margin and base grid are chosen to push it below ~1e-9
-//! (to be measured: vary the margin at the rung); (ii) 5× the uniform iterations; (iii) the box
-//! grows like 2^k, so k = 6 needs a window of a few base cells (nested windows not done);
-//! (iv) no flow on the composite gap.
+//! (to be measured: vary the margin at the rung); (ii) 2–5× the uniform iterations (interface,
+//! see "Preconditioner"); (iii) the box grows like 2^k, so k = 6 needs a window of a few base
+//! cells, and a rung also needs p_c of the refined discretisation (~30 warm-started solves of
+//! the bisection); (iv) no flow on the composite gap.
 //!
 //! # What is left
-//! - Iterations: the preconditioner Pᵀ K_f P (applied blockwise as well) leaves 5× the uniform
-//!   solve's iterations; each is cheap, but a better one (e.g. exact on R's box) would pay.
-//! - Box size: the box grows like (w + 2 margin + 2) 2^k per side, so k = 6 needs a window of
-//!   few base cells; nested windows (each level refining a fixed number of its own cells by 2)
-//!   would make the unknowns grow linearly in k. Not done.
+//! - Nested windows (not done). Level m = 0..k refines by 2 a window R_m of a fixed number c of
+//!   its own cells (sized to the neck: |l|^χ along the channel, |l|^υ across, with margin),
+//!   R_{m+1} inside R_m. The space stays one of bilinear hats: level-m hats on the nodes of
+//!   R_m outside R_{m+1} (as base hats outside R now), fine nodes in R_k; one energy with G_f,
+//!   so PK needs no outer loop, and the unknowns grow like N_base + k c². The operator as the
+//!   blockwise one applied per level: the level-m hats' mutual table is translation invariant
+//!   on the level-m lattice (alias sums, as C now), the near field of each level on a box of
+//!   (c + 2 margin) level-m cells (fixed size, so the work is linear in k instead of the
+//!   single box's 4^k), coarser levels reaching finer ones through the two-scale relation of
+//!   bilinear hats (a level-m hat is 9 level-(m+1) hats, exact) near the window and through the
+//!   adjoint interpolation of the far field (the one approximation, as now). Preconditioner: the
+//!   additive one extended level by level (C⁻¹ on the base, K restricted to each R_m on its
+//!   lattice's hats). Tables per level need the fine spectrum's alias sums over 4^(k−m) modes
+//!   per level-m mode: at k = 6 the setup already dominates (78 of 278 s), so they should come
+//!   from the continuum kernel plus a lattice correction, or from level m + 1's table.
+//! - Iterations at partial windows (1.5–3× the uniform count at k ≤ 3, more at k = 5): the
+//!   interface; a multiplicative (symmetrised) coarse correction or the free set's restriction
+//!   taken into the coarse solve are the candidates.
 //! - The flow (Reynolds) on the composite gap is not done; [`Refined::window_gap`] holds the
 //!   fine gap of R only.
 //! - [`EdgeRuns`] reports a window that is too small (no contact line crossing its edge, or a

@@ -17,7 +17,9 @@
 //!   only approximation, and it keeps one energy (the transposed block uses the adjoint
 //!   interpolation), so the operator stays symmetric.
 //!
-//! The same machinery with G replaced by the fine stiffness K_f is the preconditioner Pᵀ K_f P.
+//! The same machinery with G replaced by the fine stiffness K_f is the Galerkin preconditioner
+//! Pᵀ K_f P ([`super::Preconditioner::Galerkin`]; the default two-level one needs no box,
+//! [`super::twolevel`]).
 
 use crate::free_kernel::FreeKernel;
 use crate::spectral::Spectral;
