@@ -217,6 +217,7 @@
 //! | 4 | 256², 16² | 4096² | 20.8 s (3.2 s) | 9.6 s | 109 | 208 MiB |
 //! | 5 | 256², 16² | 8192² | 208 s (14 s) | 91 s | 207 | 774 MiB |
 //! | 6 | 256², 8² | 16384² | 278 s (78 s) | 86 s | 76 | 502 MiB |
+//! | 6, rerun at load average 3–4 | 256², 8² | 16384² | 97 s (31 s) | 85 s | 76 | 502 MiB |
 //!
 //! At a fixed reduced load (own p_c, bisection to 1e-9; `REFINE_CRITICAL=1 REFINE_METHOD=blockwise
 //! REFINE_BASE=8 REFINE_LEVELS=3 REFINE_WINDOW=32`, load average 5–14), 256² base, k = 3,
