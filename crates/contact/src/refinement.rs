@@ -219,6 +219,16 @@
 //! | 6 | 256², 8² | 16384² | 278 s (78 s) | 86 s | 76 | 502 MiB |
 //! | 6, rerun at load average 3–4 | 256², 8² | 16384² | 97 s (31 s) | 85 s | 76 | 502 MiB |
 //!
+//! After the heights were streamed once per fine node (same heights, same solutions to the
+//! last digit), on a quieter machine (load average 0.7–2.6):
+//!
+//! | k | base, window | wall (setup) | CPU | iterations | peak RSS |
+//! |---|---|---|---|---|---|
+//! | 3 | 256², 32² | 4.8 s (0.3 s); uniform 2048²: 7.4 s, 40 iterations | – | 108 | 326 MiB (with the uniform) |
+//! | 4 | 256², 16² | 9.3 s (1.0 s) | – | 109 | 80 MiB |
+//! | 5 | 256², 16² | 60 s (4.2 s) | 90 s | 207 | 256 MiB |
+//! | 6 | 256², 8² | 82 s (17.5 s) | 78 s | 76 | 472 MiB |
+//!
 //! At a fixed reduced load (own p_c, bisection to 1e-9; `REFINE_CRITICAL=1 REFINE_METHOD=blockwise
 //! REFINE_BASE=8 REFINE_LEVELS=3 REFINE_WINDOW=32`, load average 5–14), 256² base, k = 3,
 //! window 32², against the uniform 2048² solve: p_c/p_fc 0.2286050840 against 0.2286049877
@@ -235,21 +245,23 @@
 //! −5.65e-4 from it at this fixed load (the p_c shift, as above), the Galerkin and additive
 //! solves equal to 8e-12 relative (`REFINE_BASE=8 REFINE_LEVELS=3 REFINE_WINDOWS=32`,
 //! `REFINE_PRECONDITIONER=galerkin` for the second row, `REFINE_SKIP_REFERENCE=1` for k ≥ 4).
-//! So at k = 3 a solve now costs less than the uniform 2048² one (was 1.5×), k = 4 about one
-//! and a half uniform 2048² solves (was 3×), and k = 5, 6 finish (did not before) at 86–91
-//! CPU-seconds, about 5–6 uniform 2048² solves: not yet "comparable to a uniform 1024²–2048²
-//! solve". Where it goes at k = 5, 6: the box of (w + 2 margin + 2) 2^k fine nodes per side
-//! (1088² and 1664², FFT on twice that), 100–200 iterations of one box FFT pair each, and at
-//! k = 6 the setup (the real-space tables by 1-D transforms over the 16384-node period, and
-//! the alias sums over f² = 4096 fine modes per base mode: 78 s wall of 278). The iteration
-//! count depends on where R's edge cuts the contact lines (207 at k = 5 with window 16², 76 at
+//! So at k = 3 a solve now costs 0.65 of the uniform 2048² one (was 1.3×), k = 4 about 1.3
+//! uniform 2048² solves (was 3×), and k = 5, 6 finish (did not before) in 60–82 s wall, 78–91
+//! CPU-seconds, about 8–11 uniform 2048² solves: not yet "comparable to a uniform
+//! 1024²–2048² solve", and one cold k = 6 solve alone is over the issue's minute per rung.
+//! Where it goes at k = 5, 6: the box of (w + 2 margin + 2) 2^k fine nodes per side (1088²
+//! and 1664², FFT on twice that), 100–200 iterations of one box FFT pair each, and at k = 6
+//! the setup (17.5 s: Pᵀh over the 16384² fine lattice, which took 16 of 24 s when each node
+//! was evaluated twice (timed once, load average ~3.5; not re-timed since), the real-space
+//! tables by 1-D transforms over the 16384-node period and the alias sums over f² = 4096 fine
+//! modes per base mode, ~8 s then). The iteration count depends on where R's edge cuts the contact lines (207 at k = 5 with window 16², 76 at
 //! k = 6 with 8²), not only on k.
 //!
 //! # Fit to drive the near-critical ladder?
 //! Not yet below |l| ~ 1e-4. What holds: the discretisation is the composite one (local slopes
 //! within 6.4e-4 of the uniform ones at fixed l), the fine lattice is never allocated, at k = 3
-//! one solve costs less than a uniform 2048² solve and at k = 4 about 1.5 of them, and k = 5, 6
-//! run (86–91 CPU-seconds per cold solve, 0.5–0.8 GB). What does not: (i) the far-field
+//! one solve costs less than a uniform 2048² solve and at k = 4 about 1.3 of them, and k = 5, 6
+//! run (60–82 s wall, 78–91 CPU-seconds per cold solve, 0.26–0.47 GB). What does not: (i) the far-field
 //! interpolation adds an error that acts like a shift of the reduced load by ~1e-7 … 1e-6
 //! (falling with the margin and the base resolution, see above), which at |l| = 1e-5 would be
 //! 1–10 % of the saddle gap unless the margin and base grid are chosen to push it below ~1e-9
@@ -272,7 +284,7 @@
 //!   adjoint interpolation of the far field (the one approximation, as now). Preconditioner: the
 //!   additive one extended level by level (C⁻¹ on the base, K restricted to each R_m on its
 //!   lattice's hats). Tables per level need the fine spectrum's alias sums over 4^(k−m) modes
-//!   per level-m mode: at k = 6 the setup already dominates (78 of 278 s), so they should come
+//!   per level-m mode: at k = 6 the setup is already 17.5 of 82 s, so they should come
 //!   from the continuum kernel plus a lattice correction, or from level m + 1's table.
 //! - Iterations at partial windows (1.5–3× the uniform count at k ≤ 3, more at k = 5): the
 //!   interface; a multiplicative (symmetrised) coarse correction or the free set's restriction
