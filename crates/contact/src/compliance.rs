@@ -3,8 +3,9 @@
 //! FFT with row callbacks. Implementations: the periodic half-space
 //! ([`crate::elastic::ElasticKernel`], K = G⁻¹ exactly), the free-boundary one on a zero-padded
 //! grid ([`crate::free_kernel::FreeKernel`], K the inverse of G's circulant embedding) and the
-//! composite operator of local refinement ([`crate::refinement::Composite`], K = Pᵀ K_f P, exact
-//! inside the refined region), the last two reached through `FreeKernel`.
+//! composite operator of local refinement ([`crate::refinement::Composite`], K a two-level
+//! approximation of its inverse, [`crate::refinement::twolevel`]), the last two reached
+//! through `FreeKernel`.
 
 use crate::spectral::RowSums;
 

@@ -18,8 +18,8 @@
 //! pixels an unknown covers: 1 inside R, f² for a coarse hat) the operator
 //! A' = W⁻¹ Pᵀ G_f P W⁻¹ is symmetric and positive on zero-mean fields, the load is Σ r = N_f p̄,
 //! and the crate's preconditioned Polonsky–Keer iteration solves it unchanged (through
-//! [`FreeKernel::composite`]; preconditioner Pᵀ K_f P with K_f the fine stiffness, exact inside
-//! R). There is no outer iteration and no coupling tolerance: `solver.tol_gap` bounds the
+//! [`FreeKernel::composite`]; preconditioner: see "Preconditioner" below). There is no outer
+//! iteration and no coupling tolerance: `solver.tol_gap` bounds the
 //! violation of the composite conditions (fine gaps in R, hat-mean gaps outside), as it bounds
 //! the fine gaps of a uniform solve.
 //!
@@ -98,8 +98,8 @@
 //! the fine lattice. It is kept as the reference of the blockwise application.
 //!
 //! # Blockwise application ([`RefinedModel::blockwise`], [`blocks`])
-//! The same discrete problem (same unknowns, weights, heights W⁻¹Pᵀh and preconditioner
-//! Pᵀ K_f P) with A' applied without the fine lattice. Write p = H v + d (H v the bilinear
+//! The same discrete problem (same unknowns, weights, heights W⁻¹Pᵀh and preconditioner)
+//! with A' applied without the fine lattice. Write p = H v + d (H v the bilinear
 //! interpolant of nodal values on every base node, d the fine remainder on R, zero at R's base
 //! nodes). Then, with E the base nodes within `margin` cells of R and F the rest:
 //! - hats–hats: C = Hᵀ G_f H is a base-grid circulant; its spectrum is an alias sum over the f²
@@ -142,8 +142,9 @@
 //!   +1.8e-3, +1.7e-3, +1.9e-3 relative to uniform (composite +7.7e-4, +1.0e-3, +1.7e-3, +1.4e-3;
 //!   base alone −1.4e-2, −4.1e-2, −0.14, −0.13, +0.11).
 //!
-//! Cost (2 cores shared with ~5 other builds and solves, load average 13: wall times are
-//! indicative; setup included; square model at 0.227 p_fc, saddle (1/2, 0), margin 8):
+//! Cost with the Galerkin preconditioner (superseded: see "Cost with the two-level
+//! preconditioner"; 2 cores shared with ~5 other builds and solves, load average 13: wall
+//! times are indicative; setup included; square model at 0.227 p_fc, saddle (1/2, 0), margin 8):
 //! - 256² base, k = 3, window 32² (fine spacing of 2048²): 23 s, 200 iterations, against
 //!   18 s, 40 iterations for the uniform 2048² solve in the same run; saddle gap −5.7e-4 from
 //!   uniform at this fixed load (base alone +2.6e-4: at a fixed load near p_c the comparison
@@ -156,23 +157,138 @@
 //!   measured, and clearly not yet comparable to a uniform 2048² solve (the iteration count at
 //!   these k is unknown; the composite's grew from 153 at k = 2 to 308 at k = 4).
 //!
+//! # Preconditioner ([`Preconditioner`], [`twolevel`])
+//! The solver needs M ≈ A'⁻¹ = W (Pᵀ G_f P)⁻¹ W (force variables). The first design used
+//! M = Pᵀ K_f P ([`Preconditioner::Galerkin`]): exact for R covering the cell, but on a hat it
+//! is the alias sum Σ φ² K_f, not the inverse of the hats' own block W⁻¹ C W⁻¹ (C = Hᵀ G_f H,
+//! Σ φ² G_f): the two differ at every base mode above the smoothest, and near R's edge it
+//! couples the fine nodes to the hats' stiffness. The default ([`Preconditioner::Additive`]) is
+//! an additive two-level (overlapping Schwarz) one, M = W Π (J_c C⁻¹ J_cᵀ + J_r S K_R S J_rᵀ) Πᵀ W:
+//! - coarse space: the bilinear fields H v of all base nodes, solved exactly by C⁻¹ (C is a
+//!   base-grid circulant, so C⁻¹ is diagonal in Fourier: one base FFT pair);
+//! - fine space: every node of R with K_R, the fine stiffness's real-space table restricted to R
+//!   (zero-padded FFT on 2 rx × 2 ry; no margin, no box). R's edge base nodes (weight w > 1: their
+//!   basis also carries the coarse hats next to R) enter scaled by S = 1/w; unscaled they get
+//!   w² K_f(0), up to f⁴/4 too stiff, and left out the iterations grew with the window (k = 1,
+//!   window 16² of a 32² base: 113 iterations against 36 scaled);
+//! - Π = I − w 1ᵀ/Σw: a uniform gap (the rigid approach the solver estimates) gives no force and
+//!   the output's net force is removed as a uniform pressure (the solver then removes its mean on
+//!   the free set as a uniform force, which on unknowns of unequal area is a pressure step).
+//!   Measured: 81 → 76 iterations (k = 3 below), a small effect. Making the solver's own mean
+//!   removal weighted on one side only (tried in polonsky_keer, reverted) broke the symmetry and
+//!   the solve did not converge.
+//!
+//! [`Preconditioner::Hierarchical`] (the same with the fine space restricted to R's non-base
+//! nodes: the block-diagonal inverse in the blockwise operator's (v, d) basis) is worse, as
+//! hierarchical bases are: 104 and 346–402 iterations below. Neither two-level preconditioner
+//! needs the margin box for K, so each iteration applies one box FFT pair (G) instead of two.
+//!
+//! Iterations (square model at 0.215 p_fc, tol_gap 1e-13, 32² base, window 8²; ignored test
+//! `iterations_by_preconditioner`; the solution is the same to 1e-11 h0 in the window gaps,
+//! test `the_two_level_preconditioner_needs_few_iterations`):
+//!
+//! | k | uniform fine | Galerkin | additive | hierarchical |
+//! |---|---|---|---|---|
+//! | 2 (128²) | 36 | 118 | 50 | 104 |
+//! | 3 (256²) | 26 | 169–170 | 73 | 346–402 |
+//!
+//! By window (ignored test `iterations_by_window`, full operator, additive / Galerkin): k = 1:
+//! 31/66, 49/63, 36/71, 36/75, 30/45 for windows 1, 4, 8, 16, 32 (the whole cell); k = 2:
+//! 40/120, 38/93, 50/118, 49/114, 34/36; k = 3: 43/110, 82/101, 73/170, 75/159, 30/26 (the base
+//! grid alone: 20). So the additive preconditioner is as good as the uniform one when R is the
+//! cell and when R is nearly empty, and 1.5–3× the uniform count for partial windows; what is
+//! left is the interface (K_R truncated at R's edge, and the free set cutting the coarse
+//! corrections there). Weighting the fine space by 0.5, 2 or 4 changed the counts within their
+//! scatter (±30 %), no trend. Replacing K_R by the inverse of G_f|R's circulant embedding (as
+//! [`FreeKernel`] does for free boundaries) gave 45 and 67 at windows 8² (k = 2, 3), but did not
+//! converge (> 4000) for windows of half the cell, where the embedded table is not positive:
+//! not used.
+//!
+//! # Cost with the two-level preconditioner
+//! `cargo bench -p contact --bench refinement` with `REFINE_METHOD=blockwise` (margin 8) and
+//! the variables below; square model at 0.227 p_fc (saddle gap 2.08e-3 h0), saddle (1/2, 0),
+//! tol_gap 1e-13, cold start. The machine was shared (load average 7–13 on 2 cores: wall times
+//! inflated 2–4×; CPU times from `/usr/bin/time -v`):
+//!
+//! | k | base, window | fine spacing | wall (setup) | CPU | iterations | peak RSS |
+//! |---|---|---|---|---|---|---|
+//! | 3 | 256², 32² | 2048² | 10.0 s (0.9 s) | – | 108 | 326 MiB (with the uniform) |
+//! | 3, Galerkin | 256², 32² | 2048² | 21.6 s (0.9 s) | – | 200 | 105 MiB |
+//! | 4 | 256², 16² | 4096² | 20.8 s (3.2 s) | 9.6 s | 109 | 208 MiB |
+//! | 5 | 256², 16² | 8192² | 208 s (14 s) | 91 s | 207 | 774 MiB |
+//! | 6 | 256², 8² | 16384² | 278 s (78 s) | 86 s | 76 | 502 MiB |
+//! | 6, rerun at load average 3–4 | 256², 8² | 16384² | 97 s (31 s) | 85 s | 76 | 502 MiB |
+//!
+//! After the heights were streamed once per fine node (same heights, same solutions to the
+//! last digit), on a quieter machine (load average 0.7–2.6):
+//!
+//! | k | base, window | wall (setup) | CPU | iterations | peak RSS |
+//! |---|---|---|---|---|---|
+//! | 3 | 256², 32² | 4.8 s (0.3 s); uniform 2048²: 7.4 s, 40 iterations | – | 108 | 326 MiB (with the uniform) |
+//! | 4 | 256², 16² | 9.3 s (1.0 s) | – | 109 | 80 MiB |
+//! | 5 | 256², 16² | 60 s (4.2 s) | 90 s | 207 | 256 MiB |
+//! | 6 | 256², 8² | 82 s (17.5 s) | 78 s | 76 | 472 MiB |
+//!
+//! At a fixed reduced load (own p_c, bisection to 1e-9; `REFINE_CRITICAL=1 REFINE_METHOD=blockwise
+//! REFINE_BASE=8 REFINE_LEVELS=3 REFINE_WINDOW=32`, load average 5–14), 256² base, k = 3,
+//! window 32², against the uniform 2048² solve: p_c/p_fc 0.2286050840 against 0.2286049877
+//! (+4.2e-7; base alone 0.2286119883, +3.1e-5); saddle gap at l = −1e-2, −3e-3, −1e-3, −3e-4,
+//! −1e-4: −3.6e-4, −5.2e-4, +5.1e-4, +3.5e-4, +1.9e-4 relative (base alone −3.1e-3, −1.1e-2,
+//! −4.0e-2, −8.1e-2, −0.21); local slopes d ln g_s/d ln|l| between neighbours (uniform 1.1923,
+//! 1.1800, 1.1712, 1.1656) within 9.3e-4 (+1.3e-4, −9.3e-4, +1.3e-4, +1.4e-4; base alone up to
+//! 0.13). The whole bisection and ladder took 85 s refined (38 warm-started solves) against 788 s
+//! uniform in the same run. So at l = −1e-3 the refined saddle gap is within 5.1e-4 of the
+//! uniform one: the ~1e-3 floor of the composite discretisation (see "Measurements"), not the
+//! issue's 1e-6.
+//!
+//! The uniform 2048² solve in the k = 3 run: 15.2 s wall, 40 iterations; the refined saddle gap
+//! −5.65e-4 from it at this fixed load (the p_c shift, as above), the Galerkin and additive
+//! solves equal to 8e-12 relative (`REFINE_BASE=8 REFINE_LEVELS=3 REFINE_WINDOWS=32`,
+//! `REFINE_PRECONDITIONER=galerkin` for the second row, `REFINE_SKIP_REFERENCE=1` for k ≥ 4).
+//! So at k = 3 a solve now costs 0.65 of the uniform 2048² one (was 1.3×), k = 4 about 1.3
+//! uniform 2048² solves (was 3×), and k = 5, 6 finish (did not before) in 60–82 s wall, 78–91
+//! CPU-seconds, about 8–11 uniform 2048² solves: not yet "comparable to a uniform
+//! 1024²–2048² solve", and one cold k = 6 solve alone is over the issue's minute per rung.
+//! Where it goes at k = 5, 6: the box of (w + 2 margin + 2) 2^k fine nodes per side (1088²
+//! and 1664², FFT on twice that), 100–200 iterations of one box FFT pair each, and at k = 6
+//! the setup (17.5 s: Pᵀh over the 16384² fine lattice, which took 16 of 24 s when each node
+//! was evaluated twice (timed once, load average ~3.5; not re-timed since), the real-space
+//! tables by 1-D transforms over the 16384-node period and the alias sums over f² = 4096 fine
+//! modes per base mode, ~8 s then). The iteration count depends on where R's edge cuts the contact lines (207 at k = 5 with window 16², 76 at
+//! k = 6 with 8²), not only on k.
+//!
 //! # Fit to drive the near-critical ladder?
 //! Not yet below |l| ~ 1e-4. What holds: the discretisation is the composite one (local slopes
-//! within 6.4e-4 of the uniform ones at fixed l), the fine lattice is never allocated, and at
-//! k = 3 one solve costs about a uniform 2048² solve. What does not: (i) the far-field
+//! within 6.4e-4 of the uniform ones at fixed l), the fine lattice is never allocated, at k = 3
+//! one solve costs less than a uniform 2048² solve and at k = 4 about 1.3 of them, and k = 5, 6
+//! run (60–82 s wall, 78–91 CPU-seconds per cold solve, 0.26–0.47 GB). What does not: (i) the far-field
 //! interpolation adds an error that acts like a shift of the reduced load by ~1e-7 … 1e-6
 //! (falling with the margin and the base resolution, see above), which at |l| = 1e-5 would be
 //! 1–10 % of the saddle gap unless the margin and base grid are chosen to push it below ~1e-9
-//! (to be measured: vary the margin at the rung); (ii) 5× the uniform iterations; (iii) the box
-//! grows like 2^k, so k = 6 needs a window of a few base cells (nested windows not done);
-//! (iv) no flow on the composite gap.
+//! (to be measured: vary the margin at the rung); (ii) 2–5× the uniform iterations (interface,
+//! see "Preconditioner"); (iii) the box grows like 2^k, so k = 6 needs a window of a few base
+//! cells, and a rung also needs p_c of the refined discretisation (~30 warm-started solves of
+//! the bisection); (iv) no flow on the composite gap.
 //!
 //! # What is left
-//! - Iterations: the preconditioner Pᵀ K_f P (applied blockwise as well) leaves 5× the uniform
-//!   solve's iterations; each is cheap, but a better one (e.g. exact on R's box) would pay.
-//! - Box size: the box grows like (w + 2 margin + 2) 2^k per side, so k = 6 needs a window of
-//!   few base cells; nested windows (each level refining a fixed number of its own cells by 2)
-//!   would make the unknowns grow linearly in k. Not done.
+//! - Nested windows (not done). Level m = 0..k refines by 2 a window R_m of a fixed number c of
+//!   its own cells (sized to the neck: |l|^χ along the channel, |l|^υ across, with margin),
+//!   R_{m+1} inside R_m. The space stays one of bilinear hats: level-m hats on the nodes of
+//!   R_m outside R_{m+1} (as base hats outside R now), fine nodes in R_k; one energy with G_f,
+//!   so PK needs no outer loop, and the unknowns grow like N_base + k c². The operator as the
+//!   blockwise one applied per level: the level-m hats' mutual table is translation invariant
+//!   on the level-m lattice (alias sums, as C now), the near field of each level on a box of
+//!   (c + 2 margin) level-m cells (fixed size, so the work is linear in k instead of the
+//!   single box's 4^k), coarser levels reaching finer ones through the two-scale relation of
+//!   bilinear hats (a level-m hat is 9 level-(m+1) hats, exact) near the window and through the
+//!   adjoint interpolation of the far field (the one approximation, as now). Preconditioner: the
+//!   additive one extended level by level (C⁻¹ on the base, K restricted to each R_m on its
+//!   lattice's hats). Tables per level need the fine spectrum's alias sums over 4^(k−m) modes
+//!   per level-m mode: at k = 6 the setup is already 17.5 of 82 s, so they should come
+//!   from the continuum kernel plus a lattice correction, or from level m + 1's table.
+//! - Iterations at partial windows (1.5–3× the uniform count at k ≤ 3, more at k = 5): the
+//!   interface; a multiplicative (symmetrised) coarse correction or the free set's restriction
+//!   taken into the coarse solve are the candidates.
 //! - The flow (Reynolds) on the composite gap is not done; [`Refined::window_gap`] holds the
 //!   fine gap of R only.
 //! - [`EdgeRuns`] reports a window that is too small (no contact line crossing its edge, or a
@@ -180,6 +296,20 @@
 
 pub mod blocks;
 pub mod coupled;
+pub mod twolevel;
+
+/// The preconditioner of the composite solve (see the module docs, "Preconditioner").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Preconditioner {
+    /// Pᵀ K_f P, the fine stiffness seen through the composite basis (the first design).
+    Galerkin,
+    /// Exact coarse solve C⁻¹ on the base grid plus K_f on R's fine nodes, added
+    /// ([`twolevel`]).
+    #[default]
+    Additive,
+    /// The same with the fine space restricted to R's non-base nodes (hierarchical basis).
+    Hierarchical,
+}
 
 /// Points per axis of the far field's Lagrange interpolation in the blockwise operator.
 pub const ORDER: usize = 8;
@@ -336,8 +466,12 @@ impl Refined {
 pub struct Composite {
     /// The fine lattice's kernel (the full application), or None (blockwise, [`blocks`]).
     fine: Option<ElasticKernel>,
-    /// Blockwise operators: compliance and stiffness.
-    blocks: Option<Box<[blocks::Blocks; 2]>>,
+    /// Blockwise operators: compliance and (Galerkin preconditioner only) stiffness.
+    blocks: Option<Box<[Option<blocks::Blocks>; 2]>>,
+    /// The two-level preconditioner, if chosen.
+    twolevel: Option<Box<twolevel::TwoLevel>>,
+    /// Whether each base node lies on R.
+    on_r: Vec<bool>,
     parallel: bool,
     point: f64,
     nx: usize,
@@ -369,6 +503,7 @@ pub struct Composite {
 }
 
 impl Composite {
+    #[allow(clippy::too_many_arguments)]
     /// The operator for a base grid of `nx × ny` nodes on `lx × ly`, refined `f` times in
     /// `window` (already checked).
     fn new(
@@ -379,6 +514,7 @@ impl Composite {
         f: usize,
         window: Window,
         margin: Option<usize>,
+        pre: Preconditioner,
     ) -> Self {
         let (fnx, fny) = (nx * f, ny * f);
         let geometry = blocks::Geometry {
@@ -407,15 +543,19 @@ impl Composite {
             }
             Some(_) => {
                 let pair = [
-                    blocks::Blocks::new(geometry, blocks::Kernel::Compliance),
-                    blocks::Blocks::new(geometry, blocks::Kernel::Stiffness),
+                    Some(blocks::Blocks::new(geometry, blocks::Kernel::Compliance)),
+                    (pre == Preconditioner::Galerkin)
+                        .then(|| blocks::Blocks::new(geometry, blocks::Kernel::Stiffness)),
                 ];
                 (None, Some(Box::new(pair)))
             }
         };
         let (parallel, point) = match (&fine, &blocks) {
             (Some(k), _) => (k.parallel(), k.point_compliance()),
-            (None, Some(b)) => (rayon::current_num_threads() > 1, b[0].point),
+            (None, Some(b)) => (
+                rayon::current_num_threads() > 1,
+                b[0].as_ref().expect("compliance").point,
+            ),
             _ => unreachable!(),
         };
         let origin = (window.i0 * f, window.j0 * f);
@@ -441,6 +581,7 @@ impl Composite {
             }
         }
         let n = next;
+        let on_r: Vec<bool> = base_index.iter().map(|&k| k < n_fine).collect();
         let cols = ry + ry % 2;
         let rows = n.div_ceil(cols);
         let rows = rows + rows % 2;
@@ -449,6 +590,8 @@ impl Composite {
             pad_compliance: point,
             fine,
             blocks,
+            twolevel: None,
+            on_r,
             parallel,
             point,
             nx,
@@ -485,6 +628,15 @@ impl Composite {
             weight[..rx * ry].copy_from_slice(&wr);
             c.weight = weight;
         }
+        if pre != Preconditioner::Galerkin {
+            c.twolevel = Some(Box::new(twolevel::TwoLevel::new(
+                geometry,
+                rx,
+                ry,
+                &c.weight[..rx * ry],
+                pre == Preconditioner::Hierarchical,
+            )));
+        }
         c
     }
 
@@ -507,7 +659,9 @@ impl Composite {
                 .collect()
         };
         let v: Vec<f64> = self.base_index.iter().map(|&k| q[k]).collect();
-        let b = &mut self.blocks.as_mut().expect("blockwise")[usize::from(stiffness)];
+        let b = self.blocks.as_mut().expect("blockwise")[usize::from(stiffness)]
+            .as_mut()
+            .expect("blocks of this kernel");
         let (gf, gv) = b.apply(&q[..nf], &v);
         self.out[..nf].copy_from_slice(&gf);
         for (k, &idx) in self.base_index.iter().enumerate() {
@@ -523,6 +677,50 @@ impl Composite {
         let c = self.pad_compliance;
         for k in n..self.out.len() {
             self.out[k] = if stiffness { x[k] / c } else { x[k] * c };
+        }
+    }
+
+    /// out = W B' W x, the two-level preconditioner ([`twolevel`]), padding diagonal.
+    fn apply_twolevel(&mut self, x: &[f64]) {
+        let (n, nf) = (self.n, self.rx * self.ry);
+        // B' = Π B Πᵀ with Π = I − w 1ᵀ/Σw: a uniform gap (the solver's rigid approach)
+        // gives no force, and the output's net force is removed as a uniform pressure, not as
+        // the uniform force the solver's mean removal would take from it
+        let wsum: f64 = self.weight.iter().sum();
+        let shift = x[..n]
+            .iter()
+            .zip(&self.weight)
+            .map(|(a, w)| a * w)
+            .sum::<f64>()
+            / wsum;
+        let y: Vec<f64> = x[..n]
+            .iter()
+            .zip(&self.weight)
+            .map(|(a, w)| (a - shift) * w)
+            .collect();
+        let y_out: Vec<f64> = self
+            .base_index
+            .iter()
+            .map(|&k| if k >= nf { y[k] } else { 0.0 })
+            .collect();
+        let t = self.twolevel.as_mut().expect("two-level");
+        let (z_r, z_v) = t.apply(&y[..nf], &y_out, &self.on_r);
+        self.out[..nf].copy_from_slice(&z_r);
+        for (k, &idx) in self.base_index.iter().enumerate() {
+            if idx >= nf {
+                self.out[idx] = z_v[k];
+            }
+        }
+        for (o, w) in self.out[..n].iter_mut().zip(&self.weight) {
+            *o *= w;
+        }
+        let m = self.out[..n].iter().sum::<f64>() / wsum;
+        for (o, w) in self.out[..n].iter_mut().zip(&self.weight) {
+            *o -= m * w;
+        }
+        let c = self.pad_compliance;
+        for k in n..self.out.len() {
+            self.out[k] = x[k] / c;
         }
     }
 
@@ -617,6 +815,9 @@ impl Composite {
 
     /// out = A' x (compliance: W⁻¹ Pᵀ G P W⁻¹) or M x (stiffness: Pᵀ K P), padding diagonal.
     fn apply(&mut self, stiffness: bool, x: &[f64]) {
+        if stiffness && self.twolevel.is_some() {
+            return self.apply_twolevel(x);
+        }
         if self.blocks.is_some() {
             return self.apply_blocks(stiffness, x);
         }
@@ -736,6 +937,26 @@ fn check(surface: &Surface, pressure: f64, o: &RefineOptions) -> Result<(), Cont
     Ok(())
 }
 
+fn check_margin(
+    surface: &Surface,
+    opts: &RefineOptions,
+    margin: usize,
+) -> Result<(), ContactError> {
+    let g = &surface.grid;
+    let w = opts.window;
+    if margin < ORDER / 2 + 1 || w.wx + 2 * margin + 2 > g.nx || w.wy + 2 * margin + 2 > g.ny {
+        return Err(ContactError::Parameter {
+            name: "margin",
+            value: format!(
+                "{margin} base cells (window {} × {}, grid {} × {})",
+                w.wx, w.wy, g.nx, g.ny
+            ),
+            allowed: "ORDER/2 + 1 ..= (n − w − 2)/2 along both axes (ORDER = 8)",
+        });
+    }
+    Ok(())
+}
+
 /// A refined problem: build once, solve many loads (warm-started from a previous solution).
 pub struct RefinedModel {
     model: Model,
@@ -749,7 +970,7 @@ pub struct RefinedModel {
 impl RefinedModel {
     /// The composite problem of `surface` (its grid is the base grid) refined as `opts` asks.
     pub fn new(surface: &Surface, opts: &RefineOptions) -> Result<Self, ContactError> {
-        Self::build(surface, opts, None)
+        Self::build(surface, opts, None, Preconditioner::default())
     }
 
     /// The same composite problem with its operator applied blockwise ([`blocks`]): the fine
@@ -761,30 +982,38 @@ impl RefinedModel {
         opts: &RefineOptions,
         margin: usize,
     ) -> Result<Self, ContactError> {
-        let g = &surface.grid;
-        let w = opts.window;
-        if margin < ORDER / 2 + 1 || w.wx + 2 * margin + 2 > g.nx || w.wy + 2 * margin + 2 > g.ny {
-            return Err(ContactError::Parameter {
-                name: "margin",
-                value: format!(
-                    "{margin} base cells (window {} × {}, grid {} × {})",
-                    w.wx, w.wy, g.nx, g.ny
-                ),
-                allowed: "ORDER/2 + 1 ..= (n − w − 2)/2 along both axes (ORDER = 8)",
-            });
+        check_margin(surface, opts, margin)?;
+        Self::build(surface, opts, Some(margin), Preconditioner::default())
+    }
+
+    /// The composite problem with the operator applied in full (`margin` None, as
+    /// [`RefinedModel::new`]) or blockwise (as [`RefinedModel::blockwise`]) and the given
+    /// preconditioner.
+    pub fn with_preconditioner(
+        surface: &Surface,
+        opts: &RefineOptions,
+        margin: Option<usize>,
+        pre: Preconditioner,
+    ) -> Result<Self, ContactError> {
+        match margin {
+            None => Self::build(surface, opts, None, pre),
+            Some(m) => {
+                check_margin(surface, opts, m)?;
+                Self::build(surface, opts, Some(m), pre)
+            }
         }
-        Self::build(surface, opts, Some(margin))
     }
 
     fn build(
         surface: &Surface,
         opts: &RefineOptions,
         margin: Option<usize>,
+        pre: Preconditioner,
     ) -> Result<Self, ContactError> {
         check(surface, 1.0, opts)?;
         let g = surface.grid;
         let f = 1usize << opts.levels;
-        let mut comp = Composite::new(g.nx, g.ny, g.lx, g.ly, f, opts.window, margin);
+        let mut comp = Composite::new(g.nx, g.ny, g.lx, g.ly, f, opts.window, margin, pre);
         // Heights at the fine nodes (the analytic profile; base node i is fine node f i),
         // averaged by the unknowns' weights: b' = W⁻¹ Pᵀ h.
         let (dx, dy) = (g.dx(), g.dy());
@@ -994,7 +1223,7 @@ mod tests {
             wx: 4,
             wy: 6,
         };
-        let mut c = Composite::new(16, 16, 1.0, 1.0, 4, w, None);
+        let mut c = Composite::new(16, 16, 1.0, 1.0, 4, w, None, Preconditioner::Galerkin);
         let total: f64 = c.weight.iter().sum();
         // a sum of O(1e3) small integers and quarter-integers: exact
         assert_eq!(total, (64 * 64) as f64);
@@ -1170,8 +1399,17 @@ mod tests {
             wy: 5,
         };
         for (f, margin) in [(2, 5), (4, 5), (4, 8), (4, 12)] {
-            let mut full = Composite::new(32, 32, 1.0, 1.3, f, w, None);
-            let mut cheap = Composite::new(32, 32, 1.0, 1.3, f, w, Some(margin));
+            let mut full = Composite::new(32, 32, 1.0, 1.3, f, w, None, Preconditioner::Galerkin);
+            let mut cheap = Composite::new(
+                32,
+                32,
+                1.0,
+                1.3,
+                f,
+                w,
+                Some(margin),
+                Preconditioner::Galerkin,
+            );
             assert_eq!(full.weight, cheap.weight);
             let m = full.rows * full.cols;
             let a: Vec<f64> = (0..m).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
@@ -1314,6 +1552,138 @@ mod tests {
                 pk / pc - 1.0,
                 rel.join(", ")
             );
+        }
+    }
+
+    /// The two-level preconditioner solves the same discrete problem (same saddle gap and
+    /// window gaps to the solver tolerance) in at most twice the uniform fine solve's
+    /// iterations, and in fewer than the Galerkin one (32² base, k = 2, window 8², margin 6,
+    /// near percolation). Measured: 57 (additive) and 118 (Galerkin) against 36 uniform.
+    #[test]
+    fn the_two_level_preconditioner_needs_few_iterations() {
+        let s = Surface::new(Lattice::Square, 5).unwrap();
+        let fine = Surface::new(Lattice::Square, 7).unwrap();
+        let load = 0.215 * s.p_fc_grid();
+        let uni = Model::new(&fine)
+            .unwrap()
+            .solve(Interaction::HardWall, load, &solver(), None)
+            .unwrap();
+        let opts = RefineOptions {
+            levels: 2,
+            window: Window::centred(&s.grid, 0.5, 0.0, 8, 8),
+            solver: solver(),
+        };
+        let solve = |pre| {
+            let r = RefinedModel::with_preconditioner(&s, &opts, Some(6), pre)
+                .unwrap()
+                .solve(load, None)
+                .unwrap();
+            assert!(r.stats.converged, "{pre:?}: {:?}", r.stats);
+            r
+        };
+        let (a, g) = (
+            solve(Preconditioner::Additive),
+            solve(Preconditioner::Galerkin),
+        );
+        eprintln!(
+            "iterations: additive {}, galerkin {}, uniform {}",
+            a.stats.iterations, g.stats.iterations, uni.stats.iterations
+        );
+        assert!(uni.stats.converged);
+        assert!(a.stats.iterations <= 2 * uni.stats.iterations);
+        assert!(a.stats.iterations < g.stats.iterations);
+        let dg = a
+            .window_gap
+            .iter()
+            .zip(&g.window_gap)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        // both meet the violation bound 1e-13 h0 on the same discrete problem; the window gap
+        // differs by the solver's tolerance times the conditioning, not by the discretisation
+        assert!(dg < 1e-11, "window gaps differ by {dg:e}");
+    }
+
+    /// Diagnostic (ignored; `--ignored --nocapture`): iterations of the composite solve by
+    /// preconditioner and operator against the uniform fine solve's, square model near
+    /// percolation (32² base, window 8², k = 2 and 3).
+    #[test]
+    #[ignore]
+    fn iterations_by_preconditioner() {
+        let s = Surface::new(Lattice::Square, 5).unwrap();
+        let load = 0.215 * s.p_fc_grid();
+        for levels in [2u32, 3] {
+            let fine = Surface::new(Lattice::Square, 5 + levels).unwrap();
+            let uni = Model::new(&fine)
+                .unwrap()
+                .solve(Interaction::HardWall, load, &solver(), None)
+                .unwrap();
+            eprintln!(
+                "k {levels}: uniform {} iterations, saddle gap {:.10e}",
+                uni.stats.iterations,
+                uni.gap[[fine.grid.nx / 2, 0]]
+            );
+            let opts = RefineOptions {
+                levels,
+                window: Window::centred(&s.grid, 0.5, 0.0, 8, 8),
+                solver: solver(),
+            };
+            for margin in [None, Some(6)] {
+                for pre in [
+                    Preconditioner::Galerkin,
+                    Preconditioner::Additive,
+                    Preconditioner::Hierarchical,
+                ] {
+                    let t = std::time::Instant::now();
+                    let r = RefinedModel::with_preconditioner(&s, &opts, margin, pre)
+                        .unwrap()
+                        .solve(load, None)
+                        .unwrap();
+                    eprintln!(
+                        "  margin {margin:?} {pre:?}: {} iterations, converged {}, saddle gap {:.10e}, {:.2} s",
+                        r.stats.iterations,
+                        r.stats.converged,
+                        r.fine_gap(r.lattice.0 / 2, 0).unwrap(),
+                        t.elapsed().as_secs_f64()
+                    );
+                }
+            }
+        }
+    }
+
+    /// Diagnostic (ignored): iterations of the additive preconditioner by window size (32²
+    /// base, full composite operator).
+    #[test]
+    #[ignore]
+    fn iterations_by_window() {
+        let s = Surface::new(Lattice::Square, 5).unwrap();
+        let load = 0.215 * s.p_fc_grid();
+        let base = Model::new(&s)
+            .unwrap()
+            .solve(Interaction::HardWall, load, &solver(), None)
+            .unwrap();
+        eprintln!("base alone: {} iterations", base.stats.iterations);
+        for levels in [1u32, 2, 3] {
+            for w in [1usize, 4, 8, 16, 32] {
+                let opts = RefineOptions {
+                    levels,
+                    window: Window::centred(&s.grid, 0.5, 0.0, w, w),
+                    solver: solver(),
+                };
+                let its: Vec<usize> = [Preconditioner::Additive, Preconditioner::Galerkin]
+                    .into_iter()
+                    .map(|pre| {
+                        RefinedModel::with_preconditioner(&s, &opts, None, pre)
+                            .unwrap()
+                            .solve(load, None)
+                            .unwrap()
+                            .stats
+                            .iterations
+                    })
+                    .collect();
+                eprintln!(
+                    "k {levels} window {w}: additive {}, galerkin {}",
+                    its[0], its[1]
+                );
+            }
         }
     }
 
