@@ -66,6 +66,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let depth: u32 = args.get(5).map_or(Ok(0), |s| s.parse())?;
     let area_jump: f64 = args.get(6).map_or(Ok(0.02), |s| s.parse())?;
 
+    // FIG3_POINTS=1: every point on stderr
+    let verbose = std::env::var_os("FIG3_POINTS").is_some();
     let surface = Surface::new(lattice, n)?;
     let mut model = Model::new(&surface)?;
     let spec = PathSpec {
@@ -99,6 +101,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             area: p.contact_area,
             fluid: fx || fy,
         };
+        if verbose {
+            eprintln!(
+                "{} step {} γ0 {} area {} fluid {} refined {} converged {}",
+                p.branch,
+                p.step,
+                p.strength,
+                p.contact_area,
+                fx || fy,
+                p.refined,
+                p.converged
+            );
+        }
         states.push((p.branch, p.converged, state));
         Ok::<(), std::convert::Infallible>(())
     })?;

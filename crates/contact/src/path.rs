@@ -11,11 +11,15 @@
 //! [`Refinement::area_jump`] — is refined by bisection of the control value from the earlier
 //! state, [`Refinement::depth`] times: each midpoint is solved warm-started from the latest state
 //! on the earlier side of the jump; if it has not jumped (relative to that state) it becomes the
-//! new earlier state, otherwise the new later end. The jump is then located within
+//! new earlier state, otherwise the new later end. A step whose ends differ in topology is
+//! bisected for the change of topology alone (the threshold it crosses, not a steep but
+//! continuous change of area on the way), a step that keeps its topology for the area change. The jump is then located within
 //! step/2^depth, whatever the minimiser. The midpoints go into the result in control order,
-//! before the planned point, flagged [`PathPoint::refined`]. The planned points themselves are
-//! solved exactly as without refinement (each from the previous planned point's state), so the
-//! path through them is unchanged and only the brackets of its jumps narrow.
+//! before the planned point, flagged [`PathPoint::refined`]. The planned point is then solved
+//! again from the midpoint nearest to it (kept if that converges): past a refined jump the path
+//! continues from the smaller step, as a quasi-static path should. Up to the first jump the
+//! planned points are those of the unrefined path; after it they may differ (on grids that do
+//! not resolve the cohesive zone, where the state reached depends on the step).
 
 use crate::{ContactError, Interaction, Model, Solution, SolverOptions, StopReason};
 use std::fmt;
@@ -437,7 +441,7 @@ where
                 });
             }
         };
-        let here = {
+        let mut here = {
             let t = if spec.refine.depth > 0 {
                 topology(&sol)
             } else {
@@ -452,6 +456,16 @@ where
         {
             let prev = (prev_sol, prev_t);
             if jumped(&prev, &here) {
+                // a step that changes the topology is bisected for that change (the threshold
+                // it crosses), one that does not for the area change
+                let topological = prev.1 != here.1;
+                let across = |a: &(Solution, u64), b: &(Solution, u64)| {
+                    if topological {
+                        a.1 != b.1
+                    } else {
+                        jumped(a, b)
+                    }
+                };
                 let with_topology = |s: Solution| {
                     let t = topology(&s);
                     (s, t)
@@ -465,7 +479,7 @@ where
                     step,
                     &prev,
                     with_topology,
-                    &jumped,
+                    &across,
                 )?;
                 // the planned start of the step is the last point so far
                 let base = result.points.len();
@@ -476,6 +490,7 @@ where
                         after: before + 1,
                     });
                 }
+                let mut nearest = None;
                 for (mid, s) in mids {
                     let point = point_of(mid, step, &s, true);
                     observe(&point, &s).map_err(|e| PathError::Observe {
@@ -484,6 +499,24 @@ where
                         source: e.into(),
                     })?;
                     result.points.push(point);
+                    nearest = Some(s);
+                }
+                // the planned point again, from the refined state nearest to it: the path
+                // continues from the smaller step
+                if let Some(near) = nearest.filter(|s| s.stats.converged) {
+                    match model.solve(inter, load, opts, Some(&near)) {
+                        Ok(s) if s.stats.converged => here = with_topology(s),
+                        Ok(_) | Err(ContactError::Detached { .. }) => {}
+                        Err(source) => {
+                            return Err(PathError::Solve {
+                                branch,
+                                step,
+                                load,
+                                interaction: inter,
+                                source,
+                            });
+                        }
+                    }
                 }
             }
         }
