@@ -711,6 +711,20 @@ mod tests {
         assert!(s.validate().is_err());
     }
 
+    #[test]
+    fn invalid_refinements_are_rejected() {
+        let mut s = spec(vec![1.0, 2.0], vec![]);
+        s.refine.depth = REFINE_DEPTH_MAX;
+        assert!(s.validate().is_ok());
+        s.refine.depth = REFINE_DEPTH_MAX + 1;
+        assert!(s.validate().is_err());
+        s.refine.depth = 3;
+        for bad in [0.0, -0.1, 1.5, f64::NAN] {
+            s.refine.area_jump = bad;
+            assert!(s.validate().is_err(), "area_jump {bad}");
+        }
+    }
+
     /// Unloading an adhesive contact into tension ends in pull-off, recorded, not an error;
     /// every point is warm-started from the previous one, so the reverse branch at the top
     /// value reproduces the forward branch's state there.
