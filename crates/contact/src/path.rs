@@ -4,6 +4,22 @@
 //! the forward values and may continue below the first of them ([`PathSpec::extension`], e.g.
 //! into tensile loads with adhesion); a branch ends early, recorded in [`PathResult::ended`],
 //! when the surfaces separate (pull-off under force control).
+//!
+//! # Refinement of jumps
+//! A step whose two states differ by a jump — a change of topology ([`run_with`]'s `topology`;
+//! [`run`]: in contact or not, full contact or not) or of the relative contact area by more than
+//! [`Refinement::area_jump`] — is refined by bisection of the control value from the earlier
+//! state, [`Refinement::depth`] times: each midpoint is solved warm-started from the latest state
+//! on the earlier side of the jump; if it has not jumped (relative to that state) it becomes the
+//! new earlier state, otherwise the new later end. A step whose ends differ in topology is
+//! bisected for the change of topology alone (the threshold it crosses, not a steep but
+//! continuous change of area on the way), a step that keeps its topology for the area change. The jump is then located within
+//! step/2^depth, whatever the minimiser. The midpoints go into the result in control order,
+//! before the planned point, flagged [`PathPoint::refined`]. The planned point is then solved
+//! again from the midpoint nearest to it (kept if that converges): past a refined jump the path
+//! continues from the smaller step, as a quasi-static path should. Up to the first jump the
+//! planned points are those of the unrefined path; after it they may differ (on grids that do
+//! not resolve the cohesive zone, where the state reached depends on the step).
 
 use crate::{ContactError, Interaction, Model, Solution, SolverOptions, StopReason};
 use std::fmt;
@@ -72,6 +88,33 @@ pub struct PathSpec {
     /// Control values (mean pressures or strengths, as `control`) that continue the reverse
     /// branch below the forward branch's first value, decreasing (empty: none).
     pub extension: Vec<f64>,
+    /// Refinement of steps that jump (default: none).
+    pub refine: Refinement,
+}
+
+/// Largest [`Refinement::depth`]: 2^-16 of a step is below any step a path plans (a path of
+/// 10⁴ steps would locate its jumps to 1.5e-9 of its range).
+pub const REFINE_DEPTH_MAX: u32 = 16;
+
+/// How steps that jump are refined (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Refinement {
+    /// Bisection levels per jumping step (0: none, at most [`REFINE_DEPTH_MAX`]): the jump is
+    /// located within step/2^depth.
+    pub depth: u32,
+    /// Change of the relative contact area between two consecutive states beyond which a step
+    /// is a jump (a change of topology always is), in (0, 1].
+    pub area_jump: f64,
+}
+
+impl Default for Refinement {
+    /// No refinement; a jump threshold of 0.02 in area (the sweep kind's loop tolerance).
+    fn default() -> Self {
+        Refinement {
+            depth: 0,
+            area_jump: 0.02,
+        }
+    }
 }
 
 /// One planned point of a path.
@@ -117,6 +160,9 @@ pub struct PathPoint {
     pub stop_reason: Option<StopReason>,
     /// Wall time of the solve (s).
     pub wall_s: f64,
+    /// A refinement point: a bisection midpoint of a step that jumped ([`Refinement`]), not in
+    /// the plan (`step` is then the planned point it precedes).
+    pub refined: bool,
 }
 
 /// A branch that ended early: no equilibrium was found at its next point because the surfaces
@@ -144,6 +190,19 @@ pub struct PathResult {
     pub points: Vec<PathPoint>,
     /// Branches that ended early (pull-off), in path order.
     pub ended: Vec<PullOff>,
+    /// The jumps the refinement located, in path order: each the pair of consecutive points
+    /// (indices into `points`) between which the bisection left it, the earlier one on the side
+    /// the step started from. A step whose bisection met a non-converged midpoint has none.
+    pub refined_jumps: Vec<RefinedJump>,
+}
+
+/// A jump located by refinement ([`PathResult::refined_jumps`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RefinedJump {
+    /// Index in [`PathResult::points`] of the last point before the jump.
+    pub before: usize,
+    /// Index of the first point after it (`before + 1`).
+    pub after: usize,
 }
 
 /// Why a path stopped.
@@ -222,6 +281,20 @@ impl PathSpec {
                 allowed: "strictly decreasing below the first value",
             });
         }
+        if self.refine.depth > REFINE_DEPTH_MAX {
+            return Err(ContactError::parameter(
+                "refine.depth",
+                self.refine.depth as f64,
+                "0 ..= 16 (REFINE_DEPTH_MAX)",
+            ));
+        }
+        if !(self.refine.area_jump > 0.0 && self.refine.area_jump <= 1.0) {
+            return Err(ContactError::parameter(
+                "refine.area_jump",
+                self.refine.area_jump,
+                "0 < area_jump ≤ 1",
+            ));
+        }
         if !self.reverse && !self.extension.is_empty() {
             return Err(ContactError::Parameter {
                 name: "extension",
@@ -284,15 +357,38 @@ pub fn strength(interaction: Interaction) -> f64 {
     }
 }
 
+/// The topology [`run`] tells jumps by: bit 0 in contact, bit 1 full contact.
+pub fn contact_topology(sol: &Solution) -> u64 {
+    u64::from(sol.contact_area > 0.0) | (u64::from(sol.contact_area >= 1.0) << 1)
+}
+
 /// Runs a path. `observe` sees every solved point with its full solution (to save fields or
 /// measure more) and may stop the path with an error; the returned points are the path's
 /// summary. A branch ends early, recorded in [`PathResult::ended`], when the surfaces separate
-/// (pull-off); the next branch then starts cold.
+/// (pull-off); the next branch then starts cold. Jumps are refined as [`PathSpec::refine`]
+/// says, told by [`contact_topology`] and the area ([`run_with`] for another topology).
 pub fn run<E>(
     model: &mut Model,
     interaction: Interaction,
     spec: &PathSpec,
     opts: &SolverOptions,
+    observe: impl FnMut(&PathPoint, &Solution) -> Result<(), E>,
+) -> Result<PathResult, PathError>
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
+    run_with(model, interaction, spec, opts, contact_topology, observe)
+}
+
+/// [`run`], with jumps told by `topology` (any summary of a state: two consecutive states whose
+/// summaries differ are a jump, e.g. bits for fluid percolation along each axis) besides the
+/// area change [`Refinement::area_jump`]. Only used when [`Refinement::depth`] > 0.
+pub fn run_with<E>(
+    model: &mut Model,
+    interaction: Interaction,
+    spec: &PathSpec,
+    opts: &SolverOptions,
+    topology: impl Fn(&Solution) -> u64,
     mut observe: impl FnMut(&PathPoint, &Solution) -> Result<(), E>,
 ) -> Result<PathResult, PathError>
 where
@@ -303,9 +399,14 @@ where
     let mut result = PathResult {
         points: Vec::new(),
         ended: Vec::new(),
+        refined_jumps: Vec::new(),
     };
-    let mut previous: Option<Solution> = None;
+    // the previous planned point and its state (with its topology)
+    let mut previous: Option<(PlannedPoint, Solution, u64)> = None;
     let mut skip_branch: Option<Branch> = None;
+    let jumped = |a: &(Solution, u64), b: &(Solution, u64)| {
+        a.1 != b.1 || (a.0.contact_area - b.0.contact_area).abs() > spec.refine.area_jump
+    };
     for (step, planned) in spec.plan(interaction).into_iter().enumerate() {
         let PlannedPoint {
             branch,
@@ -315,7 +416,7 @@ where
         if skip_branch == Some(branch) {
             continue;
         }
-        let sol = match model.solve(inter, load, opts, previous.as_ref()) {
+        let sol = match model.solve(inter, load, opts, previous.as_ref().map(|p| &p.1)) {
             Ok(s) => s,
             Err(ContactError::Detached { pressure, min_gap }) => {
                 result.ended.push(PullOff {
@@ -340,31 +441,205 @@ where
                 });
             }
         };
-        let point = PathPoint {
-            branch,
-            step,
-            load,
-            strength: strength(inter),
-            contact_area: sol.contact_area,
-            mean_gap: sol.mean_gap,
-            mean_displacement: sol.mean_displacement,
-            energy: sol.energy,
-            iterations: sol.stats.iterations,
-            max_violation: sol.stats.max_violation,
-            force_residual: sol.stats.force_residual,
-            converged: sol.stats.converged,
-            stop_reason: sol.stats.reason.clone(),
-            wall_s: sol.stats.wall_s,
+        let mut here = {
+            let t = if spec.refine.depth > 0 {
+                topology(&sol)
+            } else {
+                0
+            };
+            (sol, t)
         };
-        observe(&point, &sol).map_err(|e| PathError::Observe {
+        if let Some((before, prev_sol, prev_t)) = previous.take()
+            && spec.refine.depth > 0
+            && prev_sol.stats.converged
+            && here.0.stats.converged
+        {
+            let prev = (prev_sol, prev_t);
+            if jumped(&prev, &here) {
+                // a step that changes the topology is bisected for that change (the threshold
+                // it crosses), one that does not for the area change
+                let topological = prev.1 != here.1;
+                let across = |a: &(Solution, u64), b: &(Solution, u64)| {
+                    if topological {
+                        a.1 != b.1
+                    } else {
+                        jumped(a, b)
+                    }
+                };
+                let with_topology = |s: Solution| {
+                    let t = topology(&s);
+                    (s, t)
+                };
+                let ends = (before, planned);
+                let (mids, lo) = bisect(
+                    model,
+                    opts,
+                    spec.refine.depth,
+                    ends,
+                    step,
+                    &prev,
+                    with_topology,
+                    &across,
+                )?;
+                // the planned start of the step is the last point so far
+                let base = result.points.len();
+                if let Some(lo) = lo {
+                    let before = lo.map_or(base - 1, |k| base + k);
+                    result.refined_jumps.push(RefinedJump {
+                        before,
+                        after: before + 1,
+                    });
+                }
+                let mut nearest = None;
+                for (mid, s) in mids {
+                    let point = point_of(mid, step, &s, true);
+                    observe(&point, &s).map_err(|e| PathError::Observe {
+                        branch,
+                        step,
+                        source: e.into(),
+                    })?;
+                    result.points.push(point);
+                    nearest = Some(s);
+                }
+                // the planned point again, from the refined state nearest to it: the path
+                // continues from the smaller step
+                if let Some(near) = nearest.filter(|s| s.stats.converged) {
+                    match model.solve(inter, load, opts, Some(&near)) {
+                        Ok(s) if s.stats.converged => here = with_topology(s),
+                        Ok(_) | Err(ContactError::Detached { .. }) => {}
+                        Err(source) => {
+                            return Err(PathError::Solve {
+                                branch,
+                                step,
+                                load,
+                                interaction: inter,
+                                source,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        let point = point_of(planned, step, &here.0, false);
+        observe(&point, &here.0).map_err(|e| PathError::Observe {
             branch,
             step,
             source: e.into(),
         })?;
         result.points.push(point);
-        previous = Some(sol);
+        previous = Some((planned, here.0, here.1));
     }
     Ok(result)
+}
+
+/// The control value of a planned point (its load on a load path, its strength on a strength
+/// path: the other one is the same at every point).
+fn control_value(p: &PlannedPoint) -> (f64, f64) {
+    (p.load, strength(p.interaction))
+}
+
+/// The midpoint of two planned points (same branch as `b`).
+fn midpoint(a: &PlannedPoint, b: &PlannedPoint) -> PlannedPoint {
+    let ((la, sa), (lb, sb)) = (control_value(a), control_value(b));
+    PlannedPoint {
+        branch: b.branch,
+        // equal loads (strength path) or strengths (load path) stay bit-equal: 0.5 (x + x) = x
+        load: 0.5 * (la + lb),
+        interaction: with_strength(b.interaction, 0.5 * (sa + sb)),
+    }
+}
+
+/// Bisects the step from `a` (state `from`) to `b` (plan index `step`), which jumped, `depth` times (see the module
+/// doc); returns the midpoints solved, in control order from `a` to `b`, and the position among
+/// them of the last one before the jump (`Some(None)`: `a` itself). A midpoint that does not
+/// converge ends the bisection (it is returned, flagged, and the jump is not located: `None`);
+/// one where the surfaces separate counts as jumped (nothing to return for it).
+#[allow(clippy::too_many_arguments)]
+fn bisect(
+    model: &mut Model,
+    opts: &SolverOptions,
+    depth: u32,
+    (a, b): (PlannedPoint, PlannedPoint),
+    step: usize,
+    from: &(Solution, u64),
+    with_topology: impl Fn(Solution) -> (Solution, u64),
+    jumped: &impl Fn(&(Solution, u64), &(Solution, u64)) -> bool,
+) -> Result<Located, PathError> {
+    let mut found: Vec<(PlannedPoint, (Solution, u64))> = Vec::new();
+    // the earlier end: `None` is `a` with `from`, else an index into `found`
+    let (mut lo, mut lo_state, mut hi) = (a, None::<usize>, b);
+    let mut located = true;
+    for _ in 0..depth {
+        let mid = midpoint(&lo, &hi);
+        let start = lo_state.map_or(from, |k| &found[k].1);
+        let solved = model.solve(mid.interaction, mid.load, opts, Some(&start.0));
+        match solved {
+            Ok(s) => {
+                let s = with_topology(s);
+                let converged = s.0.stats.converged;
+                let over = !converged || jumped(start, &s);
+                found.push((mid, s));
+                if !converged {
+                    located = false;
+                    break;
+                }
+                if over {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                    lo_state = Some(found.len() - 1);
+                }
+            }
+            Err(ContactError::Detached { .. }) => hi = mid,
+            Err(source) => {
+                return Err(PathError::Solve {
+                    branch: mid.branch,
+                    step,
+                    load: mid.load,
+                    interaction: mid.interaction,
+                    source,
+                });
+            }
+        }
+    }
+    let (la, sa) = control_value(&a);
+    let distance = |p: &PlannedPoint| {
+        let (l, s) = control_value(p);
+        (l - la).abs() + (s - sa).abs()
+    };
+    let lo_x = lo_state.map(|k| distance(&found[k].0));
+    found.sort_by(|x, y| distance(&x.0).total_cmp(&distance(&y.0)));
+    let lo_pos = lo_x.map(|d| {
+        found
+            .iter()
+            .position(|f| distance(&f.0) == d)
+            .expect("the earlier end is among the midpoints")
+    });
+    let mids = found.into_iter().map(|(p, (s, _))| (p, s)).collect();
+    Ok((mids, located.then_some(lo_pos)))
+}
+
+/// What [`bisect`] returns: the midpoints in control order, and where the jump lies.
+type Located = (Vec<(PlannedPoint, Solution)>, Option<Option<usize>>);
+
+fn point_of(planned: PlannedPoint, step: usize, sol: &Solution, refined: bool) -> PathPoint {
+    PathPoint {
+        branch: planned.branch,
+        step,
+        load: planned.load,
+        strength: strength(planned.interaction),
+        contact_area: sol.contact_area,
+        mean_gap: sol.mean_gap,
+        mean_displacement: sol.mean_displacement,
+        energy: sol.energy,
+        iterations: sol.stats.iterations,
+        max_violation: sol.stats.max_violation,
+        force_residual: sol.stats.force_residual,
+        converged: sol.stats.converged,
+        stop_reason: sol.stats.reason.clone(),
+        wall_s: sol.stats.wall_s,
+        refined,
+    }
 }
 
 /// [`run`] with an observer that cannot fail, and solver errors as [`ContactError`].
@@ -395,6 +670,7 @@ mod tests {
             control: Control::Load { values },
             reverse: true,
             extension,
+            refine: Refinement::default(),
         }
     }
 
@@ -413,6 +689,7 @@ mod tests {
             },
             reverse: true,
             extension: vec![],
+            refine: Refinement::default(),
         };
         let adhesion = Interaction::Adhesion {
             gamma0: 9.0,
@@ -432,6 +709,20 @@ mod tests {
         assert!(s.validate().is_ok());
         s.reverse = false;
         assert!(s.validate().is_err());
+    }
+
+    #[test]
+    fn invalid_refinements_are_rejected() {
+        let mut s = spec(vec![1.0, 2.0], vec![]);
+        s.refine.depth = REFINE_DEPTH_MAX;
+        assert!(s.validate().is_ok());
+        s.refine.depth = REFINE_DEPTH_MAX + 1;
+        assert!(s.validate().is_err());
+        s.refine.depth = 3;
+        for bad in [0.0, -0.1, 1.5, f64::NAN] {
+            s.refine.area_jump = bad;
+            assert!(s.validate().is_err(), "area_jump {bad}");
+        }
     }
 
     /// Unloading an adhesive contact into tension ends in pull-off, recorded, not an error;

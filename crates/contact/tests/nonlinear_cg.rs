@@ -173,6 +173,7 @@ fn load_path(p_fc: f64, step: f64, to: f64) -> PathSpec {
         },
         reverse: true,
         extension: Vec::new(),
+        refine: Default::default(),
     }
 }
 
@@ -224,6 +225,7 @@ fn agrees_with_fire_on_the_strength_path_at_zero_load() {
         control: Control::Strength { load: 0.0, values },
         reverse: true,
         extension: Vec::new(),
+        refine: Default::default(),
     };
     let inter = Interaction::Adhesion {
         gamma0: 0.01,

@@ -29,6 +29,13 @@
 //! - `fields_at`: control values (in `unit` for loads) at which the full fields (gap,
 //!   displacement, pressure) of the nearest point of each branch are stored (default none: the
 //!   artefact stays small); `fields_all = true` stores them at every point.
+//! - `refine_jumps` (0 ..= 16, default 0: off), `refine_area` (default 0.02): a step whose
+//!   states differ in topology (in contact, full contact, fluid percolating along x, along y) or
+//!   in relative contact area by more than `refine_area` is bisected `refine_jumps` times from
+//!   the earlier state ([`contact::path::Refinement`]), so its jump is located within
+//!   step/2^refine_jumps whatever the minimiser. The planned points are solved as without
+//!   refinement; the midpoints are added (`refined = 1`), and the jumps, loop ends and
+//!   thresholds are bracketed by them.
 //! - `min_zone_spacings` (default 4): warn when the cohesive-zone length ρ²E*/γ is resolved by
 //!   fewer grid spacings (jumps are then mesh-dependent); on a strength path at its largest
 //!   strength, naming the strength above which the zone is under-resolved.
@@ -50,8 +57,11 @@
 //!   `contact_area_corrected` (perimeter-corrected, [`percolation::contact_area`]),
 //!   `mean_gap`, `mean_displacement`, `energy`, `iterations`, `max_violation`,
 //!   `force_residual`, `converged` (u8: 0 or 1), `stop_reason` ("" if converged), `wall_s`,
-//!   `contact_clusters` (8-connected), `fluid_percolates_x`, `fluid_percolates_y` (u8);
-//! - `jumps/*`, one entry per detected jump (detected on each branch's converged points):
+//!   `contact_clusters` (8-connected), `fluid_percolates_x`, `fluid_percolates_y`, `refined`
+//!   (u8; 1 for a refinement point, whose `step` is the planned point it precedes);
+//! - `jumps/*`, one entry per detected jump (detected on each branch's converged planned points,
+//!   then narrowed to the bracket the refinement left between them,
+//!   [`contact::path::PathResult::refined_jumps`]):
 //!   `branch`, `index` and `index_after` (point indices before and after), `load_before`,
 //!   `load_after`, `strength_before`, `strength_after`, `area_before`, `area_after`, `ratio`,
 //!   `event` (see [`analysis::hysteresis::classify`]), `detector` (`trend`: [`analysis::detect_jumps`]; `loop`: an
@@ -61,7 +71,7 @@
 //! - `ended/*`: `branch`, `load`, `strength`, `message` of each branch that ended early
 //!   (pull-off: the surfaces separated);
 //! - `thresholds/*` (strength paths only), one entry per threshold the path crosses
-//!   ([`analysis::hysteresis::Thresholds`] on the converged points: `coalescence` (γ_p) and
+//!   ([`analysis::hysteresis::Thresholds`] on the converged points, refinement points included: `coalescence` (γ_p) and
 //!   `full_contact` (γ_fc) on the loading branch, `break_up` and `trough_opening` on the
 //!   unloading one): `name`, `x_before`, `x_after` (strengths bracketing it), `area_before`,
 //!   `area_after`. Figure 3 and its headline numbers read them;
@@ -93,7 +103,7 @@ pub use crate::sweep_artefact::{Detector, Ended, JumpRow, Loop, Point, SweepData
 pub struct SweepKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 2;
+pub const CODE_VERSION: u64 = 3;
 
 impl TypedKind for SweepKind {
     type Params = SweepParams;
@@ -145,14 +155,15 @@ impl TypedKind for SweepKind {
         // the path: every point warm-started from the previous one (contact::path)
         let mut points: Vec<Point> = Vec::new();
         let total = plan.len();
-        let result = path::run(
+        let result = path::run_with(
             &mut surface.model,
             setup.base,
             &setup.spec,
             &setup.opts,
+            topology,
             |pt, sol| -> Result<()> {
                 let point = point_of(pt, sol);
-                if params.fields_all || keep.contains(&pt.step) {
+                if params.fields_all || (!pt.refined && keep.contains(&pt.step)) {
                     artefact::write_fields(out, &point, points.len(), sol)?;
                 }
                 let x = setup.control_value(pt.load, pt.strength);
@@ -168,8 +179,10 @@ impl TypedKind for SweepKind {
             .map(|e| ended_of(e, surface.p_fc))
             .collect();
 
-        let mut jumps = trend_jumps(&points, &setup, params)?;
-        let loops = loops_and_their_ends(&points, &setup, params.loop_tolerance, &mut jumps);
+        let refined = &result.refined_jumps;
+        let mut jumps = trend_jumps(&points, refined, &setup, params)?;
+        let loops =
+            loops_and_their_ends(&points, refined, &setup, params.loop_tolerance, &mut jumps);
         let n_bad = warn_unconverged(ctx, &points, &ended, surface.p_fc);
         let thresholds = thresholds(&points, &setup);
         let sweep = Sweep {
@@ -227,6 +240,7 @@ impl Setup {
             control,
             reverse: params.reverse,
             extension,
+            refine: params.refinement(),
         };
         Ok(Setup {
             base,
@@ -329,6 +343,16 @@ fn fields_to_keep(
     keep
 }
 
+/// The topology jumps are told by ([`path::run_with`]): in contact, full contact
+/// ([`path::contact_topology`]), fluid percolating along x, along y.
+fn topology(sol: &Solution) -> u64 {
+    let mask = sol.gap.mapv(|g| g == 0.0);
+    let dual = percolation::dual_percolation(mask.view());
+    path::contact_topology(sol)
+        | (u64::from(dual.fluid_percolates(percolation::Axis::X)) << 2)
+        | (u64::from(dual.fluid_percolates(percolation::Axis::Y)) << 3)
+}
+
 /// A solved point with the contact's topology measured on its gap field.
 fn point_of(pt: &PathPoint, sol: &Solution) -> Point {
     let mask = sol.gap.mapv(|g| g == 0.0);
@@ -361,6 +385,7 @@ fn point_of(pt: &PathPoint, sol: &Solution) -> Point {
         contact_clusters: dual.contact_summary.n_clusters as i64,
         fluid_percolates_x: dual.fluid_percolates(percolation::Axis::X),
         fluid_percolates_y: dual.fluid_percolates(percolation::Axis::Y),
+        refined: pt.refined,
     }
 }
 
@@ -380,11 +405,29 @@ fn ended_of(e: &path::PullOff, p_fc: f64) -> Ended {
     }
 }
 
-/// Indices of the converged points of `branch`, in path order.
+/// Indices of the converged points of `branch`, in path order (refinement points included).
 fn converged(points: &[Point], branch: Branch) -> Vec<usize> {
     (0..points.len())
         .filter(|&k| points[k].branch == branch && points[k].converged)
         .collect()
+}
+
+/// Indices of the converged planned points of `branch` (no refinement points), in path order:
+/// what the trend detector and the loop finder compare (the trend needs the planned steps; the
+/// loops compare the branches at the planned values).
+fn planned(points: &[Point], branch: Branch) -> Vec<usize> {
+    (0..points.len())
+        .filter(|&k| points[k].branch == branch && points[k].converged && !points[k].refined)
+        .collect()
+}
+
+/// The jump between the planned points `a` < `b` narrowed to the bracket the refinement left
+/// between them ([`path::PathResult::refined_jumps`]); (a, b) if it left none.
+fn narrowed(refined: &[path::RefinedJump], a: usize, b: usize) -> (usize, usize) {
+    refined
+        .iter()
+        .find(|j| a <= j.before && j.after <= b)
+        .map_or((a, b), |j| (j.before, j.after))
 }
 
 /// A jump between points `a` and `b` (`ratio` NaN for a loop end).
@@ -408,8 +451,13 @@ fn jump_row(points: &[Point], a: usize, b: usize, ratio: f64, detector: Detector
 }
 
 /// Jumps against the neighbours' trend ([`analysis::detect_jumps`]), per branch, on converged
-/// points.
-fn trend_jumps(points: &[Point], setup: &Setup, params: &SweepParams) -> Result<Vec<JumpRow>> {
+/// planned points, each narrowed to its refined bracket.
+fn trend_jumps(
+    points: &[Point],
+    refined: &[path::RefinedJump],
+    setup: &Setup,
+    params: &SweepParams,
+) -> Result<Vec<JumpRow>> {
     let jopts = analysis::JumpOptions {
         ratio: params.jump_ratio,
         window: params.jump_window,
@@ -417,19 +465,14 @@ fn trend_jumps(points: &[Point], setup: &Setup, params: &SweepParams) -> Result<
     };
     let mut jumps = Vec::new();
     for br in [Branch::Loading, Branch::Unloading] {
-        let idx = converged(points, br);
+        let idx = planned(points, br);
         let x: Vec<f64> = idx.iter().map(|&k| setup.x_of(&points[k])).collect();
         let y: Vec<f64> = idx.iter().map(|&k| points[k].contact_area).collect();
         let found = analysis::detect_jumps(&x, &y, &jopts)
             .map_err(|e| anyhow!("jump detection on the {br} branch: {e}"))?;
         for j in found {
-            jumps.push(jump_row(
-                points,
-                idx[j.index],
-                idx[j.index + 1],
-                j.ratio,
-                Detector::Trend,
-            ));
+            let (a, b) = narrowed(refined, idx[j.index], idx[j.index + 1]);
+            jumps.push(jump_row(points, a, b, j.ratio, Detector::Trend));
         }
     }
     Ok(jumps)
@@ -440,13 +483,14 @@ fn trend_jumps(points: &[Point], setup: &Setup, params: &SweepParams) -> Result<
 /// "loop"`), which end sorted by branch (loading first) and index.
 fn loops_and_their_ends(
     points: &[Point],
+    refined: &[path::RefinedJump],
     setup: &Setup,
     tolerance: f64,
     jumps: &mut Vec<JumpRow>,
 ) -> Vec<Loop> {
     let (up, down) = (
-        converged(points, Branch::Loading),
-        converged(points, Branch::Unloading),
+        planned(points, Branch::Loading),
+        planned(points, Branch::Unloading),
     );
     let (loops, ends) = hysteresis::find_loops(
         &states(points, setup, &up),
@@ -455,7 +499,7 @@ fn loops_and_their_ends(
     );
     for end in ends {
         let idx = if end.forward { &up } else { &down };
-        let (a, b) = (idx[end.before], idx[end.after]);
+        let (a, b) = narrowed(refined, idx[end.before], idx[end.after]);
         if !jumps
             .iter()
             .any(|j| j.branch == points[a].branch && j.index == a)

@@ -56,6 +56,9 @@ formats::record! {
         pub fluid_percolates_x: bool,
         /// Fluid wraps along y.
         pub fluid_percolates_y: bool,
+        /// A refinement point (a bisection midpoint of a step that jumped, `refine_jumps`),
+        /// not in the plan: `step` is the planned point it precedes.
+        pub refined: bool,
     }
 }
 

@@ -126,6 +126,10 @@ pub struct SweepParams {
     pub fields_all: bool,
     /// Warn when ρ²E*/γ spans fewer grid spacings.
     pub min_zone_spacings: f64,
+    /// Bisection levels of every step that jumps ([`contact::path::Refinement::depth`]).
+    pub refine_jumps: u32,
+    /// Area change that makes a step a jump ([`contact::path::Refinement::area_jump`]).
+    pub refine_area: f64,
 }
 
 /// The `sweep` kind's parameter specs (types, ranges, defaults, docs).
@@ -199,6 +203,23 @@ pub fn specs() -> Vec<ParamSpec> {
         ParamSpec::new("min_zone_spacings", ParamType::non_negative())
             .default(4.0)
             .doc("warn when ρ²E*/γ spans fewer grid spacings"),
+        ParamSpec::new(
+            "refine_jumps",
+            ParamType::int_range(0, contact::path::REFINE_DEPTH_MAX as i64),
+        )
+        .default(0)
+        .doc("bisect every step that jumps (topology or area change) this many times from the earlier state: jumps located within step/2^refine_jumps (0: off)"),
+        ParamSpec::new(
+            "refine_area",
+            ParamType::Float {
+                min: Some(0.0),
+                min_exclusive: true,
+                max: Some(1.0),
+                max_exclusive: false,
+            },
+        )
+        .default(0.02)
+        .doc("a step whose relative contact area changes by more than this is a jump (for refine_jumps; a change of topology always is)"),
     ]
 }
 
@@ -215,6 +236,13 @@ impl SweepParams {
                 gamma_r: self.gamma_r,
                 rho: self.rho,
             },
+        }
+    }
+    /// The refinement of steps that jump.
+    pub fn refinement(&self) -> contact::path::Refinement {
+        contact::path::Refinement {
+            depth: self.refine_jumps,
+            area_jump: self.refine_area,
         }
     }
     /// The solver settings.
