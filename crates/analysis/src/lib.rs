@@ -35,6 +35,7 @@ mod linear;
 pub mod models;
 mod nonlinear;
 pub mod running;
+pub mod sample;
 pub mod verdict;
 
 pub use collapse::{

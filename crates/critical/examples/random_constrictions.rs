@@ -19,18 +19,8 @@ use critical::constriction::{ConstrictionOptions, constriction_study, ladder_125
 use surface::Amplitudes;
 
 mod common;
-use common::{EnsembleSurface, Positional, mean_sem_sd};
-
-fn pearson(a: &[f64], b: &[f64]) -> f64 {
-    let (ma, _, sa, _) = mean_sem_sd(a);
-    let (mb, _, sb, _) = mean_sem_sd(b);
-    let n = a.len() as f64;
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - ma) * (y - mb))
-        .sum::<f64>()
-        / ((n - 1.0) * sa * sb)
-}
+use analysis::sample::{mean_sd_sem, pearson};
+use common::{EnsembleSurface, Positional};
 
 fn j(v: f64) -> String {
     if v.is_finite() {
@@ -137,7 +127,7 @@ fn main() {
     };
     let stat = |k: usize| {
         let v = col(k);
-        let (m, e, sd, count) = mean_sem_sd(&v);
+        let (m, sd, e, count) = mean_sd_sem(&v);
         format!("[{}, {}, {}, {count}]", j(m), j(e), j(sd))
     };
     let both: Vec<(f64, f64)> = rows

@@ -17,7 +17,8 @@ use critical::leakage::{Boundary, PercolationOptions, percolation_load};
 use surface::Amplitudes;
 
 mod common;
-use common::{EnsembleSurface, Positional, mean_sem_sd};
+use analysis::sample::mean_sd_sem;
+use common::{EnsembleSurface, Positional};
 
 fn main() {
     let args = Positional::from_env();
@@ -70,7 +71,7 @@ fn main() {
         a.push((r.any.a_p_raw(), r.any.a_p_corrected()));
     }
     let stat = |v: Vec<f64>| {
-        let (m, sem, sd, _) = mean_sem_sd(&v);
+        let (m, sd, sem, _) = mean_sd_sem(&v);
         (m, sd, sem)
     };
     let (m, sd, sem) = stat(a.iter().map(|x| x.0).collect());

@@ -32,6 +32,7 @@
 //!   (`beta_converged` against η) and `random_constrictions_ap_hurst` (a_p against H, mean ± sem).
 
 use crate::scene::{OutputSpec, Outputs, Scene};
+use analysis::sample::{mean_sd_sem as stats, ols_slope as slope, pearson};
 use anyhow::Result;
 use figures::scenes::constrictions::{
     ApSeries, BetaEtaFig, FluxCurve, FluxFig, LatticeCurve, MapFig, ap_hurst_figure,
@@ -47,49 +48,6 @@ use tables::Table;
 
 /// The `random_constrictions` scene.
 pub struct RandomConstrictions;
-
-/// Mean, sample sd (n − 1; NaN for one value) and sem of the finite values, and their count.
-pub fn stats(v: &[f64]) -> (f64, f64, f64, usize) {
-    let v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    let n = v.len() as f64;
-    if v.is_empty() {
-        return (f64::NAN, f64::NAN, f64::NAN, 0);
-    }
-    let m = v.iter().sum::<f64>() / n;
-    if v.len() < 2 {
-        return (m, f64::NAN, f64::NAN, 1);
-    }
-    let sd = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-    (m, sd, sd / n.sqrt(), v.len())
-}
-
-/// The values are not all equal (a constant has no correlation and no slope; its computed
-/// spread is rounding, not zero).
-fn spread(v: &[f64]) -> bool {
-    v.iter().any(|x| *x != v[0])
-}
-
-/// Pearson correlation of the pairs where both are finite (NaN with fewer than 3, or if either
-/// is constant).
-pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
-    let (x, y): (Vec<f64>, Vec<f64>) = a
-        .iter()
-        .zip(b)
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .map(|(x, y)| (*x, *y))
-        .unzip();
-    if x.len() < 3 || !spread(&x) || !spread(&y) {
-        return f64::NAN;
-    }
-    let (mx, sx, _, _) = stats(&x);
-    let (my, sy, _, _) = stats(&y);
-    let n = x.len() as f64;
-    x.iter()
-        .zip(&y)
-        .map(|(a, b)| (a - mx) * (b - my))
-        .sum::<f64>()
-        / ((n - 1.0) * sx * sy)
-}
 
 /// The smallest distance of the grid-converged β fit: on 4 surfaces (q_s = 8) solved on 2^9 and
 /// 2^10 the local exponents agree to ≤ 0.05 for d ≥ 5e-3 and differ by up to 0.2 below
@@ -248,39 +206,6 @@ pub fn summary(rows: &[ConstrictionRead]) -> Table {
         .with_f64("count", count)
         .with_f64("corr_beta_ln_eta", corr)
         .with_f64("corr_beta_converged_ln_eta", corr_c)
-}
-
-/// Least-squares slope of y on x over the finite pairs and its standard error (NaN with fewer
-/// than 3 pairs or no spread in x).
-pub fn slope(x: &[f64], y: &[f64]) -> (f64, f64) {
-    let (x, y): (Vec<f64>, Vec<f64>) = x
-        .iter()
-        .zip(y)
-        .filter(|(a, b)| a.is_finite() && b.is_finite())
-        .map(|(a, b)| (*a, *b))
-        .unzip();
-    let n = x.len();
-    if n < 3 || !spread(&x) {
-        return (f64::NAN, f64::NAN);
-    }
-    let (mx, _, _, _) = stats(&x);
-    let (my, _, _, _) = stats(&y);
-    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
-    if sxx <= 0.0 {
-        return (f64::NAN, f64::NAN);
-    }
-    let b = x
-        .iter()
-        .zip(&y)
-        .map(|(a, c)| (a - mx) * (c - my))
-        .sum::<f64>()
-        / sxx;
-    let rss: f64 = x
-        .iter()
-        .zip(&y)
-        .map(|(a, c)| (c - my - b * (a - mx)).powi(2))
-        .sum();
-    (b, (rss / (n as f64 - 2.0) / sxx).sqrt())
 }
 
 /// a_p against H: the table (per q_s and H) and the figure's series (one per q_s).
@@ -613,29 +538,5 @@ mod tests {
             .insert("resolved".into(), vec![1.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
         let (b, _, n) = beta_converged(&r);
         assert!(b.is_nan() && n == 2);
-    }
-
-    /// Oracles: mean 2, sd 1, sem 1/√3 of (1, 2, 3); a perfect linear relation correlates 1,
-    /// an anti-linear one −1; NaN is skipped.
-    #[test]
-    fn statistics_and_correlation() {
-        let (m, sd, sem, n) = stats(&[1.0, 2.0, f64::NAN, 3.0]);
-        assert_eq!((m, n), (2.0, 3));
-        assert!((sd - 1.0).abs() < 1e-15 && (sem - 1.0 / 3f64.sqrt()).abs() < 1e-15);
-        assert!(stats(&[0.3]).1.is_nan());
-        let a = [1.0, 2.0, 4.0, 7.0];
-        let b: Vec<f64> = a.iter().map(|x| 3.0 - 2.0 * x).collect();
-        assert!((pearson(&a, &b) + 1.0).abs() < 1e-12);
-        assert!((pearson(&a, &a) - 1.0).abs() < 1e-12);
-        assert!(pearson(&a[..2], &b[..2]).is_nan());
-        // an exact line: slope −2 with zero error; scatter (0,0),(1,1),(2,0),(3,1): slope 0.2,
-        // residual sum 0.8 over 2 degrees of freedom and Σ(x − x̄)² = 5: error √(0.4/5)
-        let (s, e) = slope(&a, &b);
-        assert!((s + 2.0).abs() < 1e-12 && e.abs() < 1e-12, "{s} {e}");
-        let (s, e) = slope(&[0.0, 1.0, 2.0, 3.0], &[0.0, 1.0, 0.0, 1.0]);
-        assert!((s - 0.2).abs() < 1e-12 && (e - (0.4f64 / 5.0).sqrt()).abs() < 1e-12);
-        // one H only (0.8 three times: its rounded spread is not zero): no slope, no correlation
-        assert!(slope(&[0.8, 0.8, 0.8], &[0.0, 1.0, 2.0]).0.is_nan());
-        assert!(pearson(&[0.8, 0.8, 0.8], &[0.0, 1.0, 2.0]).is_nan());
     }
 }

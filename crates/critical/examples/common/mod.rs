@@ -80,16 +80,3 @@ impl EnsembleSurface {
         HeightField::new(grid, heights).expect("field")
     }
 }
-
-/// Mean, standard error and sample sd (n − 1) of the finite values, and their count.
-pub fn mean_sem_sd(v: &[f64]) -> (f64, f64, f64, usize) {
-    let v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let sd = if v.len() > 1 {
-        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        f64::NAN
-    };
-    (m, sd / n.sqrt(), sd, v.len())
-}
