@@ -396,13 +396,7 @@ fn settle_cached(
                         ws.artefact_of(s).display()
                     );
                     progress.log(&format!("FAILED {}: {msg}", s.name));
-                    log.push(
-                        &s.name,
-                        &s.kind,
-                        &s.key,
-                        What::Failed { error: msg.clone() },
-                    );
-                    summary.failed.push((s.name.clone(), s.key.clone(), msg));
+                    log_failure(s, msg, log, summary);
                 }
             }
         }
@@ -525,13 +519,7 @@ fn report_failed(
         s.cost,
         &format!("FAILED {} ({} {}): {msg}", s.name, s.kind, short(&s.key)),
     );
-    log.push(
-        &s.name,
-        &s.kind,
-        &s.key,
-        What::Failed { error: msg.clone() },
-    );
-    summary.failed.push((s.name.clone(), s.key.clone(), msg));
+    log_failure(s, msg, log, summary);
     for j in sched.fail(plan, i) {
         let d = &plan.stages[j];
         progress.finished(
@@ -549,6 +537,17 @@ fn report_failed(
         );
         summary.skipped.push((d.name.clone(), s.name.clone()));
     }
+}
+
+/// A failed stage's log event and summary entry.
+fn log_failure(s: &PlannedStage, msg: String, log: &EventLog, summary: &mut RunSummary) {
+    log.push(
+        &s.name,
+        &s.kind,
+        &s.key,
+        What::Failed { error: msg.clone() },
+    );
+    summary.failed.push((s.name.clone(), s.key.clone(), msg));
 }
 
 /// The run's closing event from its summary.
@@ -657,13 +656,7 @@ pub fn run_stage(
             Ok(_) => {}
             Err(e) => {
                 let msg = format!("its declared outputs cannot be rewritten: {e:#}");
-                log.push(
-                    &s.name,
-                    &s.kind,
-                    &s.key,
-                    What::Failed { error: msg.clone() },
-                );
-                summary.failed.push((s.name.clone(), s.key.clone(), msg));
+                log_failure(s, msg, &log, &mut summary);
             }
         }
         summary.events = log.events();
@@ -692,40 +685,11 @@ pub fn run_stage(
     let sink = progress.started(&s.name, &s.kind, s.cost);
     let result = execute(ws, plan, s, Some(sink), true);
     match result {
-        Ok(x) => {
-            progress.finished(
-                &s.name,
-                s.cost,
-                &format!(
-                    "ran {} ({} {}) in {}",
-                    s.name,
-                    s.kind,
-                    short(&s.key),
-                    human_duration(x.wall_s)
-                ),
-            );
-            log.push(
-                &s.name,
-                &s.kind,
-                &s.key,
-                What::Ran {
-                    wall_s: x.wall_s,
-                    warnings: x.warnings,
-                    bytes: x.bytes,
-                },
-            );
-            summary.ran.push(s.name.clone());
-        }
+        Ok(x) => report_ran(s, x, &log, &progress, &mut summary),
         Err(e) => {
             let msg = format!("{e:#}");
             progress.finished(&s.name, s.cost, &format!("FAILED {}: {msg}", s.name));
-            log.push(
-                &s.name,
-                &s.kind,
-                &s.key,
-                What::Failed { error: msg.clone() },
-            );
-            summary.failed.push((s.name.clone(), s.key.clone(), msg));
+            log_failure(s, msg, &log, &mut summary);
         }
     }
     progress.finish();

@@ -137,6 +137,15 @@ pub fn groups(rows: &[ConstrictionRead]) -> (Vec<(f64, f64)>, Vec<usize>) {
     (g, idx)
 }
 
+/// Column `c` of the realisations in group `k` (`idx` from [`groups`]).
+fn group_column(rows: &[ConstrictionRead], idx: &[usize], k: usize, c: &str) -> Vec<f64> {
+    rows.iter()
+        .zip(idx)
+        .filter(|(_, i)| **i == k)
+        .map(|(r, _)| r.get(c))
+        .collect()
+}
+
 /// Equal, NaN equal to NaN (a surface without provenance).
 fn same(a: (f64, f64), b: (f64, f64)) -> bool {
     let eq = |x: f64, y: f64| x == y || (x.is_nan() && y.is_nan());
@@ -236,13 +245,7 @@ pub fn hurst_table(rows: &[ConstrictionRead]) -> (Table, Vec<ApSeries>) {
             .enumerate()
             .filter(|(_, x)| same((0.0, x.1), (0.0, q)))
         {
-            let pick = |c: &str| {
-                rows.iter()
-                    .zip(&idx)
-                    .filter(|(_, i)| **i == k)
-                    .map(|(r, _)| r.get(c))
-                    .collect::<Vec<_>>()
-            };
+            let pick = |c: &str| group_column(rows, &idx, k, c);
             let (am, asd, asem, n) = stats(&pick("a_p_raw"));
             let (bm, _, bsem, _) = stats(&pick("beta"));
             let (em, _, esem, _) = stats(&pick("eta_height"));
@@ -411,13 +414,7 @@ impl Scene for RandomConstrictions {
             .iter()
             .enumerate()
             .map(|(k, &(h, q))| {
-                let pick = |c: &str| {
-                    rows.iter()
-                        .zip(&idx)
-                        .filter(|(_, i)| **i == k)
-                        .map(|(r, _)| r.get(c))
-                        .collect::<Vec<_>>()
-                };
+                let pick = |c: &str| group_column(&rows, &idx, k, c);
                 let (bm, bsd, bsem, bn) = stats(&pick("beta"));
                 let (am, asd, asem, an) = stats(&pick("a_p_raw"));
                 json!({

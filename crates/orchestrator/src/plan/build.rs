@@ -207,9 +207,7 @@ fn wire_inputs<'a>(
             let mut names = Vec::new();
             for s in &idecl.stages {
                 if !pipeline.stages.contains_key(&s.value) {
-                    let hint = did_you_mean(&s.value, &stage_names)
-                        .map(|x| format!("did you mean `{x}`? "))
-                        .unwrap_or_default();
+                    let hint = stage_hint(&s.value, &stage_names);
                     errs.push(ConfigError::at(
                         &s.origin,
                         format!(
@@ -355,9 +353,7 @@ fn scene_lists(
     for (sname, scene) in &pipeline.scenes {
         for s in &scene.stages {
             if !pipeline.stages.contains_key(&s.value) {
-                let hint = did_you_mean(&s.value, &stage_names)
-                    .map(|x| format!("did you mean `{x}`? "))
-                    .unwrap_or_default();
+                let hint = stage_hint(&s.value, &stage_names);
                 errs.push(ConfigError::at(
                     &s.origin,
                     format!(
@@ -512,4 +508,11 @@ fn check_keyed(stages: &[PlannedStage], errs: &mut Vec<ConfigError>) {
             }
         }
     }
+}
+
+/// "did you mean `x`? " for a stage name close to an unknown `name`, else nothing.
+fn stage_hint(name: &str, stage_names: &[&str]) -> String {
+    did_you_mean(name, stage_names)
+        .map(|x| format!("did you mean `{x}`? "))
+        .unwrap_or_default()
 }
