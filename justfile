@@ -28,6 +28,11 @@ paper *ARGS: build
     {{bin}} run --params params/paper.toml -j {{jobs}} {{ARGS}}
     {{bin}} status
 
+# The random-surface ensembles at 32 seeds per spectrum (params/ensemble.toml): about 1–3 h on two
+# cores, minutes on a cluster (ARGS e.g. `--executor slurm -j 64 --slurm-partition compute`).
+ensembles *ARGS: build
+    {{bin}} run --params params/ensemble.toml -j {{jobs}} --only random_constrictions --only surface_ensemble {{ARGS}}
+
 # Tiny grids: checks that every stage runs, not that numbers match the paper.
 smoke *ARGS: build
     {{bin}} run --params params/smoke.toml {{ARGS}}
