@@ -118,12 +118,10 @@ impl ReadArgs {
             (None, None) => None,
             _ => bail!("--lx and --ly go together: give both or neither"),
         };
-        let detrend = match self.detrend.as_str() {
-            "none" => Detrend::None,
-            "mean" => Detrend::Mean,
-            "plane" => Detrend::Plane,
-            other => bail!("--detrend {other:?}: allowed none, mean, plane"),
-        };
+        let detrend: Detrend = self
+            .detrend
+            .parse()
+            .map_err(|e| anyhow::anyhow!("--detrend {e}"))?;
         if self.max_nodes == 0 {
             bail!("--max-nodes 0: allowed an integer ≥ 1");
         }
@@ -131,11 +129,7 @@ impl ReadArgs {
             cell,
             height_scale: self.height_scale,
             detrend,
-            text_layout: if self.columns {
-                TextLayout::Columns
-            } else {
-                TextLayout::Matrix
-            },
+            text_layout: TextLayout::of(self.columns),
             max_nodes: self.max_nodes,
         })
     }

@@ -92,6 +92,27 @@ pub enum Detrend {
     Plane,
 }
 
+impl Detrend {
+    /// Every variant with its name (`none`, `mean`, `plane`), as parameters and flags spell it.
+    pub const ALL: [(Detrend, &'static str); 3] = [
+        (Detrend::None, "none"),
+        (Detrend::Mean, "mean"),
+        (Detrend::Plane, "plane"),
+    ];
+}
+
+impl std::str::FromStr for Detrend {
+    type Err = String;
+    /// `none`, `mean` or `plane`; the error names the value and the allowed ones.
+    fn from_str(s: &str) -> Result<Self, String> {
+        Detrend::ALL
+            .iter()
+            .find(|(_, name)| *name == s)
+            .map(|(d, _)| *d)
+            .ok_or_else(|| format!("{s:?}: allowed none, mean, plane"))
+    }
+}
+
 /// Layout of a plain-text file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TextLayout {
@@ -116,6 +137,17 @@ pub struct ReadOptions {
     pub text_layout: TextLayout,
     /// Largest number of nodes accepted. Default [`DEFAULT_MAX_NODES`].
     pub max_nodes: usize,
+}
+
+impl TextLayout {
+    /// `Columns` if the file holds `x y z` columns, else `Matrix`.
+    pub fn of(columns: bool) -> TextLayout {
+        if columns {
+            TextLayout::Columns
+        } else {
+            TextLayout::Matrix
+        }
+    }
 }
 
 impl Default for ReadOptions {

@@ -219,3 +219,16 @@ fn bad_text_files_are_refused_with_line_and_reason() {
     let twice = "0 0 1\n0 1 1\n1 0 1\n0 0 2\n";
     assert!(case("twice.xyz", twice, c).contains("occurs twice"));
 }
+
+/// Detrend modes parse from their names (as the topography kind and `--detrend` spell them);
+/// anything else names the value and the allowed ones.
+#[test]
+fn detrend_names_parse_and_others_are_refused() {
+    for (d, name) in Detrend::ALL {
+        assert_eq!(name.parse::<Detrend>(), Ok(d));
+    }
+    assert_eq!(
+        "planar".parse::<Detrend>(),
+        Err("\"planar\": allowed none, mean, plane".to_string())
+    );
+}

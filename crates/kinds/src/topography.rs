@@ -66,26 +66,20 @@ impl TopographyParams {
                 ));
             }
         };
-        let detrend = match self.detrend.as_str() {
-            "none" => Detrend::None,
-            "mean" => Detrend::Mean,
-            "plane" => Detrend::Plane,
-            other => {
-                return Err(ParamIssue::new(
-                    "detrend",
-                    format!("\"{other}\"; allowed: \"none\", \"mean\", \"plane\""),
-                ));
-            }
-        };
+        let detrend: Detrend = self.detrend.parse().map_err(|_| {
+            ParamIssue::new(
+                "detrend",
+                format!(
+                    "\"{}\"; allowed: \"none\", \"mean\", \"plane\"",
+                    self.detrend
+                ),
+            )
+        })?;
         Ok(ReadOptions {
             cell,
             height_scale: self.height_scale,
             detrend,
-            text_layout: if self.columns {
-                TextLayout::Columns
-            } else {
-                TextLayout::Matrix
-            },
+            text_layout: TextLayout::of(self.columns),
             max_nodes: self.max_nodes as usize,
         })
     }
