@@ -90,6 +90,15 @@ pub enum SlopeFlag {
     },
     /// No coarser resolution measured this pair: the grid error is unknown.
     NoCoarse,
+    /// The same exponent measured along the other grid axis (β: the flux across, which the
+    /// continuum's symmetry makes equal) differs by more than the bound, or was not measured
+    /// for this pair (`error` NaN): the discretisation is anisotropic here.
+    Anisotropy {
+        /// |value along − value across| (NaN if not measured across).
+        error: f64,
+        /// The bound.
+        bound: f64,
+    },
 }
 
 impl std::fmt::Display for SlopeFlag {
@@ -102,6 +111,15 @@ impl std::fmt::Display for SlopeFlag {
             SlopeFlag::NoCoarse => write!(
                 f,
                 "no coarser resolution measured this pair: grid error unknown"
+            ),
+            SlopeFlag::Anisotropy { error, bound } if error.is_nan() => write!(
+                f,
+                "not measured along the other axis (bound {bound:.2e}): isotropy unchecked"
+            ),
+            SlopeFlag::Anisotropy { error, bound } => write!(
+                f,
+                "along and across the grid differ by {error:.2e}, above the bound {bound:.2e}: \
+                 the grid is anisotropic here"
             ),
         }
     }

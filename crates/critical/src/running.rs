@@ -25,15 +25,27 @@
 //! never to be used silently. `resolution` is the finest grid spacing in λ (the smaller of the
 //! two spacings of the window). Formulas: [`analysis::running`].
 //!
+//! # Isotropy (β)
+//! The flux is also measured along the other grid axis ([`Resolution::across`]). The models'
+//! conductivity tensor is isotropic in the continuum: the square cell by its four-fold symmetry
+//! (K_x = K_y exactly on its square grids too), the hexagonal and triangular cells by their
+//! three-fold one (a symmetric 2-tensor invariant under a 120° rotation is a multiple of the
+//! identity), so β along and across must agree. Their grids are rectangular and meet the
+//! saddles at 0° and ±60° differently: the difference of the two running exponents on the finest
+//! grid is a discretisation error the grid-to-grid change need not show (both grids can be
+//! anisotropic alike). A pair's grid error is therefore the larger of the two, and a pair whose
+//! anisotropy exceeds the bound, or that was not measured across, is flagged
+//! ([`SlopeFlag::Anisotropy`]).
+//!
 //! # Asymptotic estimate ([`asymptotic`])
-//! The finest grid's rungs up to the first flagged pair, fitted with corrections to scaling
-//! ([`analysis::corrections`]).
+//! The finest grid's rungs up to the first flagged pair (grid error or anisotropy), fitted with
+//! corrections to scaling ([`analysis::corrections`]).
 
 use crate::ladder::Rung;
 use crate::scaling::{EdgeOptions, blocked_half_length, open_half_width};
 use analysis::{
-    AsymptoticError, AsymptoticEstimate, AsymptoticOptions, ScalingPoint, SlopeFlag,
-    asymptotic_estimate, grid_converged_rungs, running_exponents,
+    AsymptoticError, AsymptoticEstimate, AsymptoticOptions, RunningExponent, ScalingPoint,
+    SlopeFlag, asymptotic_estimate, grid_converged_rungs, running_exponents,
 };
 use surface::Lattice;
 
@@ -94,12 +106,15 @@ impl Default for MeasureOptions {
 }
 
 /// One grid's measurements of one exponent's quantity.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Default)]
 pub struct Resolution {
     /// Finest grid spacing (λ).
     pub spacing: f64,
     /// The rungs' measurements, on one side of L_c.
     pub points: Vec<ScalingPoint>,
+    /// The same quantity measured along the other grid axis at the same rungs (β: the flux
+    /// across), or empty. The continuum answer is the same (module docs, "Isotropy").
+    pub across: Vec<ScalingPoint>,
 }
 
 /// Measures `exponent`'s quantity on every rung on its side of L_c (module docs); failures are
@@ -160,7 +175,11 @@ pub fn measure(
             Err(e) => notes.push(format!("{}, l = {}: {e}", exponent.name(), r.l)),
         }
     }
-    Ok(Resolution { spacing, points })
+    Ok(Resolution {
+        spacing,
+        points,
+        across: Vec::new(),
+    })
 }
 
 /// One row of the running-exponent table.
@@ -226,22 +245,48 @@ pub fn running_records(
     bound: f64,
 ) -> analysis::Result<Vec<RunningRecord>> {
     let (fine, coarse) = finest_two(levels)?;
+    let iso = isotropy(fine, bound)?;
     Ok(
         running_exponents(&fine.points, coarse.map(|c| c.points.as_slice()), bound)?
             .into_iter()
-            .map(|r| RunningRecord {
-                model,
-                exponent,
-                l_hi: r.slope.l_hi,
-                l_lo: r.slope.l_lo,
-                value: r.slope.value,
-                grid_error: r.grid_error,
-                fit_error: r.slope.fit_error,
-                resolution: fine.spacing,
-                flag: r.flag,
+            .enumerate()
+            .map(|(k, r)| {
+                let mut rec = RunningRecord {
+                    model,
+                    exponent,
+                    l_hi: r.slope.l_hi,
+                    l_lo: r.slope.l_lo,
+                    value: r.slope.value,
+                    grid_error: r.grid_error,
+                    fit_error: r.slope.fit_error,
+                    resolution: fine.spacing,
+                    flag: r.flag,
+                };
+                if let Some(a) = iso.as_ref().map(|v| v[k]) {
+                    rec.grid_error = rec.grid_error.max(a.grid_error);
+                    if rec.flag.is_none() && a.flag.is_some() {
+                        rec.flag = Some(SlopeFlag::Anisotropy {
+                            error: a.grid_error,
+                            bound,
+                        });
+                    }
+                }
+                rec
             })
             .collect(),
     )
+}
+
+/// The finest grid's running exponents compared with the same measured across (module docs,
+/// "Isotropy"), pair by pair in the order of [`running_exponents`]; `None` if not measured
+/// across. A pair missing across has a NaN error and a flag.
+fn isotropy(fine: &Resolution, bound: f64) -> analysis::Result<Option<Vec<RunningExponent>>> {
+    if fine.across.is_empty() {
+        return Ok(None);
+    }
+    // too few points across to form a pair: every pair unmeasured across
+    let across = (fine.across.len() >= 2).then_some(fine.across.as_slice());
+    Ok(Some(running_exponents(&fine.points, across, bound)?))
 }
 
 /// The asymptotic exponent (l → 0, corrections to scaling; [`analysis::asymptotic_estimate`])
@@ -255,7 +300,12 @@ pub fn asymptotic(
     opts: &AsymptoticOptions,
 ) -> Result<AsymptoticEstimate, AsymptoticError> {
     let (fine, coarse) = finest_two(levels)?;
-    let rungs = grid_converged_rungs(&fine.points, coarse.map(|c| c.points.as_slice()), bound)?;
+    let mut rungs = grid_converged_rungs(&fine.points, coarse.map(|c| c.points.as_slice()), bound)?;
+    if let Some(iso) = isotropy(fine, bound)? {
+        // both lists run from the largest |l|: keep the rungs before the first anisotropic pair
+        let isotropic = 1 + iso.iter().take_while(|p| p.flag.is_none()).count();
+        rungs.truncate(isotropic);
+    }
     asymptotic_estimate(&rungs, opts)
 }
 
@@ -371,10 +421,12 @@ mod tests {
             Resolution {
                 spacing: 1.0 / 2048.0,
                 points: pts(0.0),
+                across: Vec::new(),
             },
             Resolution {
                 spacing: 1.0 / 1024.0,
                 points: pts(0.02),
+                across: Vec::new(),
             },
         ];
         let e = asymptotic(&levels, 0.005, &AsymptoticOptions::default()).unwrap();
@@ -383,6 +435,74 @@ mod tests {
         let recs = running_records(Lattice::Square, Exponent::Zeta, &levels, 0.005).unwrap();
         assert_eq!(recs.iter().filter(|r| r.flag.is_some()).count(), 6);
         assert!(recs[5].flag.is_some() && recs[4].flag.is_none());
+    }
+
+    /// β along and across: equal fluxes change nothing; a flux across that drifts from the
+    /// one along near L_c (an anisotropic grid) widens the grid error to the difference of the
+    /// two slopes, flags those pairs and ends the asymptotic fit before them, even where the
+    /// two grids agree with each other (both anisotropic alike).
+    #[test]
+    fn anisotropy_widens_grid_errors_and_ends_the_asymptotic_fit() {
+        let ls = [
+            5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
+        ];
+        let q = |a: f64| a.powf(3.45) * (1.0 + 0.5 * a.sqrt());
+        // across: ×1.1 per rung from the 7th (|l| = 5e-4) on, so the slopes differ by
+        // ln 1.1 / ln(2 … 2.5) ≥ 0.10 from the pair 1e-3 → 5e-4 on
+        let pts = |drift: f64| -> Vec<ScalingPoint> {
+            ls.iter()
+                .enumerate()
+                .map(|(k, &a)| {
+                    ScalingPoint::new(
+                        -a,
+                        q(a) * (1.0 + drift).powi(k.saturating_sub(5) as i32),
+                        0.0,
+                    )
+                })
+                .collect()
+        };
+        let level = |spacing: f64, across: Vec<ScalingPoint>| Resolution {
+            spacing,
+            points: pts(0.0),
+            across,
+        };
+        // isotropic: the records are those without the check
+        let plain = running_records(
+            Lattice::Square,
+            Exponent::Beta,
+            &[level(1.0, Vec::new()), level(2.0, Vec::new())],
+            0.005,
+        )
+        .unwrap();
+        let iso = running_records(
+            Lattice::Square,
+            Exponent::Beta,
+            &[level(1.0, pts(0.0)), level(2.0, Vec::new())],
+            0.005,
+        )
+        .unwrap();
+        assert_eq!(plain, iso);
+        assert!(plain.iter().all(|r| r.flag.is_none()));
+        let levels = [level(1.0, pts(0.1)), level(2.0, Vec::new())];
+        let recs = running_records(Lattice::Triangular, Exponent::Beta, &levels, 0.005).unwrap();
+        assert!(recs[..5].iter().all(|r| r.flag.is_none()), "{recs:?}");
+        for r in &recs[5..] {
+            assert!(
+                matches!(r.flag, Some(SlopeFlag::Anisotropy { error, .. }) if error > 0.1),
+                "{r:?}"
+            );
+            assert!(r.grid_error > 0.1);
+        }
+        let e = asymptotic(&levels, 0.005, &AsymptoticOptions::default()).unwrap();
+        assert_eq!(e.variants[e.reference].outcome.as_ref().unwrap().points, 6);
+        // a pair not measured across is flagged with a NaN error
+        let short = [level(1.0, pts(0.0)[..3].to_vec()), level(2.0, Vec::new())];
+        let recs = running_records(Lattice::Hexagonal, Exponent::Beta, &short, 0.005).unwrap();
+        assert!(recs[..2].iter().all(|r| r.flag.is_none()));
+        assert!(matches!(
+            recs[2].flag,
+            Some(SlopeFlag::Anisotropy { error, .. }) if error.is_nan()
+        ));
     }
 
     #[test]

@@ -17,8 +17,8 @@
 //! # Parameters
 //! `ns` (ascending grid exponents), `ls` (reduced loads, default the paper's ±0.002, ±0.005,
 //! ±0.01, ±0.02 plus 0 for the contact line at L_c), `window` (half-size of the stored window
-//! around the saddle, λ), `tol_gap` (Polonsky–Keer, h0), `flow` (Reynolds flux at every rung),
-//! `flow_tol`.
+//! around the saddle, λ), `tol_gap` (Polonsky–Keer, h0), `flow` (Reynolds flux along the channel
+//! and across it at every rung), `flow_tol`.
 //!
 //! # Artefact
 //! - root attributes `lattice`, `ns`, `ls`, `window`, `l_c` (finest level), `saddle_x`,
@@ -28,7 +28,11 @@
 //!   "grid"), `l_c_grid`, `d_par`, `d_perp` (window spacings along and across the channel, λ),
 //!   `wall_s`, `iterations`; datasets (one entry per rung, ascending l: the columns of
 //!   [`RungRow`]) `l`, `load`, `contact_area`, `saddle_gap`, `iterations`, `converged`,
-//!   `retried`, `flux`, `percolating`, `flow_converged`; windows `rung/<k>/gap`,
+//!   `retried`, `flux` (Q for a unit pressure drop across the cell), `conductivity`
+//!   (K = Q L_flow / L_cross), `percolating`, `flow_converged` and, for the flow along the other
+//!   grid axis, `conductivity_across`, `percolating_across`, `flow_across_converged` (the
+//!   isotropy check of β: K_along = K_across in the continuum, `critical::running`); windows
+//!   `rung/<k>/gap`,
 //!   `rung/<k>/pressure` (first index along the channel, saddle at the centre).
 
 use crate::critical::CriticalLevel;
@@ -50,7 +54,7 @@ use surface::{Lattice, Surface};
 pub struct LadderKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 2;
+pub const CODE_VERSION: u64 = 3;
 
 /// The paper's ladder, plus l = 0 (the contact line at L_c).
 pub const DEFAULT_LS: [f64; 9] = [-0.02, -0.01, -0.005, -0.002, 0.0, 0.002, 0.005, 0.01, 0.02];
@@ -117,7 +121,7 @@ impl TypedKind for LadderKind {
             crate::solver::tol_gap_spec(),
             ParamSpec::new("flow", ParamType::Bool)
                 .default(true)
-                .doc("Reynolds flux through the cell along the saddle's channel at every rung"),
+                .doc("Reynolds flux through the cell along the saddle's channel, and across it (isotropy check), at every rung"),
             ParamSpec::new("l_c", ParamType::one_of(&["subgrid", "grid"]))
                 .default("subgrid")
                 .doc("L_c of each level: the sub-grid L_c (saddle-gap fit) where available, or the grid's bisected L_c"),
@@ -281,8 +285,11 @@ struct LevelStep<'a> {
     progress: (f64, f64, f64),
 }
 
-/// (flux, percolating, converged) of one rung's flow solve.
-type RungFlow = (f64, bool, bool);
+/// (flux Q, conductivity K, percolating, converged) of one rung's flow solve.
+type AxisFlow = (f64, f64, bool, bool);
+
+/// One rung's flow solves: along the saddle's channel, and along the other grid axis.
+type RungFlow = [AxisFlow; 2];
 
 /// Solves the ladder on one grid (warm-started from `coarse`) and the flux at every rung.
 fn solve_level(
@@ -291,10 +298,10 @@ fn solve_level(
     coarse: Option<&[Solution]>,
 ) -> Result<(Vec<Rung>, Vec<RungFlow>, Vec<Solution>)> {
     let (s, n) = (step.s, step.n);
-    let axis = if step.frame.channel_axis == 0 {
-        FlowAxis::X
+    let axes = if step.frame.channel_axis == 0 {
+        [FlowAxis::X, FlowAxis::Y]
     } else {
-        FlowAxis::Y
+        [FlowAxis::Y, FlowAxis::X]
     };
     let (done, weight, total) = step.progress;
     let mut kept = Vec::new();
@@ -309,9 +316,14 @@ fn solve_level(
             if let Some(fopts) = step.fopts
                 && flow_err.is_none()
             {
-                match reynolds::solve(sol.gap.view(), s.grid.lx, s.grid.ly, axis, fopts) {
-                    Ok(f) => flows.push((f.flux, f.percolating, f.converged)),
-                    Err(e) => {
+                let solve =
+                    |axis| reynolds::solve(sol.gap.view(), s.grid.lx, s.grid.ly, axis, fopts);
+                match (solve(axes[0]), solve(axes[1])) {
+                    (Ok(a), Ok(b)) => flows.push([
+                        (a.flux, a.conductivity, a.percolating, a.converged),
+                        (b.flux, b.conductivity, b.percolating, b.converged),
+                    ]),
+                    (Err(e), _) | (_, Err(e)) => {
                         flow_err = Some(anyhow!("flow at n = {n}, l = {}: {e}", r.l));
                     }
                 }
@@ -371,13 +383,19 @@ fn check_flows(
     flows: &[RungFlow],
     not_flowing: &mut Vec<String>,
 ) {
-    for (r, (_, p, c)) in rungs.iter().zip(flows) {
+    for (r, [(_, _, p, c), (_, _, p_across, c_across)]) in rungs.iter().zip(flows) {
         if r.l < 0.0 && !p {
             not_flowing.push(format!("n = {n}, l = {}", r.l));
         }
         if !c && *p {
             ctx.warn(format!(
                 "n = {n}, l = {}: the flow solve did not converge",
+                r.l
+            ));
+        }
+        if !c_across && *p_across {
+            ctx.warn(format!(
+                "n = {n}, l = {}: the flow solve across the channel did not converge",
                 r.l
             ));
         }
@@ -461,17 +479,29 @@ formats::record! {
         pub retried: bool,
         /// Flux through the cell along the channel (NaN without flow).
         pub flux: f64,
+        /// Conductivity along the channel, K = Q L_flow / L_cross (NaN without flow).
+        pub conductivity: f64,
         /// The fluid percolates along the channel axis (false without flow).
         pub percolating: bool,
         /// The flow solve converged (false without flow).
         pub flow_converged: bool,
+        /// Conductivity along the other grid axis (NaN without flow).
+        pub conductivity_across: f64,
+        /// The fluid percolates along the other grid axis (false without flow).
+        pub percolating_across: bool,
+        /// The flow solve along the other axis converged (false without flow).
+        pub flow_across_converged: bool,
     }
 }
 
 impl RungRow {
     /// Rung `r` with its flow solve, if any.
     fn of(r: &Rung, flow: Option<RungFlow>) -> Self {
-        let (flux, percolating, flow_converged) = flow.unwrap_or((f64::NAN, false, false));
+        let none = (f64::NAN, f64::NAN, false, false);
+        let [
+            (flux, conductivity, percolating, flow_converged),
+            (_, conductivity_across, percolating_across, flow_across_converged),
+        ] = flow.unwrap_or([none; 2]);
         RungRow {
             l: r.l,
             load: r.load,
@@ -481,8 +511,12 @@ impl RungRow {
             converged: r.converged,
             retried: r.retried,
             flux,
+            conductivity,
             percolating,
             flow_converged,
+            conductivity_across,
+            percolating_across,
+            flow_across_converged,
         }
     }
 }
@@ -502,6 +536,11 @@ pub struct RungData {
     pub percolating: bool,
     /// The flow solve converged (false without flow).
     pub flow_converged: bool,
+    /// Conductivity along the channel (NaN without flow).
+    pub conductivity: f64,
+    /// Conductivity along the other grid axis where the fluid percolates that way and the
+    /// solve converged, else NaN.
+    pub conductivity_across: f64,
     /// The contact solve converged.
     pub converged: bool,
     /// The window around the saddle.
@@ -550,6 +589,12 @@ impl LadderData {
                     flux: row.flux,
                     percolating: row.percolating,
                     flow_converged: row.flow_converged,
+                    conductivity: row.conductivity,
+                    conductivity_across: if row.percolating_across && row.flow_across_converged {
+                        row.conductivity_across
+                    } else {
+                        f64::NAN
+                    },
                     converged: row.converged,
                     window: Window {
                         d_par,

@@ -25,7 +25,10 @@
 //! - `exponents.csv`: per model and exponent, the window fit, the asymptotic estimate and the
 //!   verdict: columns and rows in `kinds::exponents::table`.
 //! - `ladder_measurements.csv`: per model, grid and rung: `model`, `n`, `l`, `saddle_gap`,
-//!   `half_width`, `half_width_error`, `half_length`, `half_length_error`, `flux`.
+//!   `half_width`, `half_width_error`, `half_length`, `half_length_error`, `flux` (Q along the
+//!   saddle's channel for a unit pressure drop across the cell), `conductivity` (K along the
+//!   channel) and `conductivity_across` (K along the other grid axis: equal to `conductivity`
+//!   in the continuum, so their ratio shows the grid's anisotropy).
 
 pub use crate::fig5_collapse::{
     COLLAPSE_SAMPLES, ModelCurves, Spread, collapse_rms, collapse_table,
@@ -257,7 +260,7 @@ pub fn exponent_table(r: &ArtefactReader) -> Result<Table> {
 pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
     let ex = exponents::read(r)?;
     let mut c: (Vec<String>, Vec<i64>, Vec<f64>) = (vec![], vec![], vec![]);
-    let mut v: [Vec<f64>; 6] = Default::default();
+    let mut v: [Vec<f64>; 8] = Default::default();
     for e in &ex {
         for lv in &e.levels {
             for k in 0..lv.l_open.len() {
@@ -271,6 +274,8 @@ pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
                     f64::NAN,
                     f64::NAN,
                     lv.flux[k],
+                    lv.conductivity[k].0,
+                    lv.conductivity[k].1,
                 ];
                 for (col, x) in v.iter_mut().zip(row) {
                     col.push(x);
@@ -287,6 +292,8 @@ pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
                     lv.half_length[k].0,
                     lv.half_length[k].1,
                     f64::NAN,
+                    f64::NAN,
+                    f64::NAN,
                 ];
                 for (col, x) in v.iter_mut().zip(row) {
                     col.push(x);
@@ -294,7 +301,7 @@ pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
             }
         }
     }
-    let [g, w, we, a, ae, q] = v;
+    let [g, w, we, a, ae, q, k, ka] = v;
     Ok(Table::new()
         .with_str("model", c.0)
         .with_i64("n", c.1)
@@ -304,7 +311,9 @@ pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
         .with_f64("half_width_error", we)
         .with_f64("half_length", a)
         .with_f64("half_length_error", ae)
-        .with_f64("flux", q))
+        .with_f64("flux", q)
+        .with_f64("conductivity", k)
+        .with_f64("conductivity_across", ka))
 }
 
 /// The `fig5` scene: Figure 5 (near-critical contact lines and axis gaps collapsed by the

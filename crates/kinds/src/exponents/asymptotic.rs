@@ -64,16 +64,26 @@ pub fn rungs(level: &LadderLevel) -> Vec<Rung> {
 }
 
 /// β's points on one level: the flux of the converged, percolating rungs below L_c (no error
-/// known: σ = 0, the fits scale by the misfit).
+/// known: σ = 0, the fits scale by the misfit), and across the channel the conductivity of those
+/// of the same rungs that flow that way too (the isotropy check, `critical::running`; the
+/// cell's aspect ratio between flux and conductivity is a constant factor, which no slope sees).
 pub fn flux_points(level: &LadderLevel) -> Resolution {
     let first = level.rungs.first();
+    let along: Vec<_> = level
+        .rungs
+        .iter()
+        .filter(|r| r.l < 0.0 && r.percolating && r.flow_converged && r.flux > 0.0)
+        .collect();
     Resolution {
         spacing: first.map_or(f64::NAN, |r| r.window.d_par.min(r.window.d_perp)),
-        points: level
-            .rungs
+        points: along
             .iter()
-            .filter(|r| r.l < 0.0 && r.percolating && r.flow_converged && r.flux > 0.0)
             .map(|r| ScalingPoint::new(r.l, r.flux, 0.0))
+            .collect(),
+        across: along
+            .iter()
+            .filter(|r| r.conductivity_across > 0.0)
+            .map(|r| ScalingPoint::new(r.l, r.conductivity_across, 0.0))
             .collect(),
     }
 }
@@ -281,6 +291,7 @@ mod tests {
                     ScalingPoint::new(-a, g(a) * d, 0.0)
                 })
                 .collect(),
+            across: Vec::new(),
         };
         let a = estimate(&[level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)]).unwrap();
         assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");

@@ -79,6 +79,10 @@ formats::record! {
         pub half_width_error: f64,
         /// Flux (NaN where the fluid does not percolate).
         pub flux: f64,
+        /// Conductivity along the channel (NaN where the fluid does not percolate).
+        pub conductivity: f64,
+        /// Conductivity along the other grid axis (NaN where the fluid does not percolate).
+        pub conductivity_across: f64,
     }
 }
 
@@ -105,6 +109,8 @@ pub(super) fn write_measure(out: &mut ArtefactWriter, at: &str, m: &LevelMeasure
             half_width: m.half_width[k].0,
             half_width_error: m.half_width[k].1,
             flux: m.flux[k],
+            conductivity: m.conductivity[k].0,
+            conductivity_across: m.conductivity[k].1,
         })
         .collect();
     OpenRow::write(&open, out, at)?;
@@ -134,6 +140,10 @@ fn read_measure(r: &ArtefactReader, la: &str) -> Result<LevelMeasure> {
             .map(|o| (o.half_width, o.half_width_error))
             .collect(),
         flux: open.iter().map(|o| o.flux).collect(),
+        conductivity: open
+            .iter()
+            .map(|o| (o.conductivity, o.conductivity_across))
+            .collect(),
         l_blocked: blocked.iter().map(|b| b.l_blocked).collect(),
         half_length: blocked
             .iter()

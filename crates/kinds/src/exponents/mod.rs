@@ -68,7 +68,7 @@ use store::ArtefactWriter;
 pub struct ExponentsKind;
 
 /// Bump when the artefact's content changes for the same inputs.
-pub const CODE_VERSION: u64 = 3;
+pub const CODE_VERSION: u64 = 4;
 
 /// The paper's fitting window of |l| (inclusive; a relative 1e-9 of slack for rounding).
 pub const WINDOW: (f64, f64) = (0.002, 0.02);
@@ -119,6 +119,9 @@ pub struct LevelMeasure {
     pub half_width: Vec<(f64, f64)>,
     /// Flux (NaN where the fluid does not percolate).
     pub flux: Vec<f64>,
+    /// Conductivity along the channel and along the other grid axis (NaN where the fluid does
+    /// not percolate that way or the flow solve did not converge).
+    pub conductivity: Vec<(f64, f64)>,
     /// Reduced loads l > 0.
     pub l_blocked: Vec<f64>,
     /// Blocked half-length a (λ) and its fit error.
@@ -163,6 +166,12 @@ pub fn measure(level: &LadderLevel, opts: &EdgeOptions, notes: &mut Vec<String>)
                     }
                     f64::NAN
                 });
+            let along = if r.percolating && r.flow_converged {
+                r.conductivity
+            } else {
+                f64::NAN
+            };
+            m.conductivity.push((along, r.conductivity_across));
         } else if r.l > 0.0 {
             m.l_blocked.push(r.l);
             m.half_length.push(match blocked_half_length(&r.window) {
