@@ -1,0 +1,740 @@
+//! Reynolds flow through a locally refined saddle: the conductance of the periodic cell along
+//! the channel when the contact was solved with one window refined 2^k times
+//! ([`contact::refinement`]), so that the flux exponent β (K ∝ |l|^β, l < 0) can be followed
+//! below the reduced loads a uniform grid resolves.
+//!
+//! # Method: series replacement of the window's resistance
+//! A refined solve gives the gap on two lattices: the fine gap on the refined region R
+//! ([`Refined::window_gap`]) and, on every base node, the base gap ([`base_gap`]: the fine gap at
+//! the base nodes inside R, the hat-weighted mean gap of the coarse unknowns outside it). The
+//! flow window W is a rectangle of base nodes i0 ..= i0 + wx, j0 ..= j0 + wy inside R (by default
+//! R shortened along the channel, [`FlowWindow::inside`]); its fine nodes are the fine lattice's
+//! nodes of the same rectangle, so W is the same physical region on both lattices, bounded by
+//! the same node lines. With resistances R = ΔP/Q (Q the volume flux of the whole cell for a
+//! pressure drop ΔP = 1):
+//! - R_cc: the periodic cell on the base gap ([`reynolds::solve`]);
+//! - R_wc: W on the base gap, its two end lines across the channel held as isobars and its side
+//!   lines closed ([`reynolds::solve_between_isobars`], [`SideEdges::NoFlux`]);
+//! - R_wf: the same on the fine gap of W;
+//! - composite: R = R_cc − R_wc + R_wf, K = L_flow / (R L_cross).
+//!
+//! Exact (for the discrete problems): if, in the base cell's solution, W's two end lines are
+//! isobars and no flux crosses its side lines, the base cell is exactly W in series with the
+//! rest, and the composite is the cell discretised fine in W and coarse outside it with those
+//! lines as the interfaces. The end lines are node lines of both lattices (that is why the
+//! isobars sit on nodes, not half a cell beyond them as in [`reynolds::solve_between_reservoirs`]),
+//! so nothing is counted twice or left out. Tested on a channel whose gap varies only along the
+//! flow (every node column an isobar): the composite equals the face-by-face series sum to 1e-11.
+//!
+//! Approximated: (i) the end lines are not exact isobars. In the channel's funnels the pressure
+//! varies across a line by [`WindowFlow::isobar_spread`] (of the drop across W; measured on the
+//! base cell's solution), and the replacement then moves the neck's resistance between
+//! slightly different boundary conditions; (ii) side lines that cross open fluid
+//! ([`WindowFlow::open_side_nodes`]) are closed in the window problems but not in the cell. Both
+//! vanish as the neck shrinks inside a fixed window: near p_c the resistance concentrates in a
+//! neck of length ∝ |l|^χ and width ∝ |l|^υ, the funnels at the window's ends become isobaric,
+//! and the side lines lie in the contact patches that flank the channel (for the square model
+//! with η = 1 the contact lines leave the saddle at ±45°, so a window longer across the channel
+//! than along it has closed sides; [`FlowWindow::inside`] halves R along the channel). What stays
+//! is the base grid's discretisation of the rest of the cell, a regular resistance that the
+//! diverging neck resistance dwarfs: the composite K's relative error to the uniform fine grid
+//! tends to that of the contact solve's gap near the saddle (ζβ-weighted), and the running
+//! exponent's error to the change of that gap error between loads.
+//!
+//! Near p_c R_cc and R_wc are both dominated by the same coarse neck, so R_cc − R_wc (the rest)
+//! is a difference of nearly equal numbers: it loses log10(R_wc/(R_cc − R_wc)) digits of the
+//! fluxes' ~1e-12 accuracy ([`WindowFlow::neck_share`] reports R_wc/R_cc).
+//!
+//! # Measurements
+//! See "Measured" below (filled in from the test and the example).
+//!
+//! # Measured
+//! (see the end of this section: numbers from `tests/window_flow.rs` and
+//! `examples/window_flow.rs`).
+
+use contact::refinement::{RefineOptions, Refined, RefinedModel, Window};
+use contact::{Interaction, Model, Solution, SolverOptions};
+use ndarray::{Array2, ArrayView2};
+use reynolds::{FlowAxis, FlowOptions, FlowResult, SideEdges};
+use std::time::Instant;
+use surface::{Grid, Lattice, Surface};
+
+/// Errors of the window flow.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum WindowFlowError {
+    /// A parameter outside its allowed range.
+    #[error("invalid {name} = {value}: allowed {allowed}")]
+    Parameter {
+        /// Name.
+        name: &'static str,
+        /// Value as given.
+        value: String,
+        /// Allowed range in words.
+        allowed: String,
+    },
+    /// A flow solve failed, did not converge or found no open path.
+    #[error("flow on the {which}: {detail}")]
+    Flow {
+        /// Which problem: "base cell", "base window", "fine window", "uniform cell".
+        which: &'static str,
+        /// What went wrong.
+        detail: String,
+    },
+    /// A contact solve failed or did not converge.
+    #[error("contact solve ({which}) at load {load}: {detail}")]
+    Contact {
+        /// "uniform" or "refined".
+        which: &'static str,
+        /// Mean pressure (E* h0/λ).
+        load: f64,
+        /// What went wrong.
+        detail: String,
+    },
+}
+
+fn param(name: &'static str, value: impl ToString, allowed: impl ToString) -> WindowFlowError {
+    WindowFlowError::Parameter {
+        name,
+        value: value.to_string(),
+        allowed: allowed.to_string(),
+    }
+}
+
+/// The flow window: base nodes i0 ..= i0 + wx along x and j0 ..= j0 + wy along y (periodic
+/// indices), i.e. `wx × wy` base cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FlowWindow {
+    /// First base node along x.
+    pub i0: usize,
+    /// First base node along y.
+    pub j0: usize,
+    /// Base cells along x.
+    pub wx: usize,
+    /// Base cells along y.
+    pub wy: usize,
+}
+
+impl FlowWindow {
+    /// The refined region of `refined` (on the base grid `base`) shortened by `trim_along` base
+    /// cells at each end along the flow axis and by `trim_across` at each side across it. The
+    /// region's edge base nodes carry hat-weighted mean gaps (see [`Refined::window_gap`]), so
+    /// both trims should be ≥ 1.
+    pub fn inside(
+        refined: &Refined,
+        base: &Grid,
+        axis: FlowAxis,
+        trim_along: usize,
+        trim_across: usize,
+    ) -> Result<FlowWindow, WindowFlowError> {
+        let f = refinement_factor(refined, base)?;
+        let region = Window {
+            i0: refined.origin.0 / f,
+            j0: refined.origin.1 / f,
+            wx: (refined.window_grid.nx - 1) / f,
+            wy: (refined.window_grid.ny - 1) / f,
+        };
+        FlowWindow::within(region, base, axis, trim_along, trim_across)
+    }
+
+    /// The same for the refined region `region` of a refinement of `base`.
+    pub fn within(
+        region: Window,
+        base: &Grid,
+        axis: FlowAxis,
+        trim_along: usize,
+        trim_across: usize,
+    ) -> Result<FlowWindow, WindowFlowError> {
+        let (tx, ty) = match axis {
+            FlowAxis::X => (trim_along, trim_across),
+            FlowAxis::Y => (trim_across, trim_along),
+        };
+        // 5 base cells along the flow: the isobar problem needs 4 interior node columns
+        let need = |w: usize, t: usize, name| {
+            if w < 2 * t + 5 {
+                Err(param(
+                    name,
+                    t,
+                    format!("at most (region {w} − 5)/2 base cells, so that 5 remain"),
+                ))
+            } else {
+                Ok(w - 2 * t)
+            }
+        };
+        let wx = need(region.wx, tx, "trim along x")?;
+        let wy = need(region.wy, ty, "trim along y")?;
+        Ok(FlowWindow {
+            i0: (region.i0 + tx) % base.nx,
+            j0: (region.j0 + ty) % base.ny,
+            wx,
+            wy,
+        })
+    }
+}
+
+/// The flux decomposition of one cell (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct WindowFlow {
+    /// Flux of the periodic cell on the base gap (ΔP = 1 across the cell).
+    pub flux_cell_coarse: f64,
+    /// Flux through the window on the base gap (ΔP = 1 between its end lines).
+    pub flux_window_coarse: f64,
+    /// The same on the fine gap.
+    pub flux_window_fine: f64,
+    /// Composite flux 1 / (1/Q_cc − 1/Q_wc + 1/Q_wf).
+    pub flux: f64,
+    /// Composite conductivity K = Q L_flow / L_cross of the cell.
+    pub conductivity: f64,
+    /// The base cell's own conductivity.
+    pub conductivity_coarse: f64,
+    /// R_wc / R_cc: the share of the base cell's resistance inside the window.
+    pub neck_share: f64,
+    /// max over the two end lines of (max − min of the base cell's pressure on its flowing
+    /// nodes) over the mean pressure drop between the lines: 0 for exact isobars.
+    pub isobar_spread: f64,
+    /// Open fine nodes on the window's two side lines (closed in the window problems).
+    pub open_side_nodes: usize,
+    /// Flow-solve iterations (base cell, base window, fine window).
+    pub iterations: [usize; 3],
+    /// Wall time of the three flow solves (s).
+    pub wall_s: f64,
+}
+
+/// Flow along a grid axis of the periodic cell `lx × ly` whose base gap is `coarse` (nx × ny),
+/// with the window `window` replaced by the fine gap `fine` ((f wx + 1) × (f wy + 1) fine nodes,
+/// first index x; fine node (f a, f b) is base node (i0 + a, j0 + b)). See the module docs.
+#[allow(clippy::too_many_arguments)]
+pub fn series_replacement(
+    coarse: ArrayView2<f64>,
+    lx: f64,
+    ly: f64,
+    fine: ArrayView2<f64>,
+    f: usize,
+    window: FlowWindow,
+    axis: FlowAxis,
+    opts: &FlowOptions,
+) -> Result<WindowFlow, WindowFlowError> {
+    let start = Instant::now();
+    let (nx, ny) = coarse.dim();
+    let (wx, wy) = (window.wx, window.wy);
+    if f == 0 || fine.dim() != (f * wx + 1, f * wy + 1) {
+        return Err(param(
+            "fine window shape",
+            format!("{:?}", fine.dim()),
+            format!("(f wx + 1, f wy + 1) = ({}, {})", f * wx + 1, f * wy + 1),
+        ));
+    }
+    if wx + 1 > nx || wy + 1 > ny || window.i0 >= nx || window.j0 >= ny {
+        return Err(param(
+            "window",
+            format!("{window:?}"),
+            format!(
+                "at most {} × {} base cells, first node inside the grid",
+                nx - 1,
+                ny - 1
+            ),
+        ));
+    }
+    let (dx, dy) = (lx / nx as f64, ly / ny as f64);
+    let check = |which: &'static str, r: Result<FlowResult, reynolds::FlowError>| {
+        let r = r.map_err(|e| WindowFlowError::Flow {
+            which,
+            detail: e.to_string(),
+        })?;
+        if !r.converged || !r.percolating || r.flux <= 0.0 {
+            return Err(WindowFlowError::Flow {
+                which,
+                detail: format!(
+                    "not usable: percolating {}, converged {} ({:?}), flux {:e}",
+                    r.percolating, r.converged, r.termination, r.flux
+                ),
+            });
+        }
+        Ok(r)
+    };
+    let cell_opts = FlowOptions {
+        return_fields: true,
+        ..opts.clone()
+    };
+    let cell = check(
+        "base cell",
+        reynolds::solve(coarse, lx, ly, axis, &cell_opts),
+    )?;
+    let base_window = Array2::from_shape_fn((wx + 1, wy + 1), |(a, b)| {
+        coarse[[(window.i0 + a) % nx, (window.j0 + b) % ny]]
+    });
+    let (wlx, wly) = ((wx + 1) as f64 * dx, (wy + 1) as f64 * dy);
+    let window_opts = FlowOptions {
+        return_fields: false,
+        ..opts.clone()
+    };
+    let wc = check(
+        "base window",
+        reynolds::solve_between_isobars(
+            base_window.view(),
+            wlx,
+            wly,
+            axis,
+            SideEdges::NoFlux,
+            &window_opts,
+        ),
+    )?;
+    let (fdx, fdy) = (dx / f as f64, dy / f as f64);
+    let wf = check(
+        "fine window",
+        reynolds::solve_between_isobars(
+            fine,
+            (f * wx + 1) as f64 * fdx,
+            (f * wy + 1) as f64 * fdy,
+            axis,
+            SideEdges::NoFlux,
+            &window_opts,
+        ),
+    )?;
+    let (r_cc, r_wc, r_wf) = (1.0 / cell.flux, 1.0 / wc.flux, 1.0 / wf.flux);
+    let flux = 1.0 / (r_cc - r_wc + r_wf);
+    let (lflow, lcross) = match axis {
+        FlowAxis::X => (lx, ly),
+        FlowAxis::Y => (ly, lx),
+    };
+    let p = &cell.fields.as_ref().expect("fields asked for").pressure;
+    let isobar_spread = end_line_spread(p.view(), window, axis);
+    let (fx, fy) = fine.dim();
+    let side = |a: usize, b: usize| usize::from(fine[[a, b]] > 0.0);
+    let open_side_nodes = match axis {
+        FlowAxis::X => (0..fx).map(|a| side(a, 0) + side(a, fy - 1)).sum(),
+        FlowAxis::Y => (0..fy).map(|b| side(0, b) + side(fx - 1, b)).sum(),
+    };
+    Ok(WindowFlow {
+        flux_cell_coarse: cell.flux,
+        flux_window_coarse: wc.flux,
+        flux_window_fine: wf.flux,
+        flux,
+        conductivity: flux * lflow / lcross,
+        conductivity_coarse: cell.conductivity,
+        neck_share: r_wc / r_cc,
+        isobar_spread,
+        open_side_nodes,
+        iterations: [cell.iterations, wc.iterations, wf.iterations],
+        wall_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// The spread of the periodic cell's pressure `p` (NaN off the flowing nodes; `p = −x ΔP/L + φ`
+/// with x = i dx, so it drops by ΔP = 1 across the periodic wrap) on the window's two end
+/// lines, over the mean drop between them.
+fn end_line_spread(p: ArrayView2<f64>, w: FlowWindow, axis: FlowAxis) -> f64 {
+    let (nx, ny) = p.dim();
+    let line = |k: usize| -> Vec<f64> {
+        match axis {
+            FlowAxis::X => {
+                let (i, wraps) = ((w.i0 + k) % nx, (w.i0 + k) / nx);
+                (0..=w.wy)
+                    .map(|b| p[[i, (w.j0 + b) % ny]] - wraps as f64)
+                    .filter(|v| v.is_finite())
+                    .collect()
+            }
+            FlowAxis::Y => {
+                let (j, wraps) = ((w.j0 + k) % ny, (w.j0 + k) / ny);
+                (0..=w.wx)
+                    .map(|a| p[[(w.i0 + a) % nx, j]] - wraps as f64)
+                    .filter(|v| v.is_finite())
+                    .collect()
+            }
+        }
+    };
+    let last = match axis {
+        FlowAxis::X => w.wx,
+        FlowAxis::Y => w.wy,
+    };
+    let (a, b) = (line(0), line(last));
+    if a.is_empty() || b.is_empty() {
+        return f64::NAN;
+    }
+    let stats = |v: &[f64]| {
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                (l.min(x), h.max(x))
+            });
+        (v.iter().sum::<f64>() / v.len() as f64, hi - lo)
+    };
+    let ((ma, sa), (mb, sb)) = (stats(&a), stats(&b));
+    sa.max(sb) / (ma - mb).abs()
+}
+
+/// The refinement factor 2^k of `refined` on the base grid `base`.
+fn refinement_factor(refined: &Refined, base: &Grid) -> Result<usize, WindowFlowError> {
+    let (fnx, fny) = refined.lattice;
+    let f = fnx / base.nx;
+    if f < 2 || fnx != f * base.nx || fny != f * base.ny {
+        return Err(param(
+            "base grid",
+            format!("{} × {}", base.nx, base.ny),
+            format!("the refined solve's base grid (fine lattice {fnx} × {fny})"),
+        ));
+    }
+    Ok(f)
+}
+
+/// The base gap of a refined solve on every base node (nx × ny): inside the refined region the
+/// fine gap at the node, outside it the coarse unknown's gap (its hat-weighted mean gap, the
+/// quantity the composite contact conditions hold for). Values below 0 (penetration within the
+/// solver's `tol_gap`) are set to 0. Reads the composite solution's packing (fine unknowns of
+/// the region row by row, then the base nodes outside it in row-major order) and checks it
+/// against [`Refined::base_pressure`].
+pub fn base_gap(refined: &Refined, base: &Grid) -> Result<Array2<f64>, WindowFlowError> {
+    let f = refinement_factor(refined, base)?;
+    let (fnx, fny) = refined.lattice;
+    let (rx, ry) = refined.window_gap.dim();
+    let (o0, o1) = refined.origin;
+    let gap: Vec<f64> = refined.composite.gap.iter().copied().collect();
+    let force: Vec<f64> = refined.composite.pressure.iter().copied().collect();
+    let mut next = rx * ry;
+    let mut out = Array2::zeros((base.nx, base.ny));
+    for i in 0..base.nx {
+        for j in 0..base.ny {
+            let (a, b) = ((f * i + fnx - o0) % fnx, (f * j + fny - o1) % fny);
+            let g = if a < rx && b < ry {
+                refined.window_gap[[a, b]]
+            } else {
+                let (g, r) = (gap[next], force[next]);
+                if (r > 0.0) != (refined.base_pressure[[i, j]] > 0.0) {
+                    return Err(param(
+                        "refined solution",
+                        format!("base node ({i}, {j})"),
+                        "the packing of contact::refinement (coarse unknowns row-major after the region); it changed",
+                    ));
+                }
+                next += 1;
+                g
+            };
+            out[[i, j]] = g.max(0.0);
+        }
+    }
+    Ok(out)
+}
+
+/// The composite flow of a refined solve: [`series_replacement`] with the base gap
+/// ([`base_gap`]) and the fine gap of `window` cut out of [`Refined::window_gap`].
+pub fn refined_flow(
+    refined: &Refined,
+    base: &Grid,
+    window: FlowWindow,
+    axis: FlowAxis,
+    opts: &FlowOptions,
+) -> Result<WindowFlow, WindowFlowError> {
+    let f = refinement_factor(refined, base)?;
+    let (fnx, fny) = refined.lattice;
+    let (rx, ry) = refined.window_gap.dim();
+    let a0 = (f * window.i0 + fnx - refined.origin.0) % fnx;
+    let b0 = (f * window.j0 + fny - refined.origin.1) % fny;
+    if a0 + f * window.wx >= rx || b0 + f * window.wy >= ry {
+        return Err(param(
+            "flow window",
+            format!("{window:?}"),
+            format!(
+                "inside the refined region (fine nodes {:?} + {rx} × {ry})",
+                refined.origin
+            ),
+        ));
+    }
+    let fine = refined
+        .window_gap
+        .slice(ndarray::s![
+            a0..=a0 + f * window.wx,
+            b0..=b0 + f * window.wy
+        ])
+        .mapv(|g| g.max(0.0));
+    let coarse = base_gap(refined, base)?;
+    series_replacement(
+        coarse.view(),
+        base.lx,
+        base.ly,
+        fine.view(),
+        f,
+        window,
+        axis,
+        opts,
+    )
+}
+
+/// Options of [`compare`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompareOptions {
+    /// Model.
+    pub lattice: Lattice,
+    /// Base grid exponent (2^n nodes per side).
+    pub base_n: u32,
+    /// Refinement levels k.
+    pub levels: u32,
+    /// Refined region: base cells per side, square around the saddle.
+    pub region: usize,
+    /// Blockwise operator margin (base cells), or None for the full composite operator.
+    pub margin: Option<usize>,
+    /// Trims of the flow window inside the region ([`FlowWindow::inside`]).
+    pub trim_along: usize,
+    /// See `trim_along`.
+    pub trim_across: usize,
+    /// Reduced loads l = p/p_c − 1 (< 0).
+    pub loads: Vec<f64>,
+    /// Contact solver tolerance (h0).
+    pub tol_gap: f64,
+    /// Bisection bracket for p_c as fractions of the grid's p_fc.
+    pub bracket: (f64, f64),
+    /// Relative width at which the bisection stops.
+    pub rel_width: f64,
+    /// Also solve the uniform fine grid (2^(n + k)) as the reference.
+    pub uniform: bool,
+}
+
+impl Default for CompareOptions {
+    fn default() -> Self {
+        CompareOptions {
+            lattice: Lattice::Square,
+            base_n: 5,
+            levels: 2,
+            region: 8,
+            margin: None,
+            trim_along: 2,
+            trim_across: 1,
+            loads: vec![-1e-2, -5e-3, -2e-3, -1e-3, -5e-4],
+            tol_gap: 1e-13,
+            bracket: (0.2, 0.25),
+            rel_width: 1e-9,
+            uniform: true,
+        }
+    }
+}
+
+/// One reduced load of [`compare`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompareRow {
+    /// Reduced load.
+    pub l: f64,
+    /// Saddle gap of the uniform fine solve (h0).
+    pub gap_uniform: Option<f64>,
+    /// Saddle gap of the refined solve (h0).
+    pub gap_refined: f64,
+    /// K of the uniform fine cell along the channel.
+    pub k_uniform: Option<f64>,
+    /// The series replacement applied to the uniform fine solution itself (its gap subsampled
+    /// on the base nodes, the fine gap in the flow window): the flow method's own error is
+    /// `k_uniform_windowed / k_uniform − 1`.
+    pub k_uniform_windowed: Option<f64>,
+    /// The refined cell's flow.
+    pub refined: WindowFlow,
+}
+
+/// The refined and uniform discretisations over the reduced loads, each at its own p_c.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Comparison {
+    /// p_c / p_fc of the uniform fine grid.
+    pub pc_uniform: Option<f64>,
+    /// p_c / p_fc of the refined discretisation.
+    pub pc_refined: f64,
+    /// Flow axis (the channel's).
+    pub axis: FlowAxis,
+    /// The flow window.
+    pub window: FlowWindow,
+    /// Rows in the order of `loads`.
+    pub rows: Vec<CompareRow>,
+    /// Wall time of the uniform bisection, loads and flows (s).
+    pub wall_uniform: f64,
+    /// Wall time of the refined bisection, loads and flows (s).
+    pub wall_refined: f64,
+}
+
+/// Bisects the load (fraction of p_fc) at which `saddle_gap(load)` reaches 0.
+fn bisect(
+    bracket: (f64, f64),
+    rel_width: f64,
+    mut saddle_gap: impl FnMut(f64) -> Result<f64, WindowFlowError>,
+) -> Result<f64, WindowFlowError> {
+    let (mut lo, mut hi) = bracket;
+    if saddle_gap(lo)? <= 0.0 || saddle_gap(hi)? > 0.0 {
+        return Err(param(
+            "bracket",
+            format!("{bracket:?}"),
+            "fractions of p_fc with the saddle open at the first and closed at the second",
+        ));
+    }
+    while hi / lo - 1.0 > rel_width {
+        let mid = 0.5 * (lo + hi);
+        if saddle_gap(mid)? > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(0.5 * (lo + hi))
+}
+
+/// Solves the refined discretisation (base 2^n, k levels, a square region around the saddle
+/// that [`crate::ladder::axis_saddle`] picks) and, if asked, the uniform fine one, each at the
+/// reduced loads from its own p_c (bisection on the saddle node's gap), and the flow along the
+/// channel: [`refined_flow`] and the uniform cell's periodic [`reynolds::solve`].
+pub fn compare(opts: &CompareOptions) -> Result<Comparison, WindowFlowError> {
+    if let Some(&l) = opts.loads.iter().find(|l| !(**l < 0.0 && **l > -1.0)) {
+        return Err(param("loads", l, "reduced loads in (−1, 0)"));
+    }
+    if opts.loads.is_empty() {
+        return Err(param("loads", "[]", "at least one reduced load"));
+    }
+    let surf = |n: u32| Surface::new(opts.lattice, n).map_err(|e| param("grid exponent", n, e));
+    let base = surf(opts.base_n)?;
+    let frame = crate::ladder::axis_saddle(&base).map_err(|e| param("lattice", "", e))?;
+    let axis = if frame.channel_axis == 0 {
+        FlowAxis::X
+    } else {
+        FlowAxis::Y
+    };
+    let solver = SolverOptions {
+        tol_gap: opts.tol_gap,
+        ..Default::default()
+    };
+    let fopts = FlowOptions::default();
+    let pfc = base.p_fc_grid();
+    let f = 1usize << opts.levels;
+    let region = Window::centred(&base.grid, frame.x, frame.y, opts.region, opts.region);
+    let window = FlowWindow::within(region, &base.grid, axis, opts.trim_along, opts.trim_across)?;
+
+    // uniform fine reference
+    let t = Instant::now();
+    let mut uniform = None;
+    if opts.uniform {
+        let fine = surf(opts.base_n + opts.levels)?;
+        let pfc_f = fine.p_fc_grid();
+        let mut model = Model::new(&fine).map_err(|e| param("uniform grid", "", e))?;
+        let node = (frame.node.0 * f, frame.node.1 * f);
+        let mut warm: Option<Solution> = None;
+        let mut solve = |load: f64| -> Result<Solution, WindowFlowError> {
+            let s = model
+                .solve(Interaction::HardWall, load, &solver, warm.as_ref())
+                .map_err(|e| WindowFlowError::Contact {
+                    which: "uniform",
+                    load,
+                    detail: e.to_string(),
+                })?;
+            if !s.stats.converged {
+                return Err(WindowFlowError::Contact {
+                    which: "uniform",
+                    load,
+                    detail: format!("not converged: {:?}", s.stats.reason),
+                });
+            }
+            warm = Some(s.clone());
+            Ok(s)
+        };
+        let pc = bisect(opts.bracket, opts.rel_width, |x| {
+            Ok(solve(x * pfc_f)?.gap[[node.0, node.1]])
+        })?;
+        let mut rows = Vec::new();
+        for &l in &opts.loads {
+            let s = solve(pc * (1.0 + l) * pfc_f)?;
+            let r = reynolds::solve(s.gap.view(), fine.grid.lx, fine.grid.ly, axis, &fopts)
+                .map_err(|e| WindowFlowError::Flow {
+                    which: "uniform cell",
+                    detail: e.to_string(),
+                })?;
+            if !r.converged {
+                return Err(WindowFlowError::Flow {
+                    which: "uniform cell",
+                    detail: format!("not converged ({:?}) at l = {l}", r.termination),
+                });
+            }
+            let sub = Array2::from_shape_fn((base.grid.nx, base.grid.ny), |(i, j)| {
+                s.gap[[f * i, f * j]].max(0.0)
+            });
+            let (fnx, fny) = s.gap.dim();
+            let fine_window =
+                Array2::from_shape_fn((f * window.wx + 1, f * window.wy + 1), |(a, b)| {
+                    s.gap[[(f * window.i0 + a) % fnx, (f * window.j0 + b) % fny]].max(0.0)
+                });
+            let windowed = series_replacement(
+                sub.view(),
+                base.grid.lx,
+                base.grid.ly,
+                fine_window.view(),
+                f,
+                window,
+                axis,
+                &fopts,
+            )?;
+            rows.push((
+                s.gap[[node.0, node.1]],
+                r.conductivity,
+                windowed.conductivity,
+            ));
+        }
+        uniform = Some((pc, rows));
+    }
+    let wall_uniform = t.elapsed().as_secs_f64();
+
+    // refined
+    let t = Instant::now();
+    let ropts = RefineOptions {
+        levels: opts.levels,
+        window: region,
+        solver: solver.clone(),
+    };
+    let mut model = match opts.margin {
+        None => RefinedModel::new(&base, &ropts),
+        Some(m) => RefinedModel::blockwise(&base, &ropts, m),
+    }
+    .map_err(|e| param("refinement", format!("{ropts:?}"), e))?;
+    let node = (frame.node.0 * f, frame.node.1 * f);
+    let mut warm: Option<Refined> = None;
+    let mut solve = |load: f64| -> Result<Refined, WindowFlowError> {
+        let r = model
+            .solve(load, warm.as_ref())
+            .map_err(|e| WindowFlowError::Contact {
+                which: "refined",
+                load,
+                detail: e.to_string(),
+            })?;
+        if !r.stats.converged {
+            return Err(WindowFlowError::Contact {
+                which: "refined",
+                load,
+                detail: format!("not converged: {:?}", r.stats.reason),
+            });
+        }
+        warm = Some(r.clone());
+        Ok(r)
+    };
+    let gap_at = |r: &Refined| r.fine_gap(node.0, node.1).unwrap_or(f64::NAN);
+    let pc = bisect(opts.bracket, opts.rel_width, |x| {
+        Ok(gap_at(&solve(x * pfc)?))
+    })?;
+    let mut rows = Vec::new();
+    for (k, &l) in opts.loads.iter().enumerate() {
+        let r = solve(pc * (1.0 + l) * pfc)?;
+        let flow = refined_flow(&r, &base.grid, window, axis, &fopts)?;
+        let u = uniform.as_ref().map(|(_, u)| u[k]);
+        rows.push(CompareRow {
+            l,
+            gap_uniform: u.map(|u| u.0),
+            gap_refined: gap_at(&r),
+            k_uniform: u.map(|u| u.1),
+            k_uniform_windowed: u.map(|u| u.2),
+            refined: flow,
+        });
+    }
+    Ok(Comparison {
+        pc_uniform: uniform.map(|u| u.0),
+        pc_refined: pc,
+        axis,
+        window,
+        rows,
+        wall_uniform,
+        wall_refined: t.elapsed().as_secs_f64(),
+    })
+}
+
+/// The running exponent d ln y / d ln |l| between neighbouring loads: one value per pair.
+pub fn running(ls: &[f64], ys: &[f64]) -> Vec<f64> {
+    ls.windows(2)
+        .zip(ys.windows(2))
+        .map(|(l, y)| (y[1] / y[0]).ln() / (l[1] / l[0]).ln())
+        .collect()
+}
