@@ -738,3 +738,190 @@ pub fn running(ls: &[f64], ys: &[f64]) -> Vec<f64> {
         .map(|(l, y)| (y[1] / y[0]).ln() / (l[1] / l[0]).ln())
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rel(a: f64, b: f64) -> f64 {
+        (a / b - 1.0).abs()
+    }
+
+    /// Harmonic mean of two conductances.
+    fn h(a: f64, b: f64) -> f64 {
+        2.0 * a * b / (a + b)
+    }
+
+    /// Oracle without a contact solve: a straight channel (a band of rows, contact outside it)
+    /// whose gap varies only along the flow. Every node column is an isobar, so the series
+    /// replacement is exact: the composite resistance is the coarse faces' series sum outside
+    /// the window over the coarse band width plus the fine faces' sum inside it over the fine
+    /// band width. The window wraps the periodic edge along the flow; both flow axes.
+    #[test]
+    fn a_channel_varying_along_the_flow_is_replaced_exactly() {
+        let (nx, ny, lx, ly, f) = (32usize, 16usize, 1.0, 0.5, 4usize);
+        let (dx, dy) = (lx / nx as f64, ly / ny as f64);
+        let tau = 2.0 * std::f64::consts::PI;
+        // narrowest near x = 0, inside the window
+        let g = |x: f64| 0.06 - 0.04 * (tau * x).cos() + 0.01 * (3.0 * tau * x).sin();
+        let band = |y: f64| (y - 0.25).abs() < 0.1;
+        let w = FlowWindow {
+            i0: 28,
+            j0: 2,
+            wx: 8,
+            wy: 12,
+        };
+        let coarse = Array2::from_shape_fn((nx, ny), |(i, j)| {
+            if band(j as f64 * dy) {
+                g(i as f64 * dx)
+            } else {
+                0.0
+            }
+        });
+        let fine = Array2::from_shape_fn((f * w.wx + 1, f * w.wy + 1), |(a, b)| {
+            let y = (w.j0 as f64 + b as f64 / f as f64) * dy;
+            if band(y) {
+                g((w.i0 as f64 + a as f64 / f as f64) * dx)
+            } else {
+                0.0
+            }
+        });
+        // rows of the band: 7 coarse (j = 5..=11), 25 fine
+        let rows_c = (0..ny).filter(|&j| band(j as f64 * dy)).count() as f64;
+        let rows_f = (0..=f * w.wy)
+            .filter(|&b| band((w.j0 as f64 + b as f64 / f as f64) * dy))
+            .count() as f64;
+        assert_eq!((rows_c, rows_f), (7.0, 25.0));
+        let face = |x0: f64, x1: f64, d: f64| d / h(g(x0).powi(3), g(x1).powi(3));
+        // the window's last node i0 + wx = 36 ≡ 4, the cell's faces from there round to i0
+        let outside: f64 = (w.i0 + w.wx..w.i0 + nx)
+            .map(|i| face(i as f64 * dx, (i + 1) as f64 * dx, dx))
+            .sum();
+        let inside: f64 = (0..f * w.wx)
+            .map(|a| {
+                let x = |a: usize| (w.i0 as f64 + a as f64 / f as f64) * dx;
+                face(x(a), x(a + 1), dx / f as f64)
+            })
+            .sum();
+        let r = outside / (rows_c * dy) + inside / (rows_f * dy / f as f64);
+        let want = lx / (r * ly);
+        let opts = FlowOptions::default();
+        let got = series_replacement(coarse.view(), lx, ly, fine.view(), f, w, FlowAxis::X, &opts)
+            .unwrap();
+        // exact discrete values: rounding and the 1e-10 residual target (flux error quadratic)
+        assert!(rel(got.conductivity, want) < 1e-11, "{got:?} vs {want}");
+        // isobars up to the pressure's first-order error in the residual
+        assert!(got.isobar_spread < 1e-8, "{got:?}");
+        assert_eq!(got.open_side_nodes, 0);
+        assert!(got.neck_share > 0.0 && got.neck_share < 1.0);
+        // the coarse cell alone differs (so the check above can fail)
+        assert!(rel(got.conductivity_coarse, want) > 1e-3, "{got:?}");
+        // the same transposed, flow along y
+        let wt = FlowWindow {
+            i0: w.j0,
+            j0: w.i0,
+            wx: w.wy,
+            wy: w.wx,
+        };
+        let got_t =
+            series_replacement(coarse.t(), ly, lx, fine.t(), f, wt, FlowAxis::Y, &opts).unwrap();
+        assert!(rel(got_t.conductivity, want) < 1e-11, "{got_t:?} vs {want}");
+    }
+
+    /// Without a contact solve: the analytic gap g = max(0, ε + cos 2πx + cos 2πy), whose
+    /// saddle (1/2, 0) has its channel along x (gap ε at the saddle, contact walls across it).
+    /// The composite (base 32² outside, fine ×4 in a window around the saddle that wraps the
+    /// cell's edge across the flow) against the uniform 128² cell: the error is the base grid's
+    /// discretisation of the rest of the cell plus the end lines' departure from isobars, both
+    /// shrinking with the neck's share of the resistance as ε → 0, while the base grid alone
+    /// misses the neck.
+    #[test]
+    fn the_composite_follows_the_uniform_fine_grid_as_the_neck_closes() {
+        let (n, f) = (32usize, 4usize);
+        let tau = 2.0 * std::f64::consts::PI;
+        let w = FlowWindow {
+            i0: 12,
+            j0: 25,
+            wx: 8,
+            wy: 14,
+        };
+        let opts = FlowOptions::default();
+        let mut last = f64::INFINITY;
+        // measured: −8.4e-4, −3.0e-6, −3.4e-9, −4.1e-12 (the error falls like ε³, as the rest
+        // of the cell's share of the resistance, 1 − share: 8e-3, 2e-5, …); bounds ~2–3× above
+        for (eps, bound) in [(1e-1, 2e-3), (1e-2, 1e-5), (1e-3, 1e-8), (1e-4, 1e-11)] {
+            let gap = |x: f64, y: f64| (eps + (tau * x).cos() + (tau * y).cos()).max(0.0);
+            let m = n * f;
+            let uniform = Array2::from_shape_fn((m, m), |(i, j)| {
+                gap(i as f64 / m as f64, j as f64 / m as f64)
+            });
+            let k_u = reynolds::solve(uniform.view(), 1.0, 1.0, FlowAxis::X, &opts)
+                .unwrap()
+                .conductivity;
+            let coarse = Array2::from_shape_fn((n, n), |(i, j)| uniform[[f * i, f * j]]);
+            let fine = Array2::from_shape_fn((f * w.wx + 1, f * w.wy + 1), |(a, b)| {
+                uniform[[(f * w.i0 + a) % m, (f * w.j0 + b) % m]]
+            });
+            let c = series_replacement(
+                coarse.view(),
+                1.0,
+                1.0,
+                fine.view(),
+                f,
+                w,
+                FlowAxis::X,
+                &opts,
+            )
+            .unwrap();
+            let (err, err_base) = (rel(c.conductivity, k_u), rel(c.conductivity_coarse, k_u));
+            eprintln!(
+                "ε = {eps:e}: K uniform {k_u:.6e}, composite {:+.2e}, base alone {:+.2e}, share {:.6}, spread {:.1e}, open sides {}",
+                c.conductivity / k_u - 1.0,
+                c.conductivity_coarse / k_u - 1.0,
+                c.neck_share,
+                c.isobar_spread,
+                c.open_side_nodes
+            );
+            assert!(err < bound, "ε = {eps}: {err} above {bound}");
+            assert!(err < 0.1 * err_base, "ε = {eps}: {err} vs base {err_base}");
+            assert!(err < last, "ε = {eps}: {err} did not fall (was {last})");
+            last = err;
+        }
+    }
+
+    #[test]
+    fn windows_that_do_not_fit_are_refused() {
+        let grid = Grid {
+            nx: 32,
+            ny: 32,
+            lx: 1.0,
+            ly: 1.0,
+            shift: (0.0, 0.0),
+        };
+        let region = Window {
+            i0: 10,
+            j0: 10,
+            wx: 12,
+            wy: 12,
+        };
+        let w = FlowWindow::within(region, &grid, FlowAxis::Y, 3, 1).unwrap();
+        assert_eq!((w.i0, w.j0, w.wx, w.wy), (11, 13, 10, 6));
+        // 12 − 2·4 = 4 cells along the flow: too few for the isobar problem
+        let e = FlowWindow::within(region, &grid, FlowAxis::X, 4, 1).unwrap_err();
+        assert!(e.to_string().contains("trim along x"), "{e}");
+        let coarse = Array2::from_elem((32, 32), 0.1);
+        let fine = Array2::from_elem((41, 24), 0.1);
+        let e = series_replacement(
+            coarse.view(),
+            1.0,
+            1.0,
+            fine.view(),
+            4,
+            w,
+            FlowAxis::Y,
+            &FlowOptions::default(),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("(41, 24)"), "{e}");
+    }
+}
