@@ -101,6 +101,8 @@ fn main() {
     };
     let b_ref = running(&ls, &col(&|r| r.refined.conductivity));
     let b_base = running(&ls, &col(&|r| r.refined.conductivity_coarse));
+    // the fine window's own flux (the neck alone, without the rest of the cell)
+    let b_win = running(&ls, &col(&|r| r.refined.flux_window_fine));
     let z_ref = running(&ls, &col(&|r| r.gap_refined));
     let (b_uni, z_uni) = if o.uniform {
         (
@@ -116,12 +118,13 @@ fn main() {
     );
     for i in 0..b_ref.len() {
         println!(
-            "{:>9.1e} {:>9.1e} {:>9.5} {:>9.5} {:>+10.2e} {:>9.5} {:>+10.2e} {:>9.5} {:>+10.2e}",
+            "{:>9.1e} {:>9.1e} {:>9.5} {:>9.5} {:>+10.2e} {:>+10.2e} {:>9.5} {:>+10.2e} {:>9.5} {:>+10.2e}",
             ls[i],
             ls[i + 1],
             b_uni[i],
             b_ref[i],
             b_ref[i] - b_uni[i],
+            b_win[i] - b_ref[i],
             b_base[i],
             b_base[i] - b_uni[i],
             z_ref[i],

@@ -45,13 +45,52 @@
 //! is a difference of nearly equal numbers: it loses log10(R_wc/(R_cc − R_wc)) digits of the
 //! fluxes' ~1e-12 accuracy ([`WindowFlow::neck_share`] reports R_wc/R_cc).
 //!
-//! # Measurements
-//! See "Measured" below (filled in from the test and the example).
+//! # Measured (square model, saddle (0, ½), channel and flow along x, tol_gap 1e-13 h0)
+//! Each discretisation at its own p_c (bisection to 1e-9 on the saddle node's gap), K of the
+//! cell along x; "method" is the series replacement applied to the uniform fine solution itself
+//! (its gap subsampled on the base nodes, fine in the flow window) against that solution's
+//! periodic K, i.e. the flow method's own error; "K" the refined composite against the uniform
+//! fine K, which adds the contact solve's error.
 //!
-//! # Measured
-//! (see the end of this section: numbers from `tests/window_flow.rs` and
-//! `examples/window_flow.rs`).
-
+//! Oracle without contact (test): gap max(0, ε + cos 2πx + cos 2πy) on 32² with the window
+//! ×4 against the uniform 128² gap: composite −8.4e-4, −3.0e-6, −3.4e-9, −4.1e-12 at ε = 1e-1,
+//! 1e-2, 1e-3, 1e-4 (base alone −1.1e-2, +9.2e-2, +0.19, +9.2e-4).
+//!
+//! 64² base, k = 2, region 16² (flow window 8 × 14 base cells), against uniform 256² (test
+//! `tests/window_flow.rs`, 5 s): at l = −1e-2, −5e-3, −2e-3, −1e-3, −5e-4
+//! - saddle gap +2.9e-3, +1.0e-3, +9.5e-4, +1.7e-3, +2.0e-3;
+//! - K +8.4e-3, +2.9e-3, +2.8e-3, +5.2e-3, +6.6e-3 (base alone −0.11, −0.35, −0.48, −0.47,
+//!   −0.35); method −1.2e-5, −1.3e-6, −5.8e-8, −4.6e-9, −3.0e-10;
+//! - β_eff, refined − uniform: +7.9e-3, +1.4e-4, −3.5e-3, −1.9e-3 (base alone +0.45, +0.24,
+//!   −0.03, −0.29).
+//!
+//! 128² base, k = 3, region 32² blockwise (margin 8; flow window 16 × 30 base cells), against
+//! uniform 1024² (example: `n=7 k=3 region=32 margin=8 trim_along=8`; 113 CPU-s in all, 72 s
+//! refined and 45 s uniform wall, 247 MB peak): p_c +9.5e-6 from the uniform one; at
+//! l = −1e-2, −5e-3, −2e-3, −1e-3, −5e-4, −2e-4, −1e-4
+//! - saddle gap +6.5e-4, +4.3e-4, +8.4e-4, +1.2e-3, +1.5e-3, +1.9e-3, +2.0e-3;
+//! - K +1.9e-3, +1.2e-3, +2.4e-3, +3.5e-3, +4.4e-3, +5.7e-3, +6.4e-3 (base alone −1.9e-3,
+//!   −3.4e-2, −0.24, −0.47, −0.56, −0.59, −0.59); method −3.2e-6, −3.2e-7, −1.4e-8, −1.4e-9,
+//!   −1.3e-10, −5.4e-12, −4.6e-13;
+//! - β_eff (uniform 3.4666, 3.4421, 3.4260, 3.4172, 3.4286, 3.5239), refined − uniform
+//!   +9.3e-4, −1.3e-3, −1.6e-3, −1.3e-3, −1.3e-3, −1.1e-3 (base alone up to +0.53); ζ_eff
+//!   within 5.3e-4.
+//!
+//! What the numbers say:
+//! - The flow method's own error falls like |l|^3.4 ≈ |l|^β: it is the rest of the cell's share
+//!   of the resistance (1 − [`WindowFlow::neck_share`] = 8e-5 at l = −1e-2 on 1024²) times
+//!   the rest's discretisation and end-line error; so the composite correction vanishes as
+//!   |l| → 0, and its effect on β_eff is below 1e-5 at every load measured.
+//! - The K error is the contact solve's saddle-gap error times d ln K / d ln g_s = β/ζ ≈ 2.9
+//!   to 3.2 at every load on both grids: the refined flux is as good as the refined gap, no
+//!   better. That error (~1e-3 in the gap, the composite contact discretisation's floor, see
+//!   [`contact::refinement`]) does not vanish as |l| → 0 (it grows slowly, +6.5e-4 → +2.0e-3
+//!   on 1024²), but it changes slowly with l, so β_eff errs by ≤ 1.6e-3 on 1024² (≤ 7.9e-3 on
+//!   256²); the grid error the issue asks for (0.005) is met from 1024² spacing on.
+//! - On the uniform 1024² grid β_eff turns up below |l| = 5e-4 (3.417 → 3.429 → 3.524):
+//!   that is the grid's resolution, which the refined discretisation with the same fine spacing
+//!   reproduces; finer k is what moves it (see below).
+//!
 use contact::refinement::{RefineOptions, Refined, RefinedModel, Window};
 use contact::{Interaction, Model, Solution, SolverOptions};
 use ndarray::{Array2, ArrayView2};
