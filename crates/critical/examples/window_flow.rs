@@ -9,7 +9,7 @@
 //! `margin` (blockwise margin; `none` = full composite operator, default none),
 //! `trim_along` (2), `trim_across` (1), `loads` (comma list, default
 //! -1e-2,-5e-3,-2e-3,-1e-3,-5e-4), `uniform` (1: also the uniform 2^(n+k) reference),
-//! `tol_gap` (1e-13), `rel_width` (1e-9).
+//! `tol_gap` (1e-13), `rel_width` (1e-9), `bracket` (p_c bracket as fractions of p_fc, 0.2,0.25).
 use critical::window_flow::{CompareOptions, compare, running};
 use surface::Lattice;
 
@@ -39,8 +39,17 @@ fn main() {
             "uniform" => o.uniform = value == "1",
             "tol_gap" => o.tol_gap = value.parse().unwrap_or_else(|e| bad(&e)),
             "rel_width" => o.rel_width = value.parse().unwrap_or_else(|e| bad(&e)),
+            "bracket" => {
+                let (a, b) = value
+                    .split_once(',')
+                    .unwrap_or_else(|| bad(&"expected lo,hi (fractions of p_fc)"));
+                o.bracket = (
+                    a.parse().unwrap_or_else(|e| bad(&e)),
+                    b.parse().unwrap_or_else(|e| bad(&e)),
+                );
+            }
             other => panic!(
-                "unknown key {other:?}: lattice, n, k, region, margin, trim_along, trim_across, loads, uniform, tol_gap, rel_width"
+                "unknown key {other:?}: lattice, n, k, region, margin, trim_along, trim_across, loads, uniform, tol_gap, rel_width, bracket"
             ),
         }
     }

@@ -739,13 +739,16 @@ pub fn compare(opts: &CompareOptions) -> Result<Comparison, WindowFlowError> {
     let node = (frame.node.0 * f, frame.node.1 * f);
     let mut warm: Option<Refined> = None;
     let mut solve = |load: f64| -> Result<Refined, WindowFlowError> {
-        let r = model
-            .solve(load, warm.as_ref())
-            .map_err(|e| WindowFlowError::Contact {
-                which: "refined",
-                load,
-                detail: e.to_string(),
-            })?;
+        let err = |e: contact::ContactError| WindowFlowError::Contact {
+            which: "refined",
+            load,
+            detail: e.to_string(),
+        };
+        let mut r = model.solve(load, warm.as_ref()).map_err(err)?;
+        if !r.stats.converged && warm.is_some() {
+            // a warm start from a distant load can stagnate (seen at k = 4): retry cold
+            r = model.solve(load, None).map_err(err)?;
+        }
         if !r.stats.converged {
             return Err(WindowFlowError::Contact {
                 which: "refined",
