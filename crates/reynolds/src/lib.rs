@@ -7,7 +7,9 @@
 //! through every cross-section. [`solve_between_reservoirs`] solves the same equation on a gap
 //! that need not be periodic, between an inlet and an outlet reservoir on opposite edges with
 //! closed or periodic side edges ([`SideEdges`]; see the `reservoir` module), with the same pool
-//! removal, solver and certification.
+//! removal, solver and certification; [`solve_between_isobars`] holds the first and last node
+//! columns themselves at the two pressures (so a window of one grid can replace the same region
+//! of another node for node).
 //!
 //! # Units and conventions (PHYSICS.md, "Reynolds thin-film flow")
 //! - Local conductivity `g³` (the factor 1/(12η) is left out), lengths in the units of
