@@ -89,6 +89,17 @@
 //!   +1.2e-3, −2.6e-3, −1.5e-3, +2.3e-4, +1.1e-3, −5.0e-4 (base alone up to +0.55); ζ_eff
 //!   within 9.0e-4.
 //!
+//! Beyond the uniform grids (the same 256² base, k = 3, refined only, 95 CPU-s, 69 MB; the
+//! uniform 2048² rows above are its fine spacing): K at l = −5e-5, −2e-5, −1e-5 is 6.87e-16,
+//! 2.52e-17, 1.69e-18; β_eff 3.4669, 3.4377, 3.4193, 3.4077, 3.3990, 3.3904, 3.4308, 3.6087,
+//! 3.8973 between the neighbours of l = −1e-2 … −1e-5 (ζ_eff 1.1960 … 1.1646, then 1.1689,
+//! 1.1719, 1.1808). The up-turn below |l| = 1e-4 is the 2048² spacing running out (as 1024²'s
+//! below 5e-4), not a measurement of β: k = 3 is not enough there.
+//! The fine window's flux alone (the neck without the rest of the cell) has a running exponent
+//! above the cell's by +3.8e-3, +4.1e-4, +2.8e-5, +2.9e-6, +2.3e-7, … +4.4e-12 over the same
+//! pairs: the cell's K and the neck's converge to one exponent as |l| → 0, the difference
+//! falling like the rest's share of the resistance.
+//!
 //! What the numbers say:
 //! - The flow method's own error falls like |l|^3.4 ≈ |l|^β: it is the rest of the cell's share
 //!   of the resistance (1 − [`WindowFlow::neck_share`] = 8e-5 at l = −1e-2 on 1024²) times
