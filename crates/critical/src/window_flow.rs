@@ -95,6 +95,20 @@
 //! 3.8973 between the neighbours of l = −1e-2 … −1e-5 (ζ_eff 1.1960 … 1.1646, then 1.1689,
 //! 1.1719, 1.1808). The up-turn below |l| = 1e-4 is the 2048² spacing running out (as 1024²'s
 //! below 5e-4), not a measurement of β: k = 3 is not enough there.
+//!
+//! k = 3 against k = 4 (256² base, region 16², flow window 8 × 14, tol_gap 1e-12: k = 4 at
+//! 1e-13 stagnated in the contact solve at 0.2284 p_fc, cold; 22 and 106 CPU-s for the whole
+//! bisection and ten loads, 40 and 89 MB; p_c/p_fc 0.2286052913 and 0.2286051698): β_eff
+//! (k = 4) 3.4629, 3.4420, 3.4143, 3.4066, 3.3917, 3.3838, 3.3775, 3.3904, 3.4888 between the
+//! neighbours of l = −1e-2 … −1e-5; k = 4 − k = 3: −4.2e-4, −5.3e-4, −1.2e-3, −2.2e-3,
+//! −4.8e-3, −5.7e-3, then −5.3e-2, −0.22, −0.41 where 2048² spacing fails. So at 4096²
+//! spacing β_eff keeps falling to 3.378 (l = −1e-4 … −5e-5) before its own up-turn below
+//! 5e-5; its grid error (the k = 3 → 4 change) passes 0.005 from |l| = 5e-4 on. This small
+//! region is too small at l = −1e-2 (neck share 0.949, end-line spread 2e-2, 130 open side
+//! nodes at k = 3): there the k = 3 K is −5.3e-3 from uniform 2048² (region 32²: −1.1e-3), of
+//! which ~−1.9e-3 is the contact's gap error ×3 and ~−3.4e-3 the flow window's; from
+//! |l| = 1e-3 on the two regions agree to within 1e-3 in K and 9e-4 in β_eff.
+//!
 //! The fine window's flux alone (the neck without the rest of the cell) has a running exponent
 //! above the cell's by +3.8e-3, +4.1e-4, +2.8e-5, +2.9e-6, +2.3e-7, … +4.4e-12 over the same
 //! pairs: the cell's K and the neck's converge to one exponent as |l| → 0, the difference
