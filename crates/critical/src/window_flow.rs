@@ -107,7 +107,8 @@
 //! region is too small at l = −1e-2 (neck share 0.949, end-line spread 2e-2, 130 open side
 //! nodes at k = 3): there the k = 3 K is −5.3e-3 from uniform 2048² (region 32²: −1.1e-3), of
 //! which ~−1.9e-3 is the contact's gap error ×3 and ~−3.4e-3 the flow window's; from
-//! |l| = 1e-3 on the two regions agree to within 1e-3 in K and 9e-4 in β_eff.
+//! |l| = 1e-3 on the region-16² k = 3 K is within 2.9e-3 of uniform 2048² and its β_eff
+//! within 1.4e-3 (region 32²: 1.5e-3 and 2.6e-3 over the same loads).
 //!
 //! The fine window's flux alone (the neck without the rest of the cell) has a running exponent
 //! above the cell's by +3.8e-3, +4.1e-4, +2.8e-5, +2.9e-6, +2.3e-7, … +4.4e-12 over the same
