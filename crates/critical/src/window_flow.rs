@@ -38,7 +38,7 @@
 //! than along it has closed sides; [`FlowWindow::inside`] halves R along the channel). What stays
 //! is the base grid's discretisation of the rest of the cell, a regular resistance that the
 //! diverging neck resistance dwarfs: the composite K's relative error to the uniform fine grid
-//! tends to that of the contact solve's gap near the saddle (ζβ-weighted), and the running
+//! tends to that of the contact solve's gap near the saddle (times d ln K/d ln g_s = β/ζ), and the running
 //! exponent's error to the change of that gap error between loads.
 //!
 //! Near p_c R_cc and R_wc are both dominated by the same coarse neck, so R_cc − R_wc (the rest)
@@ -125,12 +125,26 @@
 //!   better. That error (~1e-3 in the gap, the composite contact discretisation's floor, see
 //!   [`contact::refinement`]) does not vanish as |l| → 0 (on 1024² it grows slowly, +6.5e-4 →
 //!   +2.0e-3; on 2048² it stays within ±7e-4), but it changes slowly with l, so β_eff errs by
-//!   ≤ 1.6e-3 on 1024² and ≤ 2.6e-3 on 2048² (≤ 7.9e-3 on 256²): within the 0.005
-//!   from 1024² spacing on.
+//!   ≤ 1.6e-3 on 1024² and ≤ 2.6e-3 on 2048² (≤ 7.9e-3 on 256²) from the uniform grid of
+//!   the same spacing. That is the refinement's own error, within the 0.005 from 1024²
+//!   spacing on; the grid error proper (the change between spacings) is another matter, below.
 //! - On the uniform 1024² grid β_eff turns up below |l| = 5e-4 (3.417 → 3.429 → 3.524),
 //!   on 2048² it keeps falling (3.408, 3.398, 3.391 between 1e-3 and 1e-4): the up-turn is
 //!   1024²'s resolution, which the refined discretisation with the same fine spacing reproduces
 //!   exactly; the refinement level k, not the flow, decides where β_eff can be trusted.
+//! - β_eff of the square model falls with |l| at every spacing down to where that spacing
+//!   fails (3.467 at l = −1e-2/−5e-3, 3.391 at −2e-4/−1e-4 on 2048², 3.378 at −1e-4/−5e-5 on
+//!   4096²), and the k = 3 → 4 change exceeds 0.005 from |l| = 5e-4 on: these numbers do not
+//!   decide whether β tends to the paper's 3.45 or below it; k ≥ 5 at |l| ≤ 1e-4 is needed.
+//!
+//! # Left out
+//! - Only the square model was measured: its flow along x crosses one saddle per cell. The
+//!   hexagonal and triangular cells send the flow through several saddles (in series and in
+//!   parallel, some at ±60° to the grid); each needs its own refined region and window, and the
+//!   replacement then sums one correction R_wf − R_wc per window (exact under the same isobar
+//!   conditions), which this module does not do yet.
+//! - No two-grid (Schwarz) iteration: the series replacement's own error is ≤ 1e-4 and falls
+//!   like |l|^β, far below the contact solve's.
 //!
 use contact::refinement::{RefineOptions, Refined, RefinedModel, Window};
 use contact::{Interaction, Model, Solution, SolverOptions};
