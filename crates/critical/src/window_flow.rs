@@ -136,6 +136,10 @@
 //!   fails (3.467 at l = −1e-2/−5e-3, 3.391 at −2e-4/−1e-4 on 2048², 3.378 at −1e-4/−5e-5 on
 //!   4096²), and the k = 3 → 4 change exceeds 0.005 from |l| = 5e-4 on: these numbers do not
 //!   decide whether β tends to the paper's 3.45 or below it; k ≥ 5 at |l| ≤ 1e-4 is needed.
+//!   Tried: k = 5 (256² base, region 16², tol_gap 1e-12, bracket 0.228603–0.228608 p_fc) —
+//!   the refined contact solve stagnated during the p_c bisection (at 0.2286035 p_fc, warm
+//!   and then cold) after 875 CPU-s; no flow was reached. That is the contact solver's limit,
+//!   not this module's.
 //!
 //! # Left out
 //! - Only the square model was measured: its flow along x crosses one saddle per cell. The
