@@ -57,6 +57,7 @@ pub mod shifts;
 mod state;
 pub mod study;
 pub mod warm;
+pub mod window_flow;
 
 pub use bracket::{Bracket, Criterion, Prober, SearchOptions, bracket_transitions};
 pub use saddle::{SaddleFit, SaddleGroup, SaddleSample, Subgrid};

@@ -7,7 +7,9 @@
 //! through every cross-section. [`solve_between_reservoirs`] solves the same equation on a gap
 //! that need not be periodic, between an inlet and an outlet reservoir on opposite edges with
 //! closed or periodic side edges ([`SideEdges`]; see the `reservoir` module), with the same pool
-//! removal, solver and certification.
+//! removal, solver and certification; [`solve_between_isobars`] holds the first and last node
+//! columns themselves at the two pressures (so a window of one grid can replace the same region
+//! of another node for node).
 //!
 //! # Units and conventions (PHYSICS.md, "Reynolds thin-film flow")
 //! - Local conductivity `g³` (the factor 1/(12η) is left out), lengths in the units of
@@ -245,7 +247,7 @@ pub fn solve(
     axis: FlowAxis,
     options: &FlowOptions,
 ) -> Result<FlowResult, FlowError> {
-    solve_with(gap, lx, ly, axis, None, options)
+    solve_with(gap, lx, ly, axis, Ends::Periodic, options)
 }
 
 /// Solves the Reynolds equation for the flow between two reservoirs on a gap field that need
@@ -262,7 +264,42 @@ pub fn solve_between_reservoirs(
     sides: SideEdges,
     options: &FlowOptions,
 ) -> Result<FlowResult, FlowError> {
-    solve_with(gap, lx, ly, axis, Some(sides), options)
+    solve_with(gap, lx, ly, axis, Ends::HalfCell(sides), options)
+}
+
+/// Solves the Reynolds equation between two isobaric node columns: the first node column
+/// (across `axis`) is held at `ΔP = 1`, the last at 0, and the unknowns are the columns between
+/// them (at least 4 along the flow, so the gap has at least 6 columns). Node `(i, j)` sits at
+/// `x = i dx` with `dx = lx / nx` (the caller's `lx` along x and `ly` across, as for
+/// [`solve_between_reservoirs`]); the face between an end column and its neighbour has the
+/// usual harmonic conductance of the two nodes, so the problem is exactly the one a larger grid
+/// would see if those two columns were isobars. The region between the isobars has length
+/// `L_flow = (nx − 1) dx` along the flow (node to node) and the conductivity is
+/// `K = Q L_flow / (ΔP L_cross)` with `L_cross = ny dy`: a uniform gap gives `g³`, a gap varying
+/// only along the flow `K = L_flow / Σ_faces (dx / H(g³_i, g³_{i+1}))`. Fluid is kept if its
+/// cluster (4-connected, end columns included) touches both end columns; the fields, if asked
+/// for, cover the interior columns `1 ..= nx − 2` only. This is the form in which a window of a
+/// grid can replace the same region of another grid node-for-node (`critical::window_flow`).
+pub fn solve_between_isobars(
+    gap: ArrayView2<f64>,
+    lx: f64,
+    ly: f64,
+    axis: FlowAxis,
+    sides: SideEdges,
+    options: &FlowOptions,
+) -> Result<FlowResult, FlowError> {
+    solve_with(gap, lx, ly, axis, Ends::Nodes(sides), options)
+}
+
+/// The ends of the flow domain.
+#[derive(Clone, Copy)]
+enum Ends {
+    /// The periodic cell.
+    Periodic,
+    /// Reservoirs half a cell beyond the first and last columns.
+    HalfCell(SideEdges),
+    /// The first and last columns are the isobars.
+    Nodes(SideEdges),
 }
 
 /// The set-up shared by the periodic cell (`reservoirs == None`) and the reservoir problem.
@@ -271,7 +308,7 @@ fn solve_with(
     lx: f64,
     ly: f64,
     axis: FlowAxis,
-    reservoirs: Option<SideEdges>,
+    ends: Ends,
     options: &FlowOptions,
 ) -> Result<FlowResult, FlowError> {
     let start = Instant::now();
@@ -286,7 +323,61 @@ fn solve_with(
     };
     let (nx, ny) = gap.dim();
     let (dx, dy) = (lflow / nx as f64, lcross / ny as f64);
+    if let Ends::Nodes(sides) = ends {
+        // The end columns become the reservoirs: their couplings are the faces to the first
+        // and last interior columns; the rest is the reservoir problem on the interior.
+        if nx < 6 {
+            let (nx, ny) = match axis {
+                FlowAxis::X => (nx, ny),
+                FlowAxis::Y => (ny, nx),
+            };
+            return Err(FlowError::GridSize { nx, ny });
+        }
+        let g3_full = finite_volume::cubes(gap);
+        let fluid = Array2::from_shape_fn((nx, ny), |(i, j)| g3_full[i * ny + j] > 0.0);
+        let keep_full = reservoir::spanning_mask(fluid.view(), sides);
+        let inner = gap.slice(ndarray::s![1..nx - 1, ..]);
+        let g3 = g3_full[ny..(nx - 1) * ny].to_vec();
+        let keep = keep_full.slice(ndarray::s![1..nx - 1, ..]).to_owned();
+        let face = |a: usize, b: usize| -> Vec<f64> {
+            (0..ny)
+                .map(|j| {
+                    if keep_full[[a, j]] && keep_full[[b, j]] {
+                        finite_volume::harmonic_mean(g3_full[a * ny + j], g3_full[b * ny + j]) * dy
+                            / dx
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        };
+        let couple = (face(0, 1), face(nx - 2, nx - 1));
+        let flowing_nodes = keep.iter().filter(|&&k| k).count();
+        let setup = Setup {
+            axis,
+            nx: nx - 2,
+            ny,
+            dx,
+            dy,
+            lflow: (nx - 1) as f64 * dx,
+            lcross,
+            flowing_nodes,
+            removed_nodes: inner.iter().filter(|&&g| g > 0.0).count() - flowing_nodes,
+            start,
+        };
+        return Ok(assemble_and_solve(
+            setup,
+            g3,
+            &keep,
+            Some((sides, Some(couple))),
+            options,
+        ));
+    }
 
+    let reservoirs = match ends {
+        Ends::Periodic => None,
+        Ends::HalfCell(sides) | Ends::Nodes(sides) => Some(sides),
+    };
     let g3 = finite_volume::cubes(gap);
     let fluid = Array2::from_shape_fn((nx, ny), |(i, j)| g3[i * ny + j] > 0.0);
     let fluid_count = fluid.iter().filter(|&&f| f).count();
@@ -311,13 +402,36 @@ fn solve_with(
         removed_nodes: fluid_count - flowing_nodes,
         start,
     };
-    if flowing_nodes == 0 {
-        return Ok(setup.not_percolating(options));
+    Ok(assemble_and_solve(
+        setup,
+        g3,
+        &keep,
+        reservoirs.map(|sides| (sides, None)),
+        options,
+    ))
+}
+
+/// Couplings `(inlet, outlet)` of the first and last columns to the reservoirs.
+type Couplings = (Vec<f64>, Vec<f64>);
+
+/// Assembles the operator on the kept nodes of `g3` (flow along the first axis) and solves:
+/// periodic (`reservoirs` None), or between reservoirs with the given end couplings (None: the
+/// half-cell couplings `2 g³ dy/dx` of the end columns).
+fn assemble_and_solve(
+    setup: Setup,
+    g3: Vec<f64>,
+    keep: &Array2<bool>,
+    reservoirs: Option<(SideEdges, Option<Couplings>)>,
+    options: &FlowOptions,
+) -> FlowResult {
+    let (nx, ny, dx, dy) = (setup.nx, setup.ny, setup.dx, setup.dy);
+    if setup.flowing_nodes == 0 {
+        return setup.not_percolating(options);
     }
     let (mut e, mut n) = finite_volume::couplings(&g3, keep.view(), dx, dy);
-    let ends = reservoirs.map(|sides| {
+    let ends = reservoirs.map(|(sides, given)| {
         reservoir::cut_edges(&mut e, &mut n, nx, ny, sides);
-        finite_volume::reservoir_couplings(&g3, keep.view(), dx, dy)
+        given.unwrap_or_else(|| finite_volume::reservoir_couplings(&g3, keep.view(), dx, dy))
     });
     drop(g3);
     // Between reservoirs the cut must be an interior column (the edge column has no x-faces).
@@ -340,7 +454,7 @@ fn solve_with(
             .as_ref()
             .map(|(inlet, outlet)| finite_volume::Reservoirs { inlet, outlet }),
     };
-    Ok(setup.iterate(&asm, &mut mg, &keep, options))
+    setup.iterate(&asm, &mut mg, keep, options)
 }
 
 /// Sizes and timings of one solve, and the result assembly.
