@@ -1,0 +1,776 @@
+//! The refined ζ ladder: the saddle gap g_s at reduced loads down to |l| = 1e-5 on a composite
+//! discretisation that resolves one saddle 2^k times finer than the periodic base grid
+//! ([`contact::refinement`], blockwise operator, two-level preconditioner).
+//!
+//! # The discretisation D and its p_c
+//! D = (model, base grid 2^n, levels k, window of w × w base cells centred on the model's axis
+//! saddle ([`crate::ladder::axis_saddle`] on the base grid), margin m base cells of the
+//! blockwise operator). Every D is its own discrete problem: its saddle node (fine node
+//! (2^k i, 2^k j) of the base node (i, j) of the saddle) closes at its own load, **p_c(D)**, the
+//! load at which D's saddle node first carries pressure (gap exactly 0 in the Polonsky–Keer
+//! solution). p_c(D) differs from the uniform fine grid's by the far-field error of the coarse
+//! representation outside the window (see `contact::refinement`, ~1e-7 … 1e-5 relative), and
+//! from the continuum's by more; the ladder's reduced loads l = p/p_c(D) − 1 are measured from
+//! D's own p_c, so that a p_c shift common to all rungs does not masquerade as a change of the
+//! exponent (README, "L_c matters more than the grid"). Only the axis saddle is refined: in the
+//! hexagonal and triangular cells the other critical saddles stay on the coarse base grid, so
+//! the percolation load of the whole cell is not p_c(D); p_c(D) is the closing load of the
+//! refined saddle alone (by symmetry every saddle closes at the same load in the continuum).
+//!
+//! # The p_c search ([`find_closing_load`])
+//! Near p_c, g_s ≈ A (p_c − p)^ζ with ζ ≈ 1.2, so y = g_s^(1/ζ0) (ζ0 = 1.2 by default) is nearly
+//! linear in p and its zero, extrapolated from the two open probes nearest p_c (secant), lands
+//! within a few per cent of the remaining distance d (the local exponent differs from ζ0 by
+//! ≲ 0.1). The closed side gives no value (g = 0), so the search aims a fraction θ = 0.1 of d
+//! *below* the secant's zero and keeps landing open: each step divides the distance to p_c by
+//! ~5–10. When the predicted distance is below half the tolerance, one probe just above the
+//! estimate closes the bracket. Safeguards: a prediction outside the bracket (lo, hi), or a
+//! y that does not fall with p, falls back to bisection. Result: the bracket [lo, hi] with
+//! hi/lo − 1 ≤ tol (default 1e-11) and p_c = its midpoint; the plain bisection is kept as an
+//! option ([`Search::Bisection`]) for the test that both agree.
+//!
+//! The floor: with tol_gap = 1e-13 h0 a gap of A δ^1.2 (A ≈ 0.8 for the square model) is
+//! resolved down to δ ≈ 1e-11, so 1e-11 relative is about the solver's floor.
+//!
+//! # The ladder ([`Refinement::ladder`])
+//! Rungs at l < 0 (the 1-2-5 sequence by default, [`default_ls`]), solved in ascending
+//! load from the previous rung's solution. Each rung records the saddle gap, iterations, wall
+//! time and the contact lines on the window's edge ([`contact::refinement::EdgeRuns`]); a rung
+//! whose window is too small — no or fewer than four contact-line crossings (the neck's two
+//! contact patches must both cross the edge), or a run of open or contact nodes on the edge
+//! shorter than `min_edge_cells` base cells — is flagged ([`RungFlag`]) and so is every pair
+//! that uses it. Each rung's [`Refined`] is handed to a callback (the window flux can be wired
+//! in there).
+//!
+//! # Running ζ ([`running_zeta`])
+//! ζ_eff = Δ ln g_s / Δ ln |l| between neighbouring rungs of the finest D; its grid error is the
+//! larger of the changes from D with k − 1 levels and from D with another margin (the far-field
+//! interpolation error acts as a shift of l by ~1e-7 … 1e-6, which matters at |l| = 1e-5). A
+//! pair is flagged if either change exceeds the bound, is unknown, or a rung is flagged.
+//!
+//! # Measurements
+//! See the table at the end of this doc (filled in from `examples/refined_ladder.rs`).
+
+use crate::CriticalError;
+use crate::ladder::{SaddleFrame, axis_saddle};
+use contact::refinement::{EdgeRuns, RefineOptions, Refined, RefinedModel, Window};
+use contact::SolverOptions;
+use std::time::Instant;
+use surface::{Lattice, Surface};
+
+/// One composite discretisation D (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Discretisation {
+    /// Model.
+    pub lattice: Lattice,
+    /// Base grid 2^base_log2 × 2^base_log2.
+    pub base_log2: u32,
+    /// Refinement levels k (1..=6).
+    pub levels: u32,
+    /// Window side in base cells (square, centred on the axis saddle).
+    pub window: usize,
+    /// Margin of the blockwise operator in base cells.
+    pub margin: usize,
+}
+
+impl Discretisation {
+    /// The same D with `levels` replaced.
+    pub fn with_levels(self, levels: u32) -> Self {
+        Discretisation { levels, ..self }
+    }
+    /// The same D with `margin` replaced.
+    pub fn with_margin(self, margin: usize) -> Self {
+        Discretisation { margin, ..self }
+    }
+    /// Fine spacing (λ along x).
+    pub fn spacing(&self) -> f64 {
+        self.lattice.cell().0 / ((1usize << (self.base_log2 + self.levels)) as f64)
+    }
+}
+
+/// How [`find_closing_load`] searches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Search {
+    /// Secant on g^(1/ζ0), aimed below, safeguarded by the bracket (module docs).
+    #[default]
+    Secant,
+    /// Plain bisection of the bracket.
+    Bisection,
+}
+
+/// Options of the refined solves and searches.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefinedOptions {
+    /// Constraint violation bound of the composite solve (h0).
+    pub tol_gap: f64,
+    /// Iteration cap per solve.
+    pub max_iter: usize,
+    /// Relative width of the final p_c bracket (hi/lo − 1).
+    pub rel_tol: f64,
+    /// Exponent that linearises g_s near p_c in the secant search.
+    pub zeta0: f64,
+    /// Fraction of the predicted remaining distance the secant aims below its zero.
+    pub aim_below: f64,
+    /// Search method.
+    pub search: Search,
+    /// Shortest run of open or contact nodes on the window's edge (base cells) for a rung not
+    /// to be flagged.
+    pub min_edge_cells: f64,
+}
+
+impl Default for RefinedOptions {
+    fn default() -> Self {
+        RefinedOptions {
+            tol_gap: 1e-13,
+            max_iter: 20_000,
+            rel_tol: 1e-11,
+            zeta0: 1.0,
+            aim_below: 0.02,
+            search: Search::Secant,
+            min_edge_cells: 2.0,
+        }
+    }
+}
+
+impl RefinedOptions {
+    fn validate(&self) -> Result<(), CriticalError> {
+        let checks: [(&'static str, f64, bool, &'static str); 5] = [
+            (
+                "tol_gap",
+                self.tol_gap,
+                self.tol_gap > 0.0 && self.tol_gap <= contact::TOL_GAP_MAX,
+                "0 < tol_gap ≤ 1e-3 (h0)",
+            ),
+            (
+                "rel_tol",
+                self.rel_tol,
+                self.rel_tol >= 1e-15 && self.rel_tol < 0.1,
+                "1e-15 ≤ rel_tol < 0.1",
+            ),
+            (
+                "zeta0",
+                self.zeta0,
+                self.zeta0 > 0.2 && self.zeta0 < 5.0,
+                "0.2 < zeta0 < 5",
+            ),
+            (
+                "aim_below",
+                self.aim_below,
+                self.aim_below >= 0.0 && self.aim_below < 0.9,
+                "0 ≤ aim_below < 0.9",
+            ),
+            (
+                "min_edge_cells",
+                self.min_edge_cells,
+                self.min_edge_cells >= 0.0 && self.min_edge_cells.is_finite(),
+                "finite and ≥ 0 (base cells)",
+            ),
+        ];
+        for (name, v, ok, allowed) in checks {
+            if !ok || v.is_nan() {
+                return Err(CriticalError::param(name, v, allowed));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The closing load found by [`find_closing_load`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClosingLoad {
+    /// Largest load probed with the saddle open.
+    pub lo: f64,
+    /// Smallest load probed with the saddle closed.
+    pub hi: f64,
+    /// Probes (solves).
+    pub probes: usize,
+}
+
+impl ClosingLoad {
+    /// The estimate: the bracket's midpoint.
+    pub fn p_c(&self) -> f64 {
+        0.5 * (self.lo + self.hi)
+    }
+}
+
+/// The load at which a saddle gap g(p) (> 0 open, ≤ 0 closed, decreasing in p) closes, to
+/// `opts.rel_tol`, from a guess and a relative width (module docs, "The p_c search"). `probe`
+/// returns the saddle gap at a load. Errors if no open load is found below `guess` or no
+/// closed one above it within a factor of 2, or after 200 probes.
+pub fn find_closing_load(
+    probe: &mut dyn FnMut(f64) -> Result<f64, CriticalError>,
+    guess: f64,
+    width: f64,
+    opts: &RefinedOptions,
+) -> Result<ClosingLoad, CriticalError> {
+    opts.validate()?;
+    if !(guess.is_finite() && guess > 0.0) {
+        return Err(CriticalError::param("guess", guess, "finite and > 0"));
+    }
+    if !(width.is_finite() && width > 0.0 && width < 0.5) {
+        return Err(CriticalError::param("width", width, "0 < width < 0.5"));
+    }
+    let mut probes = 0usize;
+    let mut open: Vec<(f64, f64)> = Vec::new(); // (p, g), ascending p
+    let mut hi: Option<f64> = None;
+    let mut run = |p: f64, open: &mut Vec<(f64, f64)>, hi: &mut Option<f64>| {
+        probes += 1;
+        let g = probe(p)?;
+        if g > 0.0 {
+            open.push((p, g));
+            open.sort_by(|a, b| a.0.total_cmp(&b.0));
+        } else {
+            *hi = Some(hi.map_or(p, |h: f64| h.min(p)));
+        }
+        Ok::<(), CriticalError>(())
+    };
+    // an open load below the guess
+    let mut w = width;
+    loop {
+        let p = guess * (1.0 - w);
+        run(p, &mut open, &mut hi)?;
+        if !open.is_empty() {
+            break;
+        }
+        if w >= 0.5 {
+            return Err(CriticalError::param(
+                "guess",
+                guess,
+                "a load with the saddle open within a factor 2 below it",
+            ));
+        }
+        w = (4.0 * w).min(0.5);
+    }
+    // consecutive probes that did not halve a known bracket: two force a bisection
+    let mut slow = 0;
+    for _ in 0..200 {
+        let lo = open.last().expect("one open").0;
+        let width_before = hi.map(|h| h - lo);
+        if let Some(h) = hi
+            && h / lo - 1.0 <= opts.rel_tol
+        {
+            return Ok(ClosingLoad { lo, hi: h, probes });
+        }
+        let bisect = |hi: Option<f64>| match hi {
+            Some(h) => 0.5 * (lo + h),
+            None => lo * (1.0 + w),
+        };
+        let q = match (opts.search, open.len()) {
+            (Search::Bisection, _) => {
+                if hi.is_none() && lo * (1.0 + w) > 2.0 * guess {
+                    return Err(CriticalError::param(
+                        "guess",
+                        guess,
+                        "a load with the saddle closed within a factor 2 above it",
+                    ));
+                }
+                bisect(hi)
+            }
+            (Search::Secant, 1) => match hi {
+                Some(h) => 0.5 * (lo + h),
+                None => lo * (1.0 + 0.5 * w),
+            },
+            (Search::Secant, _) if slow >= 2 => {
+                slow = 0;
+                bisect(hi)
+            }
+            (Search::Secant, n) => {
+                let (p2, g2) = open[n - 1];
+                // the exponent: ζ0 from two open probes, fitted to three (module docs)
+                let a = if n >= 3 {
+                    fit_exponent(open[n - 3], open[n - 2], open[n - 1])
+                } else {
+                    opts.zeta0
+                };
+                let est = secant_zero(open[n - 2], open[n - 1], a);
+                let d = est - p2;
+                let inside = g2 > 0.0 && d > 0.0 && hi.is_none_or(|h| est < h);
+                if !inside {
+                    bisect(hi)
+                } else if d <= 0.5 * opts.rel_tol * lo {
+                    // close the bracket just above the estimate
+                    let q = lo * (1.0 + 0.9 * opts.rel_tol);
+                    match hi {
+                        Some(h) if q >= h => 0.5 * (lo + h),
+                        _ => q,
+                    }
+                } else {
+                    // aim below the zero, but never closer to lo than the closing step
+                    let q = est - opts.aim_below * d;
+                    q.max(lo * (1.0 + 0.5 * opts.rel_tol))
+                }
+            }
+        };
+        if !q.is_finite() || q > 2.0 * guess {
+            return Err(CriticalError::param(
+                "guess",
+                guess,
+                "a load with the saddle closed within a factor 2 above it",
+            ));
+        }
+        run(q, &mut open, &mut hi)?;
+        if let (Some(before), Some(h)) = (width_before, hi) {
+            let after = h - open.last().expect("one open").0;
+            slow = if after > 0.5 * before { slow + 1 } else { 0 };
+        }
+    }
+    Err(CriticalError::Solver {
+        load: open.last().map_or(guess, |o| o.0),
+        detail: format!(
+            "closing-load search: no bracket of relative width {:e} after 200 probes",
+            opts.rel_tol
+        ),
+    })
+}
+
+/// The closing load of the saddle `frame` on the periodic base grid alone (the uniform solve of
+/// `surface`), to `opts.rel_tol`: a cheap guess for p_c(D), and, on a fine surface, the uniform
+/// reference. Warm-started from the last solve.
+pub fn periodic_closing_load(
+    surface: &Surface,
+    frame: &SaddleFrame,
+    guess: Option<(f64, f64)>,
+    opts: &RefinedOptions,
+) -> Result<ClosingLoad, CriticalError> {
+    let mut model = contact::Model::new(surface).map_err(|e| CriticalError::Solver {
+        load: f64::NAN,
+        detail: e.to_string(),
+    })?;
+    let sopts = SolverOptions {
+        tol_gap: opts.tol_gap,
+        max_iter: opts.max_iter,
+        ..Default::default()
+    };
+    let mut warm: Option<contact::Solution> = None;
+    let (g, w) = guess.unwrap_or((0.3 * surface.p_fc_grid(), 0.4));
+    find_closing_load(
+        &mut |p| {
+            let sol = model
+                .solve(contact::Interaction::HardWall, p, &sopts, warm.as_ref())
+                .map_err(|e| CriticalError::Solver {
+                    load: p,
+                    detail: e.to_string(),
+                })?;
+            if !sol.stats.converged {
+                return Err(CriticalError::Solver {
+                    load: p,
+                    detail: format!("not converged: {:?}", sol.stats.reason),
+                });
+            }
+            let gap = sol.gap[[frame.node.0, frame.node.1]];
+            warm = Some(sol);
+            Ok(gap)
+        },
+        g,
+        w,
+        opts,
+    )
+}
+
+/// Zero of the line through two open probes (p, g) in y = g^(1/a) (NaN if y does not fall).
+fn secant_zero((p1, g1): (f64, f64), (p2, g2): (f64, f64), a: f64) -> f64 {
+    let (y1, y2) = (g1.powf(1.0 / a), g2.powf(1.0 / a));
+    if y1 > y2 {
+        p2 + y2 * (p2 - p1) / (y1 - y2)
+    } else {
+        f64::NAN
+    }
+}
+
+/// The exponent a ∈ [1, 3] for which three open probes (ascending p) are collinear in g^(1/a),
+/// i.e. g = A (p_c − p)^a through all three: the two secant zeros agree. Their difference grows
+/// with a (below the true exponent both secants undershoot, the farther pair more), so it is
+/// bisected; clamped to [1, 3] (g is affine in p once the contact set is frozen: a = 1).
+fn fit_exponent(a0: (f64, f64), a1: (f64, f64), a2: (f64, f64)) -> f64 {
+    let diff = |a: f64| secant_zero(a0, a1, a) - secant_zero(a1, a2, a);
+    let (mut lo, mut hi) = (1.0, 3.0);
+    match (diff(lo), diff(hi)) {
+        (d, _) if !d.is_finite() || d >= 0.0 => return lo,
+        (_, d) if !d.is_finite() || d <= 0.0 => return hi,
+        _ => {}
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if diff(mid) < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Why a rung must not be used silently.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RungFlag {
+    /// The window is too small for the neck (module docs); the edge's runs.
+    Window(EdgeRuns),
+    /// The solve did not converge.
+    NotConverged,
+    /// The saddle node is closed at this load (l too close to p_c(D) for the solver floor).
+    Closed,
+}
+
+impl std::fmt::Display for RungFlag {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RungFlag::Window(e) => write!(
+                f,
+                "window too small: {} crossings, narrowest open {:?}, contact {:?} base cells",
+                e.crossings, e.narrowest_open, e.narrowest_contact
+            ),
+            RungFlag::NotConverged => write!(f, "solve not converged"),
+            RungFlag::Closed => write!(f, "saddle closed"),
+        }
+    }
+}
+
+/// One rung of the refined ladder.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefinedRung {
+    /// Reduced load p/p_c(D) − 1.
+    pub l: f64,
+    /// Load (E* h0/λ).
+    pub load: f64,
+    /// Gap at the saddle node (h0).
+    pub saddle_gap: f64,
+    /// Contact area fraction.
+    pub contact_area: f64,
+    /// Polonsky–Keer iterations (all attempts).
+    pub iterations: usize,
+    /// Wall time (s).
+    pub wall_s: f64,
+    /// Contact lines on the window's edge.
+    pub edge: EdgeRuns,
+    /// Fine nodes of the window in contact.
+    pub window_contact: usize,
+    /// Hash of the window's contact set (equal sets, equal hashes).
+    pub contact_hash: u64,
+    /// Why the rung must not be used silently, if so.
+    pub flag: Option<RungFlag>,
+}
+
+/// The default reduced loads below p_c: −{5e-2, 2e-2, 1e-2, …, 2e-5, 1e-5}.
+pub fn default_ls() -> Vec<f64> {
+    let mut v = Vec::new();
+    for d in [1e-2, 1e-3, 1e-4, 1e-5] {
+        v.extend([-5.0 * d, -2.0 * d, -d]);
+    }
+    v
+}
+
+/// A refined discretisation ready to solve, warm-starting each solve from the last.
+pub struct Refinement {
+    /// The discretisation.
+    pub disc: Discretisation,
+    /// The base surface.
+    pub surface: Surface,
+    /// The refined saddle.
+    pub frame: SaddleFrame,
+    /// Options.
+    pub opts: RefinedOptions,
+    model: RefinedModel,
+    warm: Option<Refined>,
+    /// Solves so far.
+    pub solves: usize,
+    /// Polonsky–Keer iterations so far.
+    pub iterations: usize,
+}
+
+impl Refinement {
+    /// Builds D (module docs). Errors name the bad parameter (levels, window, margin).
+    pub fn new(disc: Discretisation, opts: &RefinedOptions) -> Result<Self, CriticalError> {
+        opts.validate()?;
+        let surface = Surface::new(disc.lattice, disc.base_log2)
+            .map_err(|e| CriticalError::Surface(e.to_string()))?;
+        let frame = axis_saddle(&surface)?;
+        let ropts = RefineOptions {
+            levels: disc.levels,
+            window: Window::centred(&surface.grid, frame.x, frame.y, disc.window, disc.window),
+            solver: SolverOptions {
+                tol_gap: opts.tol_gap,
+                max_iter: opts.max_iter,
+                ..Default::default()
+            },
+        };
+        let model = RefinedModel::blockwise(&surface, &ropts, disc.margin).map_err(|e| {
+            CriticalError::Solver {
+                load: f64::NAN,
+                detail: format!("refined model {disc:?}: {e}"),
+            }
+        })?;
+        Ok(Refinement {
+            disc,
+            surface,
+            frame,
+            opts: opts.clone(),
+            model,
+            warm: None,
+            solves: 0,
+            iterations: 0,
+        })
+    }
+
+    /// Full-contact pressure of the base surface (E* h0/λ).
+    pub fn p_fc(&self) -> f64 {
+        self.surface.p_fc_grid()
+    }
+
+    /// Solves at `load` from the last solution (and, if that does not converge, cold); returns
+    /// the solution and the iterations of all attempts.
+    pub fn solve(&mut self, load: f64) -> Result<(Refined, usize), CriticalError> {
+        let mut iterations = 0;
+        let mut last = None;
+        for attempt in 0..2 {
+            let warm = if attempt == 0 { self.warm.as_ref() } else { None };
+            if attempt == 1 && warm.is_none() && self.warm.is_none() {
+                break;
+            }
+            let r = self
+                .model
+                .solve(load, warm)
+                .map_err(|e| CriticalError::Solver {
+                    load,
+                    detail: e.to_string(),
+                })?;
+            self.solves += 1;
+            iterations += r.stats.iterations;
+            let done = r.stats.converged;
+            last = Some(r);
+            if done {
+                break;
+            }
+        }
+        let r = last.expect("one attempt");
+        self.iterations += iterations;
+        self.warm = Some(r.clone());
+        Ok((r, iterations))
+    }
+
+    /// Gap at the refined saddle node of a solution (h0).
+    pub fn saddle_gap(&self, r: &Refined) -> f64 {
+        let f = 1usize << self.disc.levels;
+        let (i, j) = self.frame.node;
+        r.fine_gap(f * i, f * j)
+            .expect("the window is centred on the saddle")
+    }
+
+    /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 1e-4;
+    /// without a guess, 0.3 p_fc and 0.4). Errors if a solve does not converge.
+    pub fn critical_load(
+        &mut self,
+        guess: Option<f64>,
+        width: f64,
+    ) -> Result<ClosingLoad, CriticalError> {
+        let opts = self.opts.clone();
+        let (g, w) = match guess {
+            Some(g) => (g, width),
+            None => (0.3 * self.p_fc(), 0.4),
+        };
+        find_closing_load(
+            &mut |p| {
+                let (r, _) = self.solve(p)?;
+                if !r.stats.converged {
+                    return Err(CriticalError::Solver {
+                        load: p,
+                        detail: format!("not converged: {:?}", r.stats.reason),
+                    });
+                }
+                Ok(self.saddle_gap(&r))
+            },
+            g,
+            w,
+            &opts,
+        )
+    }
+
+    /// The ladder at loads p_c (1 + l) for every l of `ls` (< 0, any order, solved ascending),
+    /// each rung checked and flagged (module docs); `on_rung` sees each rung with its solution.
+    pub fn ladder(
+        &mut self,
+        p_c: f64,
+        ls: &[f64],
+        on_rung: &mut dyn FnMut(&RefinedRung, &Refined),
+    ) -> Result<Vec<RefinedRung>, CriticalError> {
+        if !(p_c.is_finite() && p_c > 0.0) {
+            return Err(CriticalError::param("p_c", p_c, "finite and > 0 (E* h0/λ)"));
+        }
+        if let Some(&l) = ls.iter().find(|l| !(l.is_finite() && **l < 0.0 && **l > -1.0)) {
+            return Err(CriticalError::param("ls", l, "reduced loads in (−1, 0)"));
+        }
+        let mut ls = ls.to_vec();
+        ls.sort_by(f64::total_cmp);
+        let mut rungs = Vec::with_capacity(ls.len());
+        for l in ls {
+            let t = Instant::now();
+            let load = p_c * (1.0 + l);
+            let (r, iterations) = self.solve(load)?;
+            let g = self.saddle_gap(&r);
+            let edge = r.edge;
+            let flag = if !r.stats.converged {
+                Some(RungFlag::NotConverged)
+            } else if g <= 0.0 {
+                Some(RungFlag::Closed)
+            } else if edge.crossings < 4 || edge.too_small(self.opts.min_edge_cells) {
+                Some(RungFlag::Window(edge))
+            } else {
+                None
+            };
+            // FNV-1a over the contact mask of the window
+            let mut contact_hash = 0xcbf29ce484222325u64;
+            let mut window_contact = 0;
+            for &p in r.window_pressure.iter() {
+                let c = p > 0.0;
+                window_contact += usize::from(c);
+                contact_hash = (contact_hash ^ u64::from(c)).wrapping_mul(0x100000001b3);
+            }
+            let rung = RefinedRung {
+                l,
+                load,
+                saddle_gap: g,
+                contact_area: r.contact_area,
+                iterations,
+                wall_s: t.elapsed().as_secs_f64(),
+                edge,
+                window_contact,
+                contact_hash,
+                flag,
+            };
+            on_rung(&rung, &r);
+            rungs.push(rung);
+        }
+        Ok(rungs)
+    }
+}
+
+/// Why a running exponent must not be used silently.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PairFlag {
+    /// A rung of the pair is flagged.
+    Rung(f64, RungFlag),
+    /// The grid error exceeds the bound.
+    GridError {
+        /// The larger of the two changes.
+        error: f64,
+        /// The bound.
+        bound: f64,
+    },
+    /// A comparison D did not measure this pair (or flagged it): grid error unknown.
+    Unknown,
+    /// The window's contact set is the same at both rungs: on a fixed contact set the hard-wall
+    /// solution is affine in the load, so the slope is that of the discretisation (→ 1), not
+    /// of the neck: the neck is not resolved between these loads.
+    Frozen,
+}
+
+impl std::fmt::Display for PairFlag {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PairFlag::Rung(l, r) => write!(f, "rung l = {l:e}: {r}"),
+            PairFlag::GridError { error, bound } => {
+                write!(f, "grid error {error:.2e} > {bound:.2e}")
+            }
+            PairFlag::Unknown => write!(f, "grid error unknown"),
+            PairFlag::Frozen => write!(f, "window contact set unchanged (neck unresolved)"),
+        }
+    }
+}
+
+/// A running ζ between two neighbouring rungs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunningZeta {
+    /// The rung farther from p_c (signed).
+    pub l_hi: f64,
+    /// The rung nearer p_c (signed).
+    pub l_lo: f64,
+    /// Δ ln g_s / Δ ln |l| on the finest D.
+    pub value: f64,
+    /// |value − value on D with k − 1| (NaN if not measured).
+    pub error_levels: f64,
+    /// |value − value on D with another margin| (NaN if not measured).
+    pub error_margin: f64,
+    /// The grid error: the larger of the two (NaN if either is unknown).
+    pub grid_error: f64,
+    /// 1σ from the solver tolerance on both gaps.
+    pub fit_error: f64,
+    /// Why it must not be used silently, if so.
+    pub flag: Option<PairFlag>,
+}
+
+fn slopes(rungs: &[RefinedRung]) -> Vec<(f64, f64, f64, Option<PairFlag>)> {
+    let mut r: Vec<&RefinedRung> = rungs.iter().collect();
+    r.sort_by(|a, b| b.l.abs().total_cmp(&a.l.abs()));
+    r.windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let v = (a.saddle_gap / b.saddle_gap).ln() / (a.l.abs() / b.l.abs()).ln();
+            let flag = [a, b]
+                .iter()
+                .find_map(|x| x.flag.map(|f| PairFlag::Rung(x.l, f)))
+                .or((a.contact_hash == b.contact_hash).then_some(PairFlag::Frozen));
+            (a.l, b.l, v, flag)
+        })
+        .collect()
+}
+
+/// Running ζ of the finest D's rungs with grid errors from D with k − 1 levels (`coarser`) and
+/// from D with another margin (`margin`) (module docs); flagged above `bound`. `sigma`: 1σ of a
+/// saddle gap (the solver tolerance).
+pub fn running_zeta(
+    fine: &[RefinedRung],
+    coarser: Option<&[RefinedRung]>,
+    margin: Option<&[RefinedRung]>,
+    bound: f64,
+    sigma: f64,
+) -> Vec<RunningZeta> {
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    let other = |set: Option<&[RefinedRung]>, hi: f64, lo: f64| {
+        set.and_then(|s| {
+            slopes(s)
+                .into_iter()
+                .find(|c| same(c.0, hi) && same(c.1, lo))
+                .filter(|c| c.3.is_none() && c.2.is_finite())
+                .map(|c| c.2)
+        })
+    };
+    let gap_of = |l: f64| {
+        fine.iter()
+            .find(|r| r.l == l)
+            .map_or(f64::NAN, |r| r.saddle_gap)
+    };
+    slopes(fine)
+        .into_iter()
+        .map(|(hi, lo, v, flag)| {
+            let el = other(coarser, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
+            let em = other(margin, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
+            let grid_error = if el.is_nan() || em.is_nan() {
+                f64::NAN
+            } else {
+                el.max(em)
+            };
+            let d = (hi.abs() / lo.abs()).ln();
+            let fit_error =
+                ((sigma / gap_of(hi)).powi(2) + (sigma / gap_of(lo)).powi(2)).sqrt() / d;
+            let flag = flag.or(if grid_error.is_nan() {
+                Some(PairFlag::Unknown)
+            } else if grid_error > bound {
+                Some(PairFlag::GridError {
+                    error: grid_error,
+                    bound,
+                })
+            } else {
+                None
+            });
+            RunningZeta {
+                l_hi: hi,
+                l_lo: lo,
+                value: v,
+                error_levels: el,
+                error_margin: em,
+                grid_error,
+                fit_error,
+                flag,
+            }
+        })
+        .collect()
+}
