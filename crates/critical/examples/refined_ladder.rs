@@ -73,7 +73,8 @@ fn run(
                 opt(g.edge.narrowest_open),
                 opt(g.edge.narrowest_contact),
                 g.window_contact,
-                g.flag.map_or(String::new(), |f| f.to_string().replace(',', ";")),
+                g.flag
+                    .map_or(String::new(), |f| f.to_string().replace(',', ";")),
                 load_average()
             );
             std::io::stdout().flush().ok();
@@ -88,13 +89,17 @@ fn main() {
         eprintln!("usage: refined_ladder <model> <base_log2> <k> <window> <margin> [ls]");
         std::process::exit(2);
     }
-    let lattice: Lattice = a[1].parse().expect("model: square, hexagonal or triangular");
+    let lattice: Lattice = a[1]
+        .parse()
+        .expect("model: square, hexagonal or triangular");
     let base_log2: u32 = a[2].parse().expect("base_log2");
     let levels: u32 = a[3].parse().expect("k");
     let window: usize = a[4].parse().expect("window (base cells)");
     let margin: usize = a[5].parse().expect("margin (base cells)");
     let ls: Vec<f64> = a.get(6).map_or_else(default_ls, |s| {
-        s.split(',').map(|v| v.trim().parse().expect("ls")).collect()
+        s.split(',')
+            .map(|v| v.trim().parse().expect("ls"))
+            .collect()
     });
     let compare = std::env::var("REFINED_COMPARE").unwrap_or_else(|_| "levels,margin".into());
     let dmargin: usize = std::env::var("REFINED_DMARGIN")
@@ -139,7 +144,14 @@ fn main() {
     let mut guess = base.p_c();
     let mut coarser = None;
     if compare.contains("levels") && levels > 1 {
-        let (pc, rungs) = run("coarser", d.with_levels(levels - 1), guess, 2e-4, &ls, &opts);
+        let (pc, rungs) = run(
+            "coarser",
+            d.with_levels(levels - 1),
+            guess,
+            2e-4,
+            &ls,
+            &opts,
+        );
         guess = pc;
         coarser = Some(rungs);
     }
@@ -174,12 +186,15 @@ fn main() {
             z.error_margin,
             z.grid_error,
             z.fit_error,
-            z.flag.map_or(String::new(), |f| f.to_string().replace(',', ";"))
+            z.flag
+                .map_or(String::new(), |f| f.to_string().replace(',', ";"))
         );
     }
     println!("# load average at end {}", load_average());
 }
 
 fn lattice_p_fc(lattice: Lattice, n: u32) -> f64 {
-    surface::Surface::new(lattice, n).expect("surface").p_fc_grid()
+    surface::Surface::new(lattice, n)
+        .expect("surface")
+        .p_fc_grid()
 }

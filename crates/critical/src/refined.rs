@@ -53,8 +53,8 @@
 
 use crate::CriticalError;
 use crate::ladder::{SaddleFrame, axis_saddle};
-use contact::refinement::{EdgeRuns, RefineOptions, Refined, RefinedModel, Window};
 use contact::SolverOptions;
+use contact::refinement::{EdgeRuns, RefineOptions, Refined, RefinedModel, Window};
 use std::time::Instant;
 use surface::{Lattice, Surface};
 
@@ -522,7 +522,11 @@ impl Refinement {
         let mut iterations = 0;
         let mut last = None;
         for attempt in 0..2 {
-            let warm = if attempt == 0 { self.warm.as_ref() } else { None };
+            let warm = if attempt == 0 {
+                self.warm.as_ref()
+            } else {
+                None
+            };
             if attempt == 1 && warm.is_none() && self.warm.is_none() {
                 break;
             }
@@ -595,7 +599,10 @@ impl Refinement {
         if !(p_c.is_finite() && p_c > 0.0) {
             return Err(CriticalError::param("p_c", p_c, "finite and > 0 (E* h0/λ)"));
         }
-        if let Some(&l) = ls.iter().find(|l| !(l.is_finite() && **l < 0.0 && **l > -1.0)) {
+        if let Some(&l) = ls
+            .iter()
+            .find(|l| !(l.is_finite() && **l < 0.0 && **l > -1.0))
+        {
             return Err(CriticalError::param("ls", l, "reduced loads in (−1, 0)"));
         }
         let mut ls = ls.to_vec();
