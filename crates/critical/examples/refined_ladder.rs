@@ -6,9 +6,15 @@
 //! + `REFINED_DMARGIN` (default 4), and prints one CSV row per rung (`rung,…`), the p_c searches
 //! (`pc,…`) and the running exponents with both grid errors (`zeta,…`). `REFINED_COMPARE` picks
 //! the comparison runs: `levels,margin` (default), `levels`, `margin` or `none`.
+//! `REFINED_COARSER_CSV=<file>`: take D(k − 1)'s rungs from the `rung,fine,…` rows of an earlier
+//! run's output instead of solving it (its p_c is the guess; the window's contact count stands in
+//! for the contact-set hash, so a frozen pair is one with an unchanged count).
+//! `REFINED_FINE_CSV`, `REFINED_MARGIN_CSV`: the same for D(k) and D(k, margin + Δ) (all three
+//! given: no solve, only the running exponents). `REFINED_PC_GUESS`: p_c/p_fc to start D(k)'s
+//! search from (width 2e-5).
 use critical::refined::{
-    Discretisation, RefinedOptions, RefinedRung, Refinement, default_ls, periodic_closing_load,
-    running_zeta,
+    Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, default_ls,
+    periodic_closing_load, running_zeta,
 };
 use std::io::Write;
 use std::time::Instant;
@@ -143,7 +149,15 @@ fn main() {
     );
     let mut guess = base.p_c();
     let mut coarser = None;
-    if compare.contains("levels") && levels > 1 {
+    if let Ok(path) = std::env::var("REFINED_COARSER_CSV") {
+        let (pc, rungs) = read_rungs(&path, levels - 1, margin);
+        println!(
+            "# D(k − 1) from {path}: p_c/p_fc {:.15e}",
+            pc / lattice_p_fc(lattice, base_log2)
+        );
+        guess = pc;
+        coarser = Some(rungs);
+    } else if compare.contains("levels") && levels > 1 {
         let (pc, rungs) = run(
             "coarser",
             d.with_levels(levels - 1),
@@ -155,10 +169,20 @@ fn main() {
         guess = pc;
         coarser = Some(rungs);
     }
-    let width = if coarser.is_some() { 2e-5 } else { 2e-4 };
-    let (pc, fine) = run("fine", d, guess, width, &ls, &opts);
+    let mut width = if coarser.is_some() { 2e-5 } else { 2e-4 };
+    if let Ok(v) = std::env::var("REFINED_PC_GUESS") {
+        guess = v.parse::<f64>().expect("REFINED_PC_GUESS (p_c/p_fc)")
+            * lattice_p_fc(lattice, base_log2);
+        width = 2e-5;
+    }
+    let (pc, fine) = match std::env::var("REFINED_FINE_CSV") {
+        Ok(path) => read_rungs(&path, levels, margin),
+        Err(_) => run("fine", d, guess, width, &ls, &opts),
+    };
     let mut other = None;
-    if compare.contains("margin") {
+    if let Ok(path) = std::env::var("REFINED_MARGIN_CSV") {
+        other = Some(read_rungs(&path, levels, margin + dmargin).1);
+    } else if compare.contains("margin") {
         let (_, rungs) = run(
             "margin",
             d.with_margin(margin + dmargin),
@@ -191,6 +215,54 @@ fn main() {
         );
     }
     println!("# load average at end {}", load_average());
+}
+
+/// The `fine` or `margin` rungs of `levels` and `margin` of an earlier run and its p_c (E* h0/λ).
+fn read_rungs(path: &str, levels: u32, margin: usize) -> (f64, Vec<RefinedRung>) {
+    let text = std::fs::read_to_string(path).expect("REFINED_COARSER_CSV readable");
+    let mut pc = f64::NAN;
+    let mut rungs = Vec::new();
+    for line in text.lines() {
+        let c: Vec<&str> = line.split(',').collect();
+        if c.len() < 7
+            || !(c[1] == "fine" || c[1] == "margin")
+            || c[4].parse::<u32>().ok() != Some(levels)
+            || c[6].parse::<usize>().ok() != Some(margin)
+        {
+            continue;
+        }
+        if c[0] == "pc" {
+            let lat: Lattice = c[2].parse().expect("model");
+            let n: u32 = c[3].parse().expect("base");
+            pc = c[7].parse::<f64>().expect("p_c") * lattice_p_fc(lat, n);
+        } else if c[0] == "rung" {
+            let num = |k: usize| c[k].parse::<f64>().ok();
+            let edge = contact::refinement::EdgeRuns {
+                crossings: c[12].parse().expect("crossings"),
+                narrowest_open: num(13),
+                narrowest_contact: num(14),
+                all_contact: false,
+            };
+            let contact: usize = c[15].parse().expect("window_contact");
+            rungs.push(RefinedRung {
+                l: num(7).expect("l"),
+                load: num(8).expect("load"),
+                saddle_gap: num(9).expect("gap"),
+                contact_area: f64::NAN,
+                iterations: c[10].parse().expect("iterations"),
+                wall_s: num(11).expect("wall"),
+                edge,
+                window_contact: contact,
+                contact_hash: contact as u64,
+                flag: (!c[16].is_empty()).then_some(RungFlag::Window(edge)),
+            });
+        }
+    }
+    assert!(
+        pc.is_finite() && !rungs.is_empty(),
+        "{path}: no fine rungs of k = {levels}"
+    );
+    (pc, rungs)
 }
 
 fn lattice_p_fc(lattice: Lattice, n: u32) -> f64 {

@@ -516,23 +516,24 @@ impl Refinement {
         self.surface.p_fc_grid()
     }
 
-    /// Solves at `load` from the last solution (and, if that does not converge, cold); returns
-    /// the solution and the iterations of all attempts.
+    /// Solves at `load` from the last solution; if that does not converge, again from the
+    /// unconverged result and then cold. Returns the solution and the iterations of all
+    /// attempts (the solution's `stats` say whether the last attempt converged).
     pub fn solve(&mut self, load: f64) -> Result<(Refined, usize), CriticalError> {
         let mut iterations = 0;
-        let mut last = None;
-        for attempt in 0..2 {
-            let warm = if attempt == 0 {
-                self.warm.as_ref()
-            } else {
-                None
+        let mut last: Option<Refined> = None;
+        for attempt in 0..3 {
+            let start = match attempt {
+                0 => self.warm.take(),
+                1 => last.take(),
+                _ => None,
             };
-            if attempt == 1 && warm.is_none() && self.warm.is_none() {
-                break;
+            if attempt < 2 && start.is_none() {
+                continue;
             }
             let r = self
                 .model
-                .solve(load, warm)
+                .solve(load, start.as_ref())
                 .map_err(|e| CriticalError::Solver {
                     load,
                     detail: e.to_string(),
@@ -571,13 +572,20 @@ impl Refinement {
             Some(g) => (g, width),
             None => (0.3 * self.p_fc(), 0.4),
         };
+        if self.warm.is_none() {
+            // a cold start right at p_c can stagnate (k = 4): start 1 % below it
+            self.solve(g * (1.0 - w.max(1e-2)))?;
+        }
         find_closing_load(
             &mut |p| {
                 let (r, _) = self.solve(p)?;
                 if !r.stats.converged {
                     return Err(CriticalError::Solver {
                         load: p,
-                        detail: format!("not converged: {:?}", r.stats.reason),
+                        detail: format!(
+                            "not converged (warm, continued and cold): {:?}, violation {:.3e} > tol_gap {:.1e}",
+                            r.stats.reason, r.stats.max_violation, self.opts.tol_gap
+                        ),
                     });
                 }
                 Ok(self.saddle_gap(&r))
