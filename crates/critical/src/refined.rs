@@ -195,8 +195,8 @@ impl ClosingLoad {
 
 /// The load at which a saddle gap g(p) (> 0 open, ≤ 0 closed, decreasing in p) closes, to
 /// `opts.rel_tol`, from a guess and a relative width (module docs, "The p_c search"). `probe`
-/// returns the saddle gap at a load. Errors if no open load is found below `guess` or no
-/// closed one above it within a factor of 2, or after 200 probes.
+/// returns the saddle gap at a load. Errors if no open load is found above 1e-3 `guess` or no
+/// closed one below 2 `guess`, or after 200 probes.
 pub fn find_closing_load(
     probe: &mut dyn FnMut(f64) -> Result<f64, CriticalError>,
     guess: f64,
@@ -224,22 +224,22 @@ pub fn find_closing_load(
         }
         Ok::<(), CriticalError>(())
     };
-    // an open load below the guess
-    let mut w = width;
+    // an open load below the guess (halving the load while the saddle is closed)
+    let w = width;
+    let mut p = guess * (1.0 - w);
     loop {
-        let p = guess * (1.0 - w);
         run(p, &mut open, &mut hi)?;
         if !open.is_empty() {
             break;
         }
-        if w >= 0.5 {
+        if p < 1e-3 * guess {
             return Err(CriticalError::param(
                 "guess",
                 guess,
-                "a load with the saddle open within a factor 2 below it",
+                "a load with the saddle open above 1e-3 of it",
             ));
         }
-        w = (4.0 * w).min(0.5);
+        p *= 0.5;
     }
     // consecutive probes that did not halve a known bracket: two force a bisection
     let mut slow = 0;
@@ -342,7 +342,7 @@ pub fn periodic_closing_load(
         ..Default::default()
     };
     let mut warm: Option<contact::Solution> = None;
-    let (g, w) = guess.unwrap_or((0.3 * surface.p_fc_grid(), 0.4));
+    let (g, w) = guess.unwrap_or((0.5 * surface.p_fc_grid(), 0.45));
     find_closing_load(
         &mut |p| {
             let sol = model
@@ -561,7 +561,7 @@ impl Refinement {
     }
 
     /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 1e-4;
-    /// without a guess, 0.3 p_fc and 0.4). Errors if a solve does not converge.
+    /// without a guess, 0.5 p_fc and 0.45). Errors if a solve does not converge.
     pub fn critical_load(
         &mut self,
         guess: Option<f64>,
@@ -570,7 +570,7 @@ impl Refinement {
         let opts = self.opts.clone();
         let (g, w) = match guess {
             Some(g) => (g, width),
-            None => (0.3 * self.p_fc(), 0.4),
+            None => (0.5 * self.p_fc(), 0.45),
         };
         if self.warm.is_none() {
             // a cold start right at p_c can stagnate (k = 4): start 1 % below it
