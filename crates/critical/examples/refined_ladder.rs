@@ -64,7 +64,7 @@ fn run(
     let rungs = r
         .ladder(pc, ls, &mut |g, _| {
             println!(
-                "rung,{name},{},{},{},{},{},{:e},{:.15e},{:.12e},{},{:.2},{},{},{},{},{},{}",
+                "rung,{name},{},{},{},{},{},{:e},{:.15e},{:.12e},{},{:.2},{},{},{},{},{},{},{}",
                 d.lattice.name(),
                 d.base_log2,
                 d.levels,
@@ -79,6 +79,7 @@ fn run(
                 opt(g.edge.narrowest_open),
                 opt(g.edge.narrowest_contact),
                 g.window_contact,
+                g.neck_nodes,
                 g.flag
                     .map_or(String::new(), |f| f.to_string().replace(',', ";")),
                 load_average()
@@ -125,7 +126,7 @@ fn main() {
         "pc,name,model,base_log2,k,window,margin,p_c_over_p_fc,bracket_rel,probes,iterations,setup_s,search_s,load_average"
     );
     println!(
-        "rung,name,model,base_log2,k,window,margin,l,load,saddle_gap,iterations,wall_s,crossings,narrowest_open,narrowest_contact,window_contact,flag,load_average"
+        "rung,name,model,base_log2,k,window,margin,l,load,saddle_gap,iterations,wall_s,crossings,narrowest_open,narrowest_contact,window_contact,neck_nodes,flag,load_average"
     );
     // a guess from the periodic base grid alone
     let t = Instant::now();
@@ -244,6 +245,12 @@ fn read_rungs(path: &str, levels: u32, margin: usize) -> (f64, Vec<RefinedRung>)
                 all_contact: false,
             };
             let contact: usize = c[15].parse().expect("window_contact");
+            // runs before neck_nodes was printed have 18 columns, later ones 19
+            let (neck, flag) = if c.len() >= 19 {
+                (c[16].parse().expect("neck_nodes"), c[17])
+            } else {
+                (0, c[16])
+            };
             rungs.push(RefinedRung {
                 l: num(7).expect("l"),
                 load: num(8).expect("load"),
@@ -253,8 +260,9 @@ fn read_rungs(path: &str, levels: u32, margin: usize) -> (f64, Vec<RefinedRung>)
                 wall_s: num(11).expect("wall"),
                 edge,
                 window_contact: contact,
+                neck_nodes: neck,
                 contact_hash: contact as u64,
-                flag: (!c[16].is_empty()).then_some(RungFlag::Window(edge)),
+                flag: (!flag.is_empty()).then_some(RungFlag::Window(edge)),
             });
         }
     }

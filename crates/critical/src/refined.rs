@@ -444,6 +444,9 @@ pub struct RefinedRung {
     pub edge: EdgeRuns,
     /// Fine nodes of the window in contact.
     pub window_contact: usize,
+    /// Open fine nodes on the line through the saddle across the channel (contiguous with the
+    /// saddle node; 0 if it is closed): the neck's width in fine cells, i.e. its resolution.
+    pub neck_nodes: usize,
     /// Hash of the window's contact set (equal sets, equal hashes).
     pub contact_hash: u64,
     /// Why the rung must not be used silently, if so.
@@ -560,6 +563,30 @@ impl Refinement {
             .expect("the window is centred on the saddle")
     }
 
+    /// Open fine nodes across the channel through the saddle ([`RefinedRung::neck_nodes`]).
+    pub fn neck_nodes(&self, r: &Refined) -> usize {
+        let f = 1usize << self.disc.levels;
+        let (fnx, fny) = r.lattice;
+        let (i, j) = self.frame.node;
+        let a = (f * i + fnx - r.origin.0) % fnx;
+        let b = (f * j + fny - r.origin.1) % fny;
+        let (rx, ry) = r.window_gap.dim();
+        let open = |a: usize, b: usize| r.window_gap[[a, b]] > 0.0;
+        if a >= rx || b >= ry || !open(a, b) {
+            return 0;
+        }
+        // across the channel: along y if the channel runs along x, else along x
+        let (len, at): (usize, Box<dyn Fn(usize) -> bool>) = if self.frame.channel_axis == 0 {
+            (ry, Box::new(move |t| open(a, t)))
+        } else {
+            (rx, Box::new(move |t| open(t, b)))
+        };
+        let c = if self.frame.channel_axis == 0 { b } else { a };
+        let up = (c + 1..len).take_while(|&t| at(t)).count();
+        let down = (0..c).rev().take_while(|&t| at(t)).count();
+        1 + up + down
+    }
+
     /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 1e-4;
     /// without a guess, 0.5 p_fc and 0.45). Errors if a solve does not converge.
     pub fn critical_load(
@@ -639,6 +666,7 @@ impl Refinement {
                 window_contact += usize::from(c);
                 contact_hash = (contact_hash ^ u64::from(c)).wrapping_mul(0x100000001b3);
             }
+            let neck_nodes = self.neck_nodes(&r);
             let rung = RefinedRung {
                 l,
                 load,
@@ -648,6 +676,7 @@ impl Refinement {
                 wall_s: t.elapsed().as_secs_f64(),
                 edge,
                 window_contact,
+                neck_nodes,
                 contact_hash,
                 flag,
             };

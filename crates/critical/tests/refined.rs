@@ -155,6 +155,7 @@ fn rung(l: f64, g: f64, hash: u64, flag: Option<RungFlag>) -> RefinedRung {
             all_contact: false,
         },
         window_contact: hash as usize,
+        neck_nodes: 10,
         contact_hash: hash,
         flag,
     }
