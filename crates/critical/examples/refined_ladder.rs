@@ -3,7 +3,7 @@
 //! <margin> [ls]`, ls comma-separated (default −5e-2 … −1e-5, the 1-2-5 sequence).
 //!
 //! Solves p_c and the ladder on D(k − 1) (same window and margin), D(k), and D(k) with the margin
-//! + `REFINED_DMARGIN` (default 4), and prints one CSV row per rung (`rung,…`), the p_c searches
+//! increased by `REFINED_DMARGIN` (default 4), and prints one CSV row per rung (`rung,…`), the p_c searches
 //! (`pc,…`) and the running exponents with both grid errors (`zeta,…`). `REFINED_COMPARE` picks
 //! the comparison runs: `levels,margin` (default), `levels`, `margin` or `none`.
 //! `REFINED_COARSER_CSV=<file>`: take D(k − 1)'s rungs from the `rung,fine,…` rows of an earlier

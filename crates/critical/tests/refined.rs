@@ -25,7 +25,8 @@ fn d(base_log2: u32, window: usize, margin: usize) -> Discretisation {
 #[test]
 fn the_secant_search_finds_known_closing_loads() {
     let pc = 0.7312345678901;
-    let laws: [(&str, fn(f64) -> f64); 2] = [
+    type Law = fn(f64) -> f64;
+    let laws: [(&str, Law); 2] = [
         ("power law with correction", |d| {
             1.3 * d.powf(1.2) * (1.0 + 4.0 * d.powf(0.3))
         }),
