@@ -41,6 +41,12 @@ fn run(
 ) -> (f64, Vec<RefinedRung>) {
     let t = Instant::now();
     let mut r = Refinement::new(d, opts).expect("refined discretisation");
+    let label = format!("{name},k={}", d.levels);
+    r.on_solve = Some(Box::new(move |p, it, ok, v, s| {
+        eprintln!(
+            "solve {label}: load {p:.15e} iterations {it} converged {ok} violation {v:.2e} {s:.2} s"
+        );
+    }));
     let setup = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let c = r.critical_load(Some(guess), width).expect("p_c");

@@ -478,6 +478,8 @@ pub struct Refinement {
     pub solves: usize,
     /// Polonsky–Keer iterations so far.
     pub iterations: usize,
+    /// Called after every solve with (load, iterations, converged, max violation, wall s).
+    pub on_solve: Option<Box<dyn FnMut(f64, usize, bool, f64, f64)>>,
 }
 
 impl Refinement {
@@ -511,6 +513,7 @@ impl Refinement {
             warm: None,
             solves: 0,
             iterations: 0,
+            on_solve: None,
         })
     }
 
@@ -534,6 +537,7 @@ impl Refinement {
             if attempt < 2 && start.is_none() {
                 continue;
             }
+            let t = Instant::now();
             let r = self
                 .model
                 .solve(load, start.as_ref())
@@ -541,6 +545,15 @@ impl Refinement {
                     load,
                     detail: e.to_string(),
                 })?;
+            if let Some(f) = self.on_solve.as_mut() {
+                f(
+                    load,
+                    r.stats.iterations,
+                    r.stats.converged,
+                    r.stats.max_violation,
+                    t.elapsed().as_secs_f64(),
+                );
+            }
             self.solves += 1;
             iterations += r.stats.iterations;
             let done = r.stats.converged;
