@@ -11,7 +11,8 @@
 //! for the contact-set hash, so a frozen pair is one with an unchanged count).
 //! `REFINED_FINE_CSV`, `REFINED_MARGIN_CSV`: the same for D(k) and D(k, margin + Δ) (all three
 //! given: no solve, only the running exponents). `REFINED_PC_GUESS`: p_c/p_fc to start D(k)'s
-//! search from (width 2e-5).
+//! search from (width 2e-5). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
+//! default 1e-13) and iteration cap per attempt (default 20000).
 use critical::refined::{
     Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, default_ls,
     periodic_closing_load, running_zeta,
@@ -119,7 +120,14 @@ fn main() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(4);
-    let opts = RefinedOptions::default();
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    let defaults = RefinedOptions::default();
+    let opts = RefinedOptions {
+        tol_gap: env("REFINED_TOL_GAP").unwrap_or(defaults.tol_gap),
+        max_iter: env("REFINED_MAX_ITER").map_or(defaults.max_iter, |v| v as usize),
+        ..defaults
+    };
+    println!("# tol_gap {:e}, max_iter {}", opts.tol_gap, opts.max_iter);
     let d = Discretisation {
         lattice,
         base_log2,
