@@ -103,7 +103,8 @@ pub enum Search {
 pub struct RefinedOptions {
     /// Constraint violation bound of the composite solve (h0).
     pub tol_gap: f64,
-    /// Iteration cap per solve.
+    /// Iteration cap per solve attempt (a warm solve near p_c needs 3–250; one that stagnates
+    /// at the solver's floor would otherwise run for the stagnation window of 3000).
     pub max_iter: usize,
     /// Relative width of the final p_c bracket (hi/lo − 1).
     pub rel_tol: f64,
@@ -122,7 +123,7 @@ impl Default for RefinedOptions {
     fn default() -> Self {
         RefinedOptions {
             tol_gap: 1e-13,
-            max_iter: 20_000,
+            max_iter: 2_000,
             rel_tol: 1e-11,
             zeta0: 1.0,
             aim_below: 0.02,
@@ -276,13 +277,25 @@ pub fn find_closing_load(
             }
             (Search::Secant, n) => {
                 let (p2, g2) = open[n - 1];
+                // the open probes nearest p_c, each at least 4 rel_tol below the next: probes
+                // closer than that differ by the solver's noise in g, not by the law
+                let mut spaced = vec![open[n - 1]];
+                for &o in open[..n - 1].iter().rev() {
+                    if spaced.len() < 3
+                        && spaced[spaced.len() - 1].0 - o.0 >= 4.0 * opts.rel_tol * p2
+                    {
+                        spaced.push(o);
+                    }
+                }
                 // the exponent: ζ0 from two open probes, fitted to three (module docs)
-                let a = if n >= 3 {
-                    fit_exponent(open[n - 3], open[n - 2], open[n - 1])
-                } else {
-                    opts.zeta0
+                let a = match spaced.len() {
+                    3 => fit_exponent(spaced[2], spaced[1], spaced[0]),
+                    _ => opts.zeta0,
                 };
-                let est = secant_zero(open[n - 2], open[n - 1], a);
+                let est = match spaced.len() {
+                    1 => f64::NAN,
+                    _ => secant_zero(spaced[1], spaced[0], a),
+                };
                 let d = est - p2;
                 let inside = g2 > 0.0 && d > 0.0 && hi.is_none_or(|h| est < h);
                 if !inside {
