@@ -60,12 +60,21 @@
 //! ζ_eff = Δ ln g_s / Δ ln |l| between neighbouring rungs of the finest D; its grid error is the
 //! larger of the changes from D with k − 1 levels and from D with another margin (the far-field
 //! interpolation error acts as a shift of l by ~1e-7 … 1e-6, which matters at |l| = 1e-5). A
-//! pair is flagged if either change exceeds the bound, is unknown, or a rung is flagged.
+//! pair is flagged if either change exceeds the bound, is unknown, or a rung is flagged, and
+//! also if the window's contact set is the same at both rungs ([`PairFlag::Frozen`]): on a fixed
+//! contact set the solution is affine in the load and the slope is the discretisation's (→ 1).
+//! Each rung also records `neck_nodes`, the open fine nodes across the channel through the
+//! saddle: the neck's resolution (square, k = 5: 19 at l = −1e-5). `fit_error` is the
+//! propagated solver tolerance only (σ_g = tol_gap).
 //!
 //! # Measurements (2026-11-25, `examples/refined_ladder.rs`)
 //! Square model, 256² base (2^8), margin 8, comparison margin 12; triangular likewise. Commands
 //! (in a scratch directory; `REFINED_*` see the example's docs):
-//! - k = 3: `refined_ladder square 8 3 32 8` (D(2), D(3), D(3, margin 12); tol_gap 1e-13);
+//! - k = 3: `refined_ladder square 8 3 32 8` (D(2), D(3), D(3, margin 12); tol_gap 1e-13,
+//!   max_iter 20000: the defaults then); the k = 3, window 16 rows came from the same binary
+//!   as D(k − 1) of a first k = 4 run (`… square 8 4 16 8`, tol_gap 1e-13), whose D(4) p_c
+//!   search then stagnated on its cold first probe at p_c (the warm-up solve 1 % below the
+//!   guess was added after that);
 //! - k = 4: `REFINED_TOL_GAP=1e-12 REFINED_MAX_ITER=3000 REFINED_COMPARE=margin
 //!   REFINED_COARSER_CSV=<k = 3, window 16 rows> refined_ladder square 8 4 16 8`;
 //! - k = 5: `REFINED_TOL_GAP=5e-12 REFINED_MAX_ITER=400 REFINED_COMPARE=none
