@@ -607,6 +607,9 @@ pub fn default_ls() -> Vec<f64> {
     v
 }
 
+/// A callback on every solve: (load, iterations, converged, max violation, wall s).
+pub type SolveHook = Box<dyn FnMut(f64, usize, bool, f64, f64)>;
+
 /// A refined discretisation ready to solve, warm-starting each solve from the last.
 pub struct Refinement {
     /// The discretisation.
@@ -624,7 +627,7 @@ pub struct Refinement {
     /// Polonsky–Keer iterations so far.
     pub iterations: usize,
     /// Called after every solve with (load, iterations, converged, max violation, wall s).
-    pub on_solve: Option<Box<dyn FnMut(f64, usize, bool, f64, f64)>>,
+    pub on_solve: Option<SolveHook>,
 }
 
 impl Refinement {
