@@ -50,6 +50,7 @@ pub mod bracket;
 pub mod constriction;
 pub mod ladder;
 pub mod leakage;
+pub mod refined;
 pub mod running;
 pub mod saddle;
 pub mod scaling;

@@ -1,0 +1,985 @@
+//! The refined ζ ladder: the saddle gap g_s at reduced loads down to |l| = 1e-5 on a composite
+//! discretisation that resolves one saddle 2^k times finer than the periodic base grid
+//! ([`contact::refinement`], blockwise operator, two-level preconditioner).
+//!
+//! # The discretisation D and its p_c
+//! D = (model, base grid 2^n, levels k, window of w × w base cells centred on the model's axis
+//! saddle ([`crate::ladder::axis_saddle`] on the base grid), margin m base cells of the
+//! blockwise operator). Every D is its own discrete problem: its saddle node (fine node
+//! (2^k i, 2^k j) of the base node (i, j) of the saddle) closes at its own load, **p_c(D)**, the
+//! load at which D's saddle node first carries pressure (gap exactly 0 in the Polonsky–Keer
+//! solution). p_c(D) differs from the uniform fine grid's by the far-field error of the coarse
+//! representation outside the window (see `contact::refinement`, ~1e-7 … 1e-5 relative), and
+//! from the continuum's by more; the ladder's reduced loads l = p/p_c(D) − 1 are measured from
+//! D's own p_c, so that a p_c shift common to all rungs does not masquerade as a change of the
+//! exponent (README, "L_c matters more than the grid"). Only the axis saddle is refined: in the
+//! hexagonal and triangular cells the other critical saddles stay on the coarse base grid, so
+//! the percolation load of the whole cell is not p_c(D); p_c(D) is the closing load of the
+//! refined saddle alone (by symmetry every saddle closes at the same load in the continuum).
+//!
+//! # The p_c search ([`find_closing_load`])
+//! Near p_c, g_s ≈ A (p_c − p)^a, so y = g_s^(1/a) is linear in p and the zero of the line
+//! through the two open probes nearest p_c (secant) is p_c. The exponent a is not 1.2 there:
+//! on a discretisation the contact set stops changing close enough to p_c, and on a fixed
+//! contact set the hard-wall solution is affine in the load, so g_s turns linear (a = 1) below
+//! some δ = 1 − p/p_c (on 64² k = 2 already at δ ~ 1e-4: ζ_eff = 1.0000 there). With a ≥ the
+//! true local exponent's lower bound the secant undershoots (g convex in p) and lands open; with
+//! a too large (1.2 in the linear regime) it overshoots into the closed side, where g = 0 gives
+//! no value — the first version (y = g^(1/1.2)) needed 27–36 probes for 1e-11 on 32² grids for
+//! that reason. So: two open probes use a = `zeta0` (default 1: never overshoots a convex law);
+//! three use the a ∈ [1, 3] that makes them collinear in g^(1/a) (exact for a pure power law and
+//! for the affine regime); the probe aims a fraction θ = 0.02 of the predicted distance d below
+//! the zero, so it keeps landing open; once d is below half the tolerance one probe just above
+//! closes the bracket. Probes closer than 4 tol to each other are not paired (their gaps differ
+//! by solver noise). Safeguards: a zero outside the bracket (lo, hi), a y that does not fall
+//! with p, or two probes in a row that do not halve a known bracket fall back to bisection.
+//! Result: [lo, hi] with hi/lo − 1 ≤ tol (default 1e-11), p_c its midpoint. Measured: 7–15
+//! probes against 29–31 for bisection (tests, 32²–64² bases; square 256², k = 3, 4: 11 probes).
+//!
+//! The floor: near p_c, dg_s/dδ ≈ 0.1 h0 (square model, affine regime), so a solver tolerance
+//! tol_gap resolves δ ≈ 10 tol_gap: 1e-12 at tol_gap 1e-13, 5e-11 at 5e-12. Below that the
+//! open/closed answer itself is noise and the search ends by bisection (k = 5 at 5e-12: 21
+//! probes). At |l| = 1e-5 a p_c error of 5e-11 shifts l by 5e-6 of itself: negligible.
+//!
+//! Solver floor: the composite solve does not reach tol_gap = 1e-13 everywhere (k = 4 square
+//! and k = 3 triangular near p_c stagnated at violations of 1–3e-12 after 3000 iterations);
+//! the runs below use 1e-13 (k ≤ 3 square), 1e-12 (k = 4 square) and 5e-12 (k = 5 square,
+//! triangular), each far below the smallest saddle gap (~6e-7 h0 at l = −1e-5).
+//!
+//! # The ladder ([`Refinement::ladder`])
+//! Rungs at l < 0 (the 1-2-5 sequence by default, [`default_ls`]), solved in ascending
+//! load from the previous rung's solution. Each rung records the saddle gap, iterations, wall
+//! time and the contact lines on the window's edge ([`contact::refinement::EdgeRuns`]); a rung
+//! whose window is too small — no or fewer than four contact-line crossings (the neck's two
+//! contact patches must both cross the edge), or a run of open or contact nodes on the edge
+//! shorter than `min_edge_cells` base cells — is flagged ([`RungFlag`]) and so is every pair
+//! that uses it. Each rung's [`Refined`] is handed to a callback (the window flux can be wired
+//! in there).
+//!
+//! # Running ζ ([`running_zeta`])
+//! ζ_eff = Δ ln g_s / Δ ln |l| between neighbouring rungs of the finest D; its grid error is the
+//! larger of the changes from D with k − 1 levels and from D with another margin (the far-field
+//! interpolation error acts as a shift of l by ~1e-7 … 1e-6, which matters at |l| = 1e-5). A
+//! pair is flagged if either change exceeds the bound, is unknown, or a rung is flagged, and
+//! also if the window's contact set is the same at both rungs ([`PairFlag::Frozen`]): on a fixed
+//! contact set the solution is affine in the load and the slope is the discretisation's (→ 1).
+//! Each rung also records `neck_nodes`, the open fine nodes across the channel through the
+//! saddle: the neck's resolution (square, k = 5: 19 at l = −1e-5). `fit_error` is the
+//! propagated solver tolerance only (σ_g = tol_gap).
+//!
+//! # Measurements (2026-11-25, `examples/refined_ladder.rs`)
+//! Square model, 256² base (2^8), margin 8, comparison margin 12; triangular likewise. Commands
+//! (in a scratch directory; `REFINED_*` see the example's docs):
+//! - k = 3: `refined_ladder square 8 3 32 8` (D(2), D(3), D(3, margin 12); tol_gap 1e-13,
+//!   max_iter 20000: the defaults then); the k = 3, window 16 rows came from the same binary
+//!   as D(k − 1) of a first k = 4 run (`… square 8 4 16 8`, tol_gap 1e-13), whose D(4) p_c
+//!   search then stagnated on its cold first probe at p_c (the warm-up solve 1 % below the
+//!   guess was added after that);
+//! - k = 4: `REFINED_TOL_GAP=1e-12 REFINED_MAX_ITER=3000 REFINED_COMPARE=margin
+//!   REFINED_COARSER_CSV=<k = 3, window 16 rows> refined_ladder square 8 4 16 8`;
+//! - k = 5: `REFINED_TOL_GAP=5e-12 REFINED_MAX_ITER=400 REFINED_COMPARE=none
+//!   REFINED_PC_GUESS=0.22860517 refined_ladder square 8 5 16 8`, the margin-12 ladder the same
+//!   with `… 16 12 -2e-3,…,-1e-5`, combined with `REFINED_{COARSER,FINE,MARGIN}_CSV`;
+//! - triangular: `REFINED_TOL_GAP=5e-12 REFINED_MAX_ITER=400 refined_ladder triangular 8 k w 8`
+//!   for (k, w) = (3, 32), (4, 16).
+//!
+//! 2 cores shared with another engineer's runs (load average 3.5–8 throughout): wall times are
+//! inflated 2–4× against a quiet machine.
+//!
+//! p_c(D)/p_fc, square: base grid alone 0.2286119976; k = 2 (window 32) 0.2286055217; k = 3
+//! 0.2286050840 (window 32; the bench's bisection gave 0.2286050840; uniform 2048² 0.2286049877)
+//! and 0.2286052912 (window 16); k = 4 0.2286051698 (margin 12: 0.2286051645, −2.3e-8); k = 5
+//! 0.2286051596 (margin 12: 0.2286051323, −1.2e-7). Triangular: base 0.7119860195; k = 3
+//! 0.7119650659 (w 32), 0.7119661607 (w 16); k = 4 0.7119658889 (margin 12: −1.9e-7).
+//!
+//! Running ζ_eff (square; `*` = flagged: a rung of the pair flagged, or a grid error above
+//! 0.005 or unknown; values shown anyway. Δk = |change from k − 1|, Δm = |change from margin
+//! 12|, same window; the grid error is the larger):
+//!
+//! | pair | uniform 2048² (README) | k = 3, w 32 | Δk, Δm | k = 4, w 16 | Δk, Δm | k = 5, w 16 | Δk, Δm | k = 5, margin 12 | neck (k = 5) |
+//! |---|---|---|---|---|---|---|---|---|---|
+//! | 0.05→0.02 | 1.2240 | 1.2240* | – | 1.2237* | – | 1.2237* | – | – | 513→513 |
+//! | 0.02→0.01 | 1.2063 | 1.2069 | 1.5e-4, 1e-7 | 1.2075* | – | 1.2075* | – | – | |
+//! | 0.01→0.005 | 1.1955 | 1.1960 | 1.4e-4, 2e-7 | 1.1958* | – | 1.1958* | – | – | |
+//! | 0.005→0.002 | 1.1858 | 1.1849 | 6.1e-4, 4e-7 | 1.1867* | – | 1.1867* | – | – | 383→249 |
+//! | 0.002→0.001 | 1.1781 | 1.1776 | 2.1e-3, 9e-7 | 1.1760 | 4.2e-4, 1.6e-5 | 1.1760 | 2.6e-5, 8.4e-5 | 1.1759 | 249→179 |
+//! | 0.001→5e-4 | 1.1726 | 1.1727 | 3.4e-3, 1.7e-6 | 1.1724 | 7.4e-4, 3.0e-5 | 1.1723 | 8.9e-5, 1.6e-4 | 1.1721 | 179→129 |
+//! | 5e-4→2e-4 | 1.1684* | 1.1688* | 6.3e-3, 3.8e-6 | 1.1663 | 1.7e-3, 6.5e-5 | 1.1662 | 8.7e-5, 3.6e-4 | 1.1658 | 129→83 |
+//! | 2e-4→1e-4 | 1.1647* | 1.1646* | 9.4e-3, 7.9e-6 | 1.1625 | 1.8e-3, 1.4e-4 | 1.1622 | 3.3e-4, 7.6e-4 | 1.1614 | 83→61 |
+//! | 1e-4→5e-5 | – | 1.1689* | 3.1e-2, 1.5e-5 | 1.1595* | 9.2e-3, 2.6e-4 | 1.1590 | 5.2e-4, 1.5e-3 | 1.1575 | 61→43 |
+//! | 5e-5→2e-5 | – | 1.1719* | 3.9e-2, 3.0e-5 | 1.1603* | 1.1e-2, 5.4e-4 | 1.1584 | 1.9e-3, 3.1e-3 | 1.1553 | 43→27 |
+//! | 2e-5→1e-5 | – | 1.1808* | 0.15, 6.1e-5 | 1.1667* | 1.4e-2, 1.1e-3 | 1.1618* | 4.9e-3, 6.6e-3 | 1.1552 | 27→19 |
+//!
+//! (neck = open fine nodes across the channel through the saddle at the two rungs; at k = 4 it
+//! is 29→21→13→9 over the last four rungs, at k = 3 half that again. The k = 5 margin-12
+//! ladder (rungs −2e-3 … −1e-5 only) has p_c/p_fc 0.2286051323, reproduced to 7.7e-11 by a
+//! rerun of its search: the search's floor at tol_gap 5e-12.) Check against uniform 2048² (same fine spacing as k = 3): k = 3 (window 32) is
+//! within 9e-4 of it at every pair 0.02→0.01 … 2e-4→1e-4 (+6e-4, +4.5e-4, −9e-4, −5e-4,
+//! +1.2e-4, +3.6e-4, −1.4e-4), and its grid error against k = 2 (1024²) reproduces the README's
+//! 1024²-vs-2048² grid errors (6.3e-3 vs 7.0e-3 at 5e-4→2e-4, 9.4e-3 vs 9.5e-3 at 2e-4→1e-4).
+//! The window: at k = 3, window 16 differs from window 32 by ≤ 1.2e-4 from 0.001→5e-4 down,
+//! by 2e-3 at 0.005→0.002 (the window's edge then lies 8 base cells from the saddle, near the
+//! contact lines). Windows of 16 base cells are flagged above |l| ≈ 5e-3 (no contact line
+//! crosses the edge: the window lies inside the open channel), as they should be.
+//!
+//! Costs per rung (warm-started from the previous rung): square k = 3: 3–8 s, 48–92 iterations;
+//! k = 4: 4–14 s, 40–80; k = 5: 29–94 s, 45–125 (peak RSS 276 MB). The p_c searches: k = 3
+//! 29 s (11 probes, 403 iterations), k = 4 46 s (11, 435), k = 5 287 s (21 probes, 738
+//! iterations, including the cold warm-up at l ≈ −1e-2, 46 s, and the first jump to p_c, 245
+//! iterations, 102 s). Whole runs (CPU): k = 3 with k = 2 and margin 12: 129 s; k = 4 with
+//! margin 12: 205 s; k = 5 alone: 622 s CPU, 14.6 min wall at load ~6.
+//!
+//! Triangular (axis saddle (λ/√3, 0), channel along y; only this saddle is refined: the other
+//! critical saddles of the cell stay on the coarse hats, so p_c(D) is the closing load of the
+//! refined saddle, not the cell's percolation load; on the base grid alone those saddles close
+//! at 0.7119860 p_fc, 2.8e-5 above p_c(D), so they are open at every rung, and their coarse
+//! contact lines enter the refined gap only through the far field, like the margin error):
+//!
+//! | pair | uniform 2048² (README) | k = 3, w 32 | k = 4, w 16 | Δk, Δm (k = 4) |
+//! |---|---|---|---|---|
+//! | 0.05→0.02 | 1.3117 | 1.3120* | 1.3121* | – |
+//! | 0.02→0.01 | 1.2848 | 1.2836* | 1.2844 | 2.4e-6, 1.6e-5 |
+//! | 0.01→0.005 | 1.2668 | 1.2678 | 1.2669 | 1.6e-4, 3.0e-5 |
+//! | 0.005→0.002 | 1.2493 | 1.2511* | 1.2521 | 1.2e-4, 6.5e-5 |
+//! | 0.002→0.001 | 1.2338* | 1.2354* | 1.2339 | 2.4e-4, 1.3e-4 |
+//! | 0.001→5e-4 | 1.2214* | 1.2246* | 1.2232 | 8.2e-4, 2.6e-4 |
+//! | 5e-4→2e-4 | 1.2053* | 1.2136* | 1.2132 | 1.5e-4, 5.4e-4 |
+//! | 2e-4→1e-4 | 1.1953* | 1.2126* | 1.2032* | 9.2e-3, 1.1e-3 |
+//! | 1e-4→5e-5 | – | 1.2089* | 1.2022* | 6.5e-3, 2.0e-3 |
+//! | 5e-5→2e-5 | – | 1.2089* | 1.1993* | 9.4e-3, 4.4e-3 |
+//! | 2e-5→1e-5 | – | 1.2783* | 1.2033* | (k = 3 frozen), 8.1e-3 |
+//!
+//! Triangular flags: the window of 32 base cells at k = 3 and the last three rungs at k = 4
+//! show 12 edge crossings with runs of one fine node (0.125, 0.0625 base cells) besides the four
+//! real crossings: probably the contact line meeting the edge at a base node, whose unknown
+//! also carries the coarse hats (its hat-weighted gap differs from its fine neighbours'). The
+//! check flags them as it must (it cannot tell); the window of 16 at k = 3 and k = 4 down to
+//! 1e-4 is clean. k = 3 and k = 4 are within 1–3e-3 of uniform 2048² from 0.02→0.01 to
+//! 0.002→0.001 (uniform's own grid errors there 0.5–5e-3; the square agreed to 9e-4), and the neck is 3–7 fine nodes wide below 1e-4 at k = 3 (frozen at the
+//! last pair: ζ_eff = 1.278 is the discretisation's). Triangular k = 5 (window 16, from the
+//! k = 4 rows) was not measured: its cold warm-up solve at l ≈ −1e-2 stopped at the 400-iteration
+//! cap with violation 0.28, and the first probe at p_c failed warm, continued and cold (last
+//! violation 9.7e-7 after 400 cold iterations); a larger cap (≥ 2000, the library default) was
+//! not tried for lack of time.
+//!
+//! # What the data say
+//! - Square: ζ_eff keeps falling below the uniform grids' reach. k = 5, margin 8: 1.1723
+//!   (0.001→5e-4), 1.1662, 1.1622 (2e-4→1e-4), 1.1590 (1e-4→5e-5), 1.1584 (5e-5→2e-5), 1.1618
+//!   (2e-5→1e-5); margin 12: 1.1721, 1.1658, 1.1614, 1.1575, 1.1553, 1.1552. Grid errors
+//!   max(Δk, Δm) 1.6e-4, 3.6e-4, 7.6e-4, 1.5e-3, 3.1e-3, 6.6e-3: converged to 0.005 down to
+//!   5e-5→2e-5, not at 2e-5→1e-5, where the margin error (far field) dominates the level error
+//!   (4.9e-3). The upturn of the margin-8 ladder at the last pair (+0.003) is that far-field
+//!   error: with margin 12 the last two pairs are flat (1.1553, 1.1552). So ζ_eff is still
+//!   falling at 1e-4 (by ~0.004 per factor 2) and levels off near 1.155–1.16 between 5e-5 and
+//!   1e-5, within errors of a few 1e-3 (the margin error falls slowly: 8 → 12 still changes
+//!   the last pair by 6.6e-3, and 16 was not run). It does not approach 6/5 from above: it went
+//!   through 1.2 near 0.02→0.01 and lies 0.045 below it at 1e-5.
+//! - Triangular: ζ_eff falls monotonically, 1.3121 → 1.2132 (5e-4→2e-4, converged, grid error
+//!   5.4e-4) → 1.2032 (2e-4→1e-4, grid error 9.2e-3) → ~1.20 at 1e-5 (flagged, grid errors
+//!   4–9e-3): it reaches 1.2 near 1e-4 and is still falling there.
+//! - The two models approach each other: 0.088 apart at 0.05→0.02, 0.047 at 5e-4→2e-4, ~0.04
+//!   at 2e-4→1e-4 (triangular not converged there). Neither has a plateau at 6/5; the square
+//!   one stays 0.035–0.045 below it from 2e-4 to 1e-5.
+//! - The far-field (margin) error grows like 1/|l| as the module doc of `contact::refinement`
+//!   predicted, and with k at a fixed window (the fine window sees the same coarse far field
+//!   at a finer scale): square margin 8 → 12 at 2e-5→1e-5: 6e-5 (k = 3, window 32), 1.1e-3
+//!   (k = 4, window 16), 6.6e-3 (k = 5), i.e. an unabsorbed shift of l by ~1e-8 … 8e-8;
+//!   triangular k = 4: 8.1e-3 (~1e-7). At 1e-5 it is the largest error: the next step is a
+//!   larger margin (16, 24) or a finer base grid, before more levels.
+//!
+use crate::CriticalError;
+use crate::ladder::{SaddleFrame, axis_saddle};
+use contact::SolverOptions;
+use contact::refinement::{EdgeRuns, RefineOptions, Refined, RefinedModel, Window};
+use std::time::Instant;
+use surface::{Lattice, Surface};
+
+/// One composite discretisation D (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Discretisation {
+    /// Model.
+    pub lattice: Lattice,
+    /// Base grid 2^base_log2 × 2^base_log2.
+    pub base_log2: u32,
+    /// Refinement levels k (1..=6).
+    pub levels: u32,
+    /// Window side in base cells (square, centred on the axis saddle).
+    pub window: usize,
+    /// Margin of the blockwise operator in base cells.
+    pub margin: usize,
+}
+
+impl Discretisation {
+    /// The same D with `levels` replaced.
+    pub fn with_levels(self, levels: u32) -> Self {
+        Discretisation { levels, ..self }
+    }
+    /// The same D with `margin` replaced.
+    pub fn with_margin(self, margin: usize) -> Self {
+        Discretisation { margin, ..self }
+    }
+    /// Fine spacing (λ along x).
+    pub fn spacing(&self) -> f64 {
+        self.lattice.cell().0 / ((1usize << (self.base_log2 + self.levels)) as f64)
+    }
+}
+
+/// How [`find_closing_load`] searches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Search {
+    /// Secant on g^(1/ζ0), aimed below, safeguarded by the bracket (module docs).
+    #[default]
+    Secant,
+    /// Plain bisection of the bracket.
+    Bisection,
+}
+
+/// Options of the refined solves and searches.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefinedOptions {
+    /// Constraint violation bound of the composite solve (h0).
+    pub tol_gap: f64,
+    /// Iteration cap per solve attempt (a warm solve near p_c needs 3–250; one that stagnates
+    /// at the solver's floor would otherwise run for the stagnation window of 3000).
+    pub max_iter: usize,
+    /// Relative width of the final p_c bracket (hi/lo − 1).
+    pub rel_tol: f64,
+    /// Exponent that linearises g_s near p_c in the secant search.
+    pub zeta0: f64,
+    /// Fraction of the predicted remaining distance the secant aims below its zero.
+    pub aim_below: f64,
+    /// Search method.
+    pub search: Search,
+    /// Shortest run of open or contact nodes on the window's edge (base cells) for a rung not
+    /// to be flagged.
+    pub min_edge_cells: f64,
+}
+
+impl Default for RefinedOptions {
+    fn default() -> Self {
+        RefinedOptions {
+            tol_gap: 1e-13,
+            max_iter: 2_000,
+            rel_tol: 1e-11,
+            zeta0: 1.0,
+            aim_below: 0.02,
+            search: Search::Secant,
+            min_edge_cells: 2.0,
+        }
+    }
+}
+
+impl RefinedOptions {
+    fn validate(&self) -> Result<(), CriticalError> {
+        let checks: [(&'static str, f64, bool, &'static str); 5] = [
+            (
+                "tol_gap",
+                self.tol_gap,
+                self.tol_gap > 0.0 && self.tol_gap <= contact::TOL_GAP_MAX,
+                "0 < tol_gap ≤ 1e-3 (h0)",
+            ),
+            (
+                "rel_tol",
+                self.rel_tol,
+                self.rel_tol >= 1e-15 && self.rel_tol < 0.1,
+                "1e-15 ≤ rel_tol < 0.1",
+            ),
+            (
+                "zeta0",
+                self.zeta0,
+                self.zeta0 > 0.2 && self.zeta0 < 5.0,
+                "0.2 < zeta0 < 5",
+            ),
+            (
+                "aim_below",
+                self.aim_below,
+                self.aim_below >= 0.0 && self.aim_below < 0.9,
+                "0 ≤ aim_below < 0.9",
+            ),
+            (
+                "min_edge_cells",
+                self.min_edge_cells,
+                self.min_edge_cells >= 0.0 && self.min_edge_cells.is_finite(),
+                "finite and ≥ 0 (base cells)",
+            ),
+        ];
+        for (name, v, ok, allowed) in checks {
+            if !ok || v.is_nan() {
+                return Err(CriticalError::param(name, v, allowed));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The closing load found by [`find_closing_load`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClosingLoad {
+    /// Largest load probed with the saddle open.
+    pub lo: f64,
+    /// Smallest load probed with the saddle closed.
+    pub hi: f64,
+    /// Probes (solves).
+    pub probes: usize,
+}
+
+impl ClosingLoad {
+    /// The estimate: the bracket's midpoint.
+    pub fn p_c(&self) -> f64 {
+        0.5 * (self.lo + self.hi)
+    }
+}
+
+/// The load at which a saddle gap g(p) (> 0 open, ≤ 0 closed, decreasing in p) closes, to
+/// `opts.rel_tol`, from a guess and a relative width (module docs, "The p_c search"). `probe`
+/// returns the saddle gap at a load. Errors if no open load is found above 1e-3 `guess` or no
+/// closed one below 2 `guess`, or after 200 probes.
+pub fn find_closing_load(
+    probe: &mut dyn FnMut(f64) -> Result<f64, CriticalError>,
+    guess: f64,
+    width: f64,
+    opts: &RefinedOptions,
+) -> Result<ClosingLoad, CriticalError> {
+    opts.validate()?;
+    if !(guess.is_finite() && guess > 0.0) {
+        return Err(CriticalError::param("guess", guess, "finite and > 0"));
+    }
+    if !(width.is_finite() && width > 0.0 && width < 0.5) {
+        return Err(CriticalError::param("width", width, "0 < width < 0.5"));
+    }
+    let mut probes = 0usize;
+    let mut open: Vec<(f64, f64)> = Vec::new(); // (p, g), ascending p
+    let mut hi: Option<f64> = None;
+    let mut run = |p: f64, open: &mut Vec<(f64, f64)>, hi: &mut Option<f64>| {
+        probes += 1;
+        let g = probe(p)?;
+        if g > 0.0 {
+            open.push((p, g));
+            open.sort_by(|a, b| a.0.total_cmp(&b.0));
+        } else {
+            *hi = Some(hi.map_or(p, |h: f64| h.min(p)));
+        }
+        Ok::<(), CriticalError>(())
+    };
+    // an open load below the guess (halving the load while the saddle is closed)
+    let w = width;
+    let mut p = guess * (1.0 - w);
+    loop {
+        run(p, &mut open, &mut hi)?;
+        if !open.is_empty() {
+            break;
+        }
+        if p < 1e-3 * guess {
+            return Err(CriticalError::param(
+                "guess",
+                guess,
+                "a load with the saddle open above 1e-3 of it",
+            ));
+        }
+        p *= 0.5;
+    }
+    // consecutive probes that did not halve a known bracket: two force a bisection
+    let mut slow = 0;
+    for _ in 0..200 {
+        let lo = open.last().expect("one open").0;
+        let width_before = hi.map(|h| h - lo);
+        if let Some(h) = hi
+            && h / lo - 1.0 <= opts.rel_tol
+        {
+            return Ok(ClosingLoad { lo, hi: h, probes });
+        }
+        let bisect = |hi: Option<f64>| match hi {
+            Some(h) => 0.5 * (lo + h),
+            None => lo * (1.0 + w),
+        };
+        let q = match (opts.search, open.len()) {
+            (Search::Bisection, _) => {
+                if hi.is_none() && lo * (1.0 + w) > 2.0 * guess {
+                    return Err(CriticalError::param(
+                        "guess",
+                        guess,
+                        "a load with the saddle closed within a factor 2 above it",
+                    ));
+                }
+                bisect(hi)
+            }
+            (Search::Secant, 1) => match hi {
+                Some(h) => 0.5 * (lo + h),
+                None => lo * (1.0 + 0.5 * w),
+            },
+            (Search::Secant, _) if slow >= 2 => {
+                slow = 0;
+                bisect(hi)
+            }
+            (Search::Secant, n) => {
+                let (p2, g2) = open[n - 1];
+                // the open probes nearest p_c, each at least 4 rel_tol below the next: probes
+                // closer than that differ by the solver's noise in g, not by the law
+                let mut spaced = vec![open[n - 1]];
+                for &o in open[..n - 1].iter().rev() {
+                    if spaced.len() < 3
+                        && spaced[spaced.len() - 1].0 - o.0 >= 4.0 * opts.rel_tol * p2
+                    {
+                        spaced.push(o);
+                    }
+                }
+                // the exponent: ζ0 from two open probes, fitted to three (module docs)
+                let a = match spaced.len() {
+                    3 => fit_exponent(spaced[2], spaced[1], spaced[0]),
+                    _ => opts.zeta0,
+                };
+                let est = match spaced.len() {
+                    1 => f64::NAN,
+                    _ => secant_zero(spaced[1], spaced[0], a),
+                };
+                let d = est - p2;
+                let inside = g2 > 0.0 && d > 0.0 && hi.is_none_or(|h| est < h);
+                if !inside {
+                    bisect(hi)
+                } else if d <= 0.5 * opts.rel_tol * lo {
+                    // close the bracket just above the estimate
+                    let q = lo * (1.0 + 0.9 * opts.rel_tol);
+                    match hi {
+                        Some(h) if q >= h => 0.5 * (lo + h),
+                        _ => q,
+                    }
+                } else {
+                    // aim below the zero, but never closer to lo than the closing step
+                    let q = est - opts.aim_below * d;
+                    q.max(lo * (1.0 + 0.5 * opts.rel_tol))
+                }
+            }
+        };
+        if !q.is_finite() || q > 2.0 * guess {
+            return Err(CriticalError::param(
+                "guess",
+                guess,
+                "a load with the saddle closed within a factor 2 above it",
+            ));
+        }
+        run(q, &mut open, &mut hi)?;
+        if let (Some(before), Some(h)) = (width_before, hi) {
+            let after = h - open.last().expect("one open").0;
+            slow = if after > 0.5 * before { slow + 1 } else { 0 };
+        }
+    }
+    Err(CriticalError::Solver {
+        load: open.last().map_or(guess, |o| o.0),
+        detail: format!(
+            "closing-load search: no bracket of relative width {:e} after 200 probes",
+            opts.rel_tol
+        ),
+    })
+}
+
+/// The closing load of the saddle `frame` on the periodic base grid alone (the uniform solve of
+/// `surface`), to `opts.rel_tol`: a cheap guess for p_c(D), and, on a fine surface, the uniform
+/// reference. Warm-started from the last solve.
+pub fn periodic_closing_load(
+    surface: &Surface,
+    frame: &SaddleFrame,
+    guess: Option<(f64, f64)>,
+    opts: &RefinedOptions,
+) -> Result<ClosingLoad, CriticalError> {
+    let mut model = contact::Model::new(surface).map_err(|e| CriticalError::Solver {
+        load: f64::NAN,
+        detail: e.to_string(),
+    })?;
+    let sopts = SolverOptions {
+        tol_gap: opts.tol_gap,
+        max_iter: opts.max_iter,
+        ..Default::default()
+    };
+    let mut warm: Option<contact::Solution> = None;
+    let (g, w) = guess.unwrap_or((0.5 * surface.p_fc_grid(), 0.45));
+    find_closing_load(
+        &mut |p| {
+            let sol = model
+                .solve(contact::Interaction::HardWall, p, &sopts, warm.as_ref())
+                .map_err(|e| CriticalError::Solver {
+                    load: p,
+                    detail: e.to_string(),
+                })?;
+            if !sol.stats.converged {
+                return Err(CriticalError::Solver {
+                    load: p,
+                    detail: format!("not converged: {:?}", sol.stats.reason),
+                });
+            }
+            let gap = sol.gap[[frame.node.0, frame.node.1]];
+            warm = Some(sol);
+            Ok(gap)
+        },
+        g,
+        w,
+        opts,
+    )
+}
+
+/// Zero of the line through two open probes (p, g) in y = g^(1/a) (NaN if y does not fall).
+fn secant_zero((p1, g1): (f64, f64), (p2, g2): (f64, f64), a: f64) -> f64 {
+    let (y1, y2) = (g1.powf(1.0 / a), g2.powf(1.0 / a));
+    if y1 > y2 {
+        p2 + y2 * (p2 - p1) / (y1 - y2)
+    } else {
+        f64::NAN
+    }
+}
+
+/// The exponent a ∈ [1, 3] for which three open probes (ascending p) are collinear in g^(1/a),
+/// i.e. g = A (p_c − p)^a through all three: the two secant zeros agree. Their difference grows
+/// with a (below the true exponent both secants undershoot, the farther pair more), so it is
+/// bisected; clamped to [1, 3] (g is affine in p once the contact set is frozen: a = 1).
+fn fit_exponent(a0: (f64, f64), a1: (f64, f64), a2: (f64, f64)) -> f64 {
+    let diff = |a: f64| secant_zero(a0, a1, a) - secant_zero(a1, a2, a);
+    let (mut lo, mut hi) = (1.0, 3.0);
+    match (diff(lo), diff(hi)) {
+        (d, _) if !d.is_finite() || d >= 0.0 => return lo,
+        (_, d) if !d.is_finite() || d <= 0.0 => return hi,
+        _ => {}
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if diff(mid) < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Why a rung must not be used silently.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RungFlag {
+    /// The window is too small for the neck (module docs); the edge's runs.
+    Window(EdgeRuns),
+    /// The solve did not converge.
+    NotConverged,
+    /// The saddle node is closed at this load (l too close to p_c(D) for the solver floor).
+    Closed,
+}
+
+impl std::fmt::Display for RungFlag {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RungFlag::Window(e) => write!(
+                f,
+                "window too small: {} crossings, narrowest open {:?}, contact {:?} base cells",
+                e.crossings, e.narrowest_open, e.narrowest_contact
+            ),
+            RungFlag::NotConverged => write!(f, "solve not converged"),
+            RungFlag::Closed => write!(f, "saddle closed"),
+        }
+    }
+}
+
+/// One rung of the refined ladder.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefinedRung {
+    /// Reduced load p/p_c(D) − 1.
+    pub l: f64,
+    /// Load (E* h0/λ).
+    pub load: f64,
+    /// Gap at the saddle node (h0).
+    pub saddle_gap: f64,
+    /// Contact area fraction.
+    pub contact_area: f64,
+    /// Polonsky–Keer iterations (all attempts).
+    pub iterations: usize,
+    /// Wall time (s).
+    pub wall_s: f64,
+    /// Contact lines on the window's edge.
+    pub edge: EdgeRuns,
+    /// Fine nodes of the window in contact.
+    pub window_contact: usize,
+    /// Open fine nodes on the line through the saddle across the channel (contiguous with the
+    /// saddle node; 0 if it is closed): the neck's width in fine cells, i.e. its resolution.
+    pub neck_nodes: usize,
+    /// Hash of the window's contact set (equal sets, equal hashes).
+    pub contact_hash: u64,
+    /// Why the rung must not be used silently, if so.
+    pub flag: Option<RungFlag>,
+}
+
+/// The default reduced loads below p_c: −{5e-2, 2e-2, 1e-2, …, 2e-5, 1e-5}.
+pub fn default_ls() -> Vec<f64> {
+    let mut v = Vec::new();
+    for d in [1e-2, 1e-3, 1e-4, 1e-5] {
+        v.extend([-5.0 * d, -2.0 * d, -d]);
+    }
+    v
+}
+
+/// A callback on every solve: (load, iterations, converged, max violation, wall s).
+pub type SolveHook = Box<dyn FnMut(f64, usize, bool, f64, f64)>;
+
+/// A refined discretisation ready to solve, warm-starting each solve from the last.
+pub struct Refinement {
+    /// The discretisation.
+    pub disc: Discretisation,
+    /// The base surface.
+    pub surface: Surface,
+    /// The refined saddle.
+    pub frame: SaddleFrame,
+    /// Options.
+    pub opts: RefinedOptions,
+    model: RefinedModel,
+    warm: Option<Refined>,
+    /// Solves so far.
+    pub solves: usize,
+    /// Polonsky–Keer iterations so far.
+    pub iterations: usize,
+    /// Called after every solve with (load, iterations, converged, max violation, wall s).
+    pub on_solve: Option<SolveHook>,
+}
+
+impl Refinement {
+    /// Builds D (module docs). Errors name the bad parameter (levels, window, margin).
+    pub fn new(disc: Discretisation, opts: &RefinedOptions) -> Result<Self, CriticalError> {
+        opts.validate()?;
+        let surface = Surface::new(disc.lattice, disc.base_log2)
+            .map_err(|e| CriticalError::Surface(e.to_string()))?;
+        let frame = axis_saddle(&surface)?;
+        let ropts = RefineOptions {
+            levels: disc.levels,
+            window: Window::centred(&surface.grid, frame.x, frame.y, disc.window, disc.window),
+            solver: SolverOptions {
+                tol_gap: opts.tol_gap,
+                max_iter: opts.max_iter,
+                ..Default::default()
+            },
+        };
+        let model = RefinedModel::blockwise(&surface, &ropts, disc.margin).map_err(|e| {
+            CriticalError::Solver {
+                load: f64::NAN,
+                detail: format!("refined model {disc:?}: {e}"),
+            }
+        })?;
+        Ok(Refinement {
+            disc,
+            surface,
+            frame,
+            opts: opts.clone(),
+            model,
+            warm: None,
+            solves: 0,
+            iterations: 0,
+            on_solve: None,
+        })
+    }
+
+    /// Full-contact pressure of the base surface (E* h0/λ).
+    pub fn p_fc(&self) -> f64 {
+        self.surface.p_fc_grid()
+    }
+
+    /// Solves at `load` from the last solution; if that does not converge, again from the
+    /// unconverged result and then cold. Returns the solution and the iterations of all
+    /// attempts (the solution's `stats` say whether the last attempt converged).
+    pub fn solve(&mut self, load: f64) -> Result<(Refined, usize), CriticalError> {
+        let mut iterations = 0;
+        let mut last: Option<Refined> = None;
+        for attempt in 0..3 {
+            let start = match attempt {
+                0 => self.warm.take(),
+                1 => last.take(),
+                _ => None,
+            };
+            if attempt < 2 && start.is_none() {
+                continue;
+            }
+            let t = Instant::now();
+            let r = self
+                .model
+                .solve(load, start.as_ref())
+                .map_err(|e| CriticalError::Solver {
+                    load,
+                    detail: e.to_string(),
+                })?;
+            if let Some(f) = self.on_solve.as_mut() {
+                f(
+                    load,
+                    r.stats.iterations,
+                    r.stats.converged,
+                    r.stats.max_violation,
+                    t.elapsed().as_secs_f64(),
+                );
+            }
+            self.solves += 1;
+            iterations += r.stats.iterations;
+            let done = r.stats.converged;
+            last = Some(r);
+            if done {
+                break;
+            }
+        }
+        let r = last.expect("one attempt");
+        self.iterations += iterations;
+        self.warm = Some(r.clone());
+        Ok((r, iterations))
+    }
+
+    /// Gap at the refined saddle node of a solution (h0).
+    pub fn saddle_gap(&self, r: &Refined) -> f64 {
+        let f = 1usize << self.disc.levels;
+        let (i, j) = self.frame.node;
+        r.fine_gap(f * i, f * j)
+            .expect("the window is centred on the saddle")
+    }
+
+    /// Open fine nodes across the channel through the saddle ([`RefinedRung::neck_nodes`]).
+    pub fn neck_nodes(&self, r: &Refined) -> usize {
+        let f = 1usize << self.disc.levels;
+        let (fnx, fny) = r.lattice;
+        let (i, j) = self.frame.node;
+        let a = (f * i + fnx - r.origin.0) % fnx;
+        let b = (f * j + fny - r.origin.1) % fny;
+        let (rx, ry) = r.window_gap.dim();
+        let open = |a: usize, b: usize| r.window_gap[[a, b]] > 0.0;
+        if a >= rx || b >= ry || !open(a, b) {
+            return 0;
+        }
+        // across the channel: along y if the channel runs along x, else along x
+        let (len, at): (usize, Box<dyn Fn(usize) -> bool>) = if self.frame.channel_axis == 0 {
+            (ry, Box::new(move |t| open(a, t)))
+        } else {
+            (rx, Box::new(move |t| open(t, b)))
+        };
+        let c = if self.frame.channel_axis == 0 { b } else { a };
+        let up = (c + 1..len).take_while(|&t| at(t)).count();
+        let down = (0..c).rev().take_while(|&t| at(t)).count();
+        1 + up + down
+    }
+
+    /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 1e-4;
+    /// without a guess, 0.5 p_fc and 0.45). Errors if a solve does not converge.
+    pub fn critical_load(
+        &mut self,
+        guess: Option<f64>,
+        width: f64,
+    ) -> Result<ClosingLoad, CriticalError> {
+        let opts = self.opts.clone();
+        let (g, w) = match guess {
+            Some(g) => (g, width),
+            None => (0.5 * self.p_fc(), 0.45),
+        };
+        if self.warm.is_none() {
+            // a cold start right at p_c can stagnate (k = 4): start 1 % below it
+            self.solve(g * (1.0 - w.max(1e-2)))?;
+        }
+        find_closing_load(
+            &mut |p| {
+                let (r, _) = self.solve(p)?;
+                if !r.stats.converged {
+                    return Err(CriticalError::Solver {
+                        load: p,
+                        detail: format!(
+                            "not converged (warm, continued and cold): {:?}, violation {:.3e} > tol_gap {:.1e}",
+                            r.stats.reason, r.stats.max_violation, self.opts.tol_gap
+                        ),
+                    });
+                }
+                Ok(self.saddle_gap(&r))
+            },
+            g,
+            w,
+            &opts,
+        )
+    }
+
+    /// The ladder at loads p_c (1 + l) for every l of `ls` (< 0, any order, solved ascending),
+    /// each rung checked and flagged (module docs); `on_rung` sees each rung with its solution.
+    pub fn ladder(
+        &mut self,
+        p_c: f64,
+        ls: &[f64],
+        on_rung: &mut dyn FnMut(&RefinedRung, &Refined),
+    ) -> Result<Vec<RefinedRung>, CriticalError> {
+        if !(p_c.is_finite() && p_c > 0.0) {
+            return Err(CriticalError::param("p_c", p_c, "finite and > 0 (E* h0/λ)"));
+        }
+        if let Some(&l) = ls
+            .iter()
+            .find(|l| !(l.is_finite() && **l < 0.0 && **l > -1.0))
+        {
+            return Err(CriticalError::param("ls", l, "reduced loads in (−1, 0)"));
+        }
+        let mut ls = ls.to_vec();
+        ls.sort_by(f64::total_cmp);
+        let mut rungs = Vec::with_capacity(ls.len());
+        for l in ls {
+            let t = Instant::now();
+            let load = p_c * (1.0 + l);
+            let (r, iterations) = self.solve(load)?;
+            let g = self.saddle_gap(&r);
+            let edge = r.edge;
+            let flag = if !r.stats.converged {
+                Some(RungFlag::NotConverged)
+            } else if g <= 0.0 {
+                Some(RungFlag::Closed)
+            } else if edge.crossings < 4 || edge.too_small(self.opts.min_edge_cells) {
+                Some(RungFlag::Window(edge))
+            } else {
+                None
+            };
+            // FNV-1a over the contact mask of the window
+            let mut contact_hash = 0xcbf29ce484222325u64;
+            let mut window_contact = 0;
+            for &p in r.window_pressure.iter() {
+                let c = p > 0.0;
+                window_contact += usize::from(c);
+                contact_hash = (contact_hash ^ u64::from(c)).wrapping_mul(0x100000001b3);
+            }
+            let neck_nodes = self.neck_nodes(&r);
+            let rung = RefinedRung {
+                l,
+                load,
+                saddle_gap: g,
+                contact_area: r.contact_area,
+                iterations,
+                wall_s: t.elapsed().as_secs_f64(),
+                edge,
+                window_contact,
+                neck_nodes,
+                contact_hash,
+                flag,
+            };
+            on_rung(&rung, &r);
+            rungs.push(rung);
+        }
+        Ok(rungs)
+    }
+}
+
+/// Why a running exponent must not be used silently.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PairFlag {
+    /// A rung of the pair is flagged.
+    Rung(f64, RungFlag),
+    /// The grid error exceeds the bound.
+    GridError {
+        /// The larger of the two changes.
+        error: f64,
+        /// The bound.
+        bound: f64,
+    },
+    /// A comparison D did not measure this pair (or flagged it): grid error unknown.
+    Unknown,
+    /// The window's contact set is the same at both rungs: on a fixed contact set the hard-wall
+    /// solution is affine in the load, so the slope is that of the discretisation (→ 1), not
+    /// of the neck: the neck is not resolved between these loads.
+    Frozen,
+}
+
+impl std::fmt::Display for PairFlag {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PairFlag::Rung(l, r) => write!(f, "rung l = {l:e}: {r}"),
+            PairFlag::GridError { error, bound } => {
+                write!(f, "grid error {error:.2e} > {bound:.2e}")
+            }
+            PairFlag::Unknown => write!(f, "grid error unknown"),
+            PairFlag::Frozen => write!(f, "window contact set unchanged (neck unresolved)"),
+        }
+    }
+}
+
+/// A running ζ between two neighbouring rungs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunningZeta {
+    /// The rung farther from p_c (signed).
+    pub l_hi: f64,
+    /// The rung nearer p_c (signed).
+    pub l_lo: f64,
+    /// Δ ln g_s / Δ ln |l| on the finest D.
+    pub value: f64,
+    /// |value − value on D with k − 1| (NaN if not measured).
+    pub error_levels: f64,
+    /// |value − value on D with another margin| (NaN if not measured).
+    pub error_margin: f64,
+    /// The grid error: the larger of the two (NaN if either is unknown).
+    pub grid_error: f64,
+    /// 1σ from the solver tolerance on both gaps.
+    pub fit_error: f64,
+    /// Why it must not be used silently, if so.
+    pub flag: Option<PairFlag>,
+}
+
+fn slopes(rungs: &[RefinedRung]) -> Vec<(f64, f64, f64, Option<PairFlag>)> {
+    let mut r: Vec<&RefinedRung> = rungs.iter().collect();
+    r.sort_by(|a, b| b.l.abs().total_cmp(&a.l.abs()));
+    r.windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let v = (a.saddle_gap / b.saddle_gap).ln() / (a.l.abs() / b.l.abs()).ln();
+            let flag = [a, b]
+                .iter()
+                .find_map(|x| x.flag.map(|f| PairFlag::Rung(x.l, f)))
+                .or((a.contact_hash == b.contact_hash).then_some(PairFlag::Frozen));
+            (a.l, b.l, v, flag)
+        })
+        .collect()
+}
+
+/// Running ζ of the finest D's rungs with grid errors from D with k − 1 levels (`coarser`) and
+/// from D with another margin (`margin`) (module docs); flagged above `bound`. `sigma`: 1σ of a
+/// saddle gap (the solver tolerance).
+pub fn running_zeta(
+    fine: &[RefinedRung],
+    coarser: Option<&[RefinedRung]>,
+    margin: Option<&[RefinedRung]>,
+    bound: f64,
+    sigma: f64,
+) -> Vec<RunningZeta> {
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    let other = |set: Option<&[RefinedRung]>, hi: f64, lo: f64| {
+        set.and_then(|s| {
+            slopes(s)
+                .into_iter()
+                .find(|c| same(c.0, hi) && same(c.1, lo))
+                .filter(|c| c.3.is_none() && c.2.is_finite())
+                .map(|c| c.2)
+        })
+    };
+    let gap_of = |l: f64| {
+        fine.iter()
+            .find(|r| r.l == l)
+            .map_or(f64::NAN, |r| r.saddle_gap)
+    };
+    slopes(fine)
+        .into_iter()
+        .map(|(hi, lo, v, flag)| {
+            let el = other(coarser, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
+            let em = other(margin, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
+            let grid_error = if el.is_nan() || em.is_nan() {
+                f64::NAN
+            } else {
+                el.max(em)
+            };
+            let d = (hi.abs() / lo.abs()).ln();
+            let fit_error =
+                ((sigma / gap_of(hi)).powi(2) + (sigma / gap_of(lo)).powi(2)).sqrt() / d;
+            let flag = flag.or(if grid_error.is_nan() {
+                Some(PairFlag::Unknown)
+            } else if grid_error > bound {
+                Some(PairFlag::GridError {
+                    error: grid_error,
+                    bound,
+                })
+            } else {
+                None
+            });
+            RunningZeta {
+                l_hi: hi,
+                l_lo: lo,
+                value: v,
+                error_levels: el,
+                error_margin: em,
+                grid_error,
+                fit_error,
+                flag,
+            }
+        })
+        .collect()
+}
