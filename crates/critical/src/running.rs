@@ -196,7 +196,9 @@ pub struct RunningRecord {
     /// Local slope d ln y / d ln|l| on the finest resolution (for β the flux's: Q ∝ 1/R ∝
     /// |l|^β, so the slope is β itself).
     pub value: f64,
-    /// |value − value on the next coarser resolution| (NaN if unknown).
+    /// |value − value on the next coarser resolution| (NaN if unknown); with a measurement
+    /// across ([`Resolution::across`]) the larger of that and |value − value across| on the
+    /// finest resolution (module docs, "Isotropy").
     pub grid_error: f64,
     /// 1σ propagated from the measurements.
     pub fit_error: f64,

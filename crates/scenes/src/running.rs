@@ -10,10 +10,13 @@
 //!
 //! Output `running_exponents.csv`, one row per model, exponent and neighbouring pair of rungs:
 //! `model`, `exponent`, `l_hi` (the rung farther from L_c, signed), `l_lo` (the nearer one),
-//! `value`, `grid_error` (|value − value on the next coarser level|, NaN if unknown),
+//! `value`, `grid_error` (|value − value on the next coarser level|, NaN if unknown; for β the
+//! larger of that and |value − the same slope of the conductivity across|, the isotropy check
+//! of `critical::running`),
 //! `fit_error` (1σ from the measurements), `resolution` (finest spacing, λ) — the names of
 //! `critical::running::RunningRecord::COLUMNS` — and `flag` (empty, or why the value must not be
-//! used silently: grid error above 0.005, or unknown).
+//! used silently: grid error above 0.005, or unknown; β: along and across differ by more than
+//! 0.005, or the flow across was not measured).
 //!
 //! Output figure `running_exponents` (PNG, SVG; `figures::scenes::running`): one panel per
 //! exponent, the local slope against the pair's geometric-mean |l| (log axis), the three models,
