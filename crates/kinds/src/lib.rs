@@ -38,6 +38,7 @@ pub mod ladder;
 pub mod leakage;
 pub mod mock;
 pub mod record_table;
+pub mod refined_ladder;
 pub mod resolution;
 pub mod selfaffine;
 pub mod solver;
@@ -59,6 +60,7 @@ pub fn register(r: &mut Registry) {
     r.register(Typed(constriction::ConstrictionKind));
     r.register(Typed(resolution::ResolutionKind));
     r.register(Typed(ladder::LadderKind));
+    r.register(Typed(refined_ladder::RefinedLadderKind));
     r.register(Typed(exponents::ExponentsKind));
     r.register(Typed(extremes::ExtremesKind));
     r.register(Typed(mock::MockKind));

@@ -19,6 +19,7 @@ pub mod fig6;
 pub mod flowtable;
 pub mod jumptable;
 pub mod random_constrictions;
+pub mod refined;
 pub mod running;
 pub mod scene;
 pub mod surface_ensemble;
@@ -37,6 +38,7 @@ pub const SCENES: &[&dyn scene::Scene] = &[
     &convergence::Convergence,
     &fig5::Fig5,
     &running::Running,
+    &refined::Refined,
     &fig6::Fig6,
     &surface_leakage::SurfaceLeakage,
     &surface_ensemble::SurfaceEnsemble,

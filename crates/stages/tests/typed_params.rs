@@ -170,6 +170,7 @@ fn tol_gap_is_declared_once() {
             "flowmap",
             "ladder",
             "leakage",
+            "refined_ladder",
             "sweep"
         ],
         "kinds with tol_gap"

@@ -1,0 +1,452 @@
+//! `refined_ladder`: the saddle gap of one model at reduced loads down to |l| = 1e-5 on locally
+//! refined discretisations (`critical::refined`: a window of `window` base cells around the axis
+//! saddle refined 2^k times, the rest of the periodic cell on the base grid), and its running
+//! exponent ζ_eff with grid errors. This is where the near-critical ladder goes below the
+//! uniform grids' reach (README "Near-critical exponents").
+//!
+//! # What is computed
+//! For every k of `levels` (ascending) a discretisation D(k) = (model, base 2^`base`, k,
+//! `window`, `margin`): its own p_c(D) (the load at which D's saddle node closes; a safeguarded
+//! secant to 1e-11 relative, the first from the periodic base grid's closing load, each next
+//! from the previous D's), then the ladder at p_c(D)(1 + l) for every l of `ls` (< 0),
+//! warm-started. With `margin_check` > 0 the finest D once more with that margin (the
+//! far-field interpolation error, which at |l| ~ 1e-5 is the largest one). The running ζ
+//! (`critical::refined::running_zeta`): ζ_eff between neighbouring rungs of the finest D, its
+//! grid error the larger of the change from the next coarser D and from the margin check,
+//! flagged above 0.005, when unknown, when a rung's window is too small or its solve did not
+//! converge, or when the window's contact set did not change between the two rungs.
+//!
+//! # Parameters
+//! `lattice`, `base` (base grid exponent), `levels` (ascending k, 1..=6; two or more give the
+//! level error), `window` (base cells), `margin` (base cells of exact near field around the
+//! window), `margin_check` (0: none), `ls` (reduced loads < 0), `tol_gap` (h0; the composite
+//! solve stagnates near p_c below ~1e-13 at k = 3, 1e-12 at k = 4, 5e-12 at k = 5), `max_iter`.
+//!
+//! # Artefact
+//! Root attributes `lattice`, `base`, `window`, `spacing` (finest fine spacing, λ), `p_fc`
+//! (the base grid's p_fc); per discretisation `d/<i>` (coarse to fine, then the margin check)
+//! attributes `levels`, `margin`, `p_c`, `p_c_lo`, `p_c_hi`, `probes`, `spacing`, `wall_s`,
+//! `iterations` and datasets ([`RefinedRungRow`]) `l`, `load`, `saddle_gap`, `contact_area`,
+//! `iterations`, `wall_s`, `neck_nodes`, `flagged` plus `flag` (strings, empty if none); the
+//! running exponents `running/*` ([`RefinedPairRow`]: `l_hi`, `l_lo`, `value`, `error_levels`,
+//! `error_margin`, `grid_error`, `fit_error`) and `running/flag`.
+
+use crate::surface::lattice_spec;
+use anyhow::{Result, anyhow};
+use critical::refined::{
+    ClosingLoad, Discretisation, RefinedOptions, RefinedRung, Refinement, periodic_closing_load,
+    running_zeta,
+};
+use formats::records::{Record, read_in};
+use orchestrator::{
+    InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, StageContext, StageReport, TypedKind,
+};
+use serde::Deserialize;
+use serde_json::json;
+use store::{ArtefactReader, ArtefactWriter};
+use surface::Lattice;
+
+/// The `refined_ladder` stage kind.
+pub struct RefinedLadderKind;
+
+/// Bump when the artefact's content changes for the same parameters.
+pub const CODE_VERSION: u64 = 1;
+
+/// The running exponents' grid-error bound (as the uniform ladders', issue 13).
+pub const GRID_BOUND: f64 = 0.005;
+
+/// The `refined_ladder` kind's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RefinedLadderParams {
+    /// Which model.
+    #[serde(deserialize_with = "crate::solver::from_str")]
+    pub lattice: Lattice,
+    /// Base grid exponent.
+    pub base: u32,
+    /// Refinement levels k, strictly ascending.
+    pub levels: Vec<u32>,
+    /// Window side (base cells).
+    pub window: u32,
+    /// Exact near field around the window (base cells).
+    pub margin: u32,
+    /// A second margin for the finest level (0: none).
+    pub margin_check: u32,
+    /// Reduced loads, all < 0.
+    pub ls: Vec<f64>,
+    /// Composite Polonsky–Keer tolerance (h0).
+    pub tol_gap: f64,
+    /// Iteration cap per solve attempt.
+    pub max_iter: u32,
+}
+
+impl TypedKind for RefinedLadderKind {
+    type Params = RefinedLadderParams;
+    /// Lower bound: the base grid's fields and, on the finest level, one real field on the
+    /// box of the blockwise operator ((window + 2 margin + 2) 2^k fine nodes per side; its
+    /// transforms work on twice that).
+    fn memory_estimate(
+        &self,
+        params: &orchestrator::Params,
+        _inputs: &std::collections::BTreeMap<String, Vec<orchestrator::Params>>,
+    ) -> Option<u64> {
+        let base = params.i64("base").ok()?;
+        let k = params
+            .get("levels")
+            .ok()?
+            .as_array()?
+            .iter()
+            .filter_map(|v| v.as_i64())
+            .max()?;
+        let margin = params
+            .i64("margin")
+            .ok()?
+            .max(params.i64("margin_check").unwrap_or(0));
+        let side = ((params.i64("window").ok()? + 2 * margin + 2) as u64) << k.clamp(0, 6);
+        Some(4 * crate::surface::field_bytes(base) + 8 * side * side)
+    }
+    fn name(&self) -> &str {
+        "refined_ladder"
+    }
+    fn code_version(&self) -> u64 {
+        CODE_VERSION
+    }
+    fn doc(&self) -> &str {
+        "the saddle gap at reduced loads down to 1e-5 on locally refined discretisations (one window around the axis saddle refined 2^k times), each from its own p_c, and the running ζ with level and margin errors"
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        vec![
+            lattice_spec(),
+            ParamSpec::new("base", ParamType::int_range(4, 11))
+                .doc("base grid exponent: 2^base × 2^base periodic nodes"),
+            ParamSpec::new(
+                "levels",
+                ParamType::Array {
+                    elem: Box::new(ParamType::int_range(1, 6)),
+                    min_len: 1,
+                    max_len: Some(6),
+                },
+            )
+            .doc("refinement levels k (fine spacing = base spacing / 2^k), strictly ascending; the finest gives the values, the next its level error"),
+            ParamSpec::new("window", ParamType::int_range(2, 512))
+                .default(16)
+                .doc("side of the refined window around the axis saddle (base cells)"),
+            ParamSpec::new("margin", ParamType::int_range(5, 64))
+                .default(12)
+                .doc("near field computed exactly around the window (base cells; at least ORDER/2 + 1 = 5, and window + 2 margin + 2 ≤ 2^base); the far field beyond is interpolated"),
+            ParamSpec::new("margin_check", ParamType::int_range(0, 64))
+                .default(0)
+                .doc("a second margin for the finest level, whose change is part of the grid error (0: none)"),
+            ParamSpec::new(
+                "ls",
+                ParamType::Array {
+                    elem: Box::new(ParamType::float_range(-0.5, -1e-12)),
+                    min_len: 2,
+                    max_len: Some(64),
+                },
+            )
+            .default(json!(critical::refined::default_ls()))
+            .doc("reduced loads (L − L_c)/L_c < 0, distinct"),
+            crate::solver::tol_gap_spec(),
+            ParamSpec::new("max_iter", ParamType::int_range(10, 1_000_000))
+                .default(2000)
+                .doc("iteration cap per solve attempt"),
+        ]
+    }
+    fn check(&self, params: &RefinedLadderParams) -> Result<(), ParamIssue> {
+        if params.levels.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(ParamIssue::new(
+                "levels",
+                format!(
+                    "{:?}: allowed a strictly ascending list of refinement levels",
+                    params.levels
+                ),
+            ));
+        }
+        if params.margin_check != 0 && params.margin_check < 5 {
+            return Err(ParamIssue::new(
+                "margin_check",
+                format!(
+                    "{}: allowed 0 (none) or 5 ..= 64 (the far-field interpolation needs ORDER/2 + 1 cells)",
+                    params.margin_check
+                ),
+            ));
+        }
+        if params.margin_check == params.margin {
+            return Err(ParamIssue::new(
+                "margin_check",
+                format!(
+                    "{}: equal to `margin`; allowed 0 (none) or another margin",
+                    params.margin_check
+                ),
+            ));
+        }
+        let mut ls = params.ls.clone();
+        ls.sort_by(f64::total_cmp);
+        if ls.windows(2).any(|w| w[1] == w[0]) {
+            return Err(ParamIssue::new(
+                "ls",
+                format!("{ls:?}: allowed distinct reduced loads"),
+            ));
+        }
+        Ok(())
+    }
+    fn inputs(&self, _params: &RefinedLadderParams) -> Vec<InputSpec> {
+        Vec::new()
+    }
+    fn cost(&self, params: &RefinedLadderParams) -> f64 {
+        // a k = 3 ladder on a 256² base is ~2 min: weight by the box of the blockwise operator
+        let k = params.levels.iter().copied().max().unwrap_or(1) as i32;
+        let n = params.levels.len() as f64 + f64::from(u8::from(params.margin_check > 0));
+        n * 4f64.powi(k - 3) * 4f64.powi(params.base as i32 - 8).max(1.0) * 100.0
+    }
+    fn run(
+        &self,
+        ctx: &mut StageContext,
+        params: &RefinedLadderParams,
+        _inputs: &Inputs,
+        out: &mut ArtefactWriter,
+    ) -> Result<StageReport> {
+        let opts = RefinedOptions {
+            tol_gap: params.tol_gap,
+            max_iter: params.max_iter as usize,
+            ..Default::default()
+        };
+        let d = Discretisation {
+            lattice: params.lattice,
+            base_log2: params.base,
+            levels: params.levels[0],
+            window: params.window as usize,
+            margin: params.margin as usize,
+        };
+        // the first guess: the periodic base grid's closing load of the same saddle
+        let r0 = Refinement::new(d, &opts)?;
+        let p_fc = r0.p_fc();
+        let base = periodic_closing_load(
+            &r0.surface,
+            &r0.frame,
+            None,
+            &RefinedOptions {
+                rel_tol: 1e-7,
+                ..opts.clone()
+            },
+        )?;
+        drop(r0);
+        let mut plan: Vec<Discretisation> =
+            params.levels.iter().map(|&k| d.with_levels(k)).collect();
+        let finest = *plan.last().expect("levels has one entry at least");
+        if params.margin_check > 0 {
+            plan.push(finest.with_margin(params.margin_check as usize));
+        }
+        let (mut guess, mut width) = (base.p_c(), 2e-4);
+        let mut runs = Vec::new();
+        for (i, &disc) in plan.iter().enumerate() {
+            ctx.progress(
+                i as f64 / plan.len() as f64,
+                &format!("k = {}, margin {}: p_c", disc.levels, disc.margin),
+            );
+            let t = std::time::Instant::now();
+            let mut r = Refinement::new(disc, &opts)?;
+            let c = r.critical_load(Some(guess), width)?;
+            let rungs = r.ladder(c.p_c(), &params.ls, &mut |_, _| {})?;
+            let wall = t.elapsed().as_secs_f64();
+            write_discretisation(out, &format!("d/{i}"), disc, &c, &rungs, wall, r.iterations)?;
+            // the next discretisation's p_c lies within ~1e-6 of this one's (critical::refined)
+            (guess, width) = (c.p_c(), 2e-5);
+            runs.push((disc, c, rungs));
+        }
+        let fine = &runs[params.levels.len() - 1].2;
+        let coarser = (params.levels.len() > 1).then(|| &runs[params.levels.len() - 2].2[..]);
+        let margin = (params.margin_check > 0).then(|| &runs[runs.len() - 1].2[..]);
+        let pairs = running_zeta(fine, coarser, margin, GRID_BOUND, opts.tol_gap);
+        let rows: Vec<RefinedPairRow> = pairs
+            .iter()
+            .map(|z| RefinedPairRow {
+                l_hi: z.l_hi,
+                l_lo: z.l_lo,
+                value: z.value,
+                error_levels: z.error_levels,
+                error_margin: z.error_margin,
+                grid_error: z.grid_error,
+                fit_error: z.fit_error,
+            })
+            .collect();
+        RefinedPairRow::write(&rows, out, "running")?;
+        let flags: Vec<String> = pairs
+            .iter()
+            .map(|z| z.flag.as_ref().map_or(String::new(), |f| f.to_string()))
+            .collect();
+        out.write_strings("running/flag", &flags)?;
+        let (lx, ly) = params.lattice.cell();
+        out.set_cell(lx, ly)?;
+        out.set_attr("lattice", params.lattice.name())?;
+        out.set_attr("base", params.base as i64)?;
+        out.set_attr("window", params.window as i64)?;
+        out.set_attr("spacing", finest.spacing())?;
+        out.set_attr("p_fc", p_fc)?;
+        let flagged = flags.iter().filter(|f| !f.is_empty()).count();
+        ctx.progress(1.0, "written");
+        Ok(StageReport::with_stats(json!({
+            "p_c_over_p_fc": runs.iter().map(|r| r.1.p_c() / p_fc).collect::<Vec<_>>(),
+            "pairs": pairs.len(),
+            "flagged_pairs": flagged,
+        })))
+    }
+}
+
+/// One discretisation's p_c and rungs (`<at>/*`).
+fn write_discretisation(
+    out: &mut ArtefactWriter,
+    at: &str,
+    d: Discretisation,
+    c: &ClosingLoad,
+    rungs: &[RefinedRung],
+    wall: f64,
+    iterations: usize,
+) -> Result<()> {
+    let rows: Vec<RefinedRungRow> = rungs
+        .iter()
+        .map(|r| RefinedRungRow {
+            l: r.l,
+            load: r.load,
+            saddle_gap: r.saddle_gap,
+            contact_area: r.contact_area,
+            iterations: r.iterations,
+            wall_s: r.wall_s,
+            neck_nodes: r.neck_nodes,
+            flagged: r.flag.is_some(),
+        })
+        .collect();
+    RefinedRungRow::write(&rows, out, at)?;
+    let flags: Vec<String> = rungs
+        .iter()
+        .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string()))
+        .collect();
+    out.write_strings(&format!("{at}/flag"), &flags)?;
+    out.set_attr_at(at, "levels", d.levels as i64)?;
+    out.set_attr_at(at, "margin", d.margin as i64)?;
+    out.set_attr_at(at, "p_c", c.p_c())?;
+    out.set_attr_at(at, "p_c_lo", c.lo)?;
+    out.set_attr_at(at, "p_c_hi", c.hi)?;
+    out.set_attr_at(at, "probes", c.probes as i64)?;
+    out.set_attr_at(at, "spacing", d.spacing())?;
+    out.set_attr_at(at, "wall_s", wall)?;
+    out.set_attr_at(at, "iterations", iterations as i64)?;
+    Ok(())
+}
+
+formats::record! {
+    /// One rung of one refined discretisation (`d/<i>/*`, ascending l).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct RefinedRungRow {
+        /// Reduced load from the discretisation's own p_c.
+        pub l: f64,
+        /// Load (E* h0/λ).
+        pub load: f64,
+        /// Gap at the saddle's fine node (h0).
+        pub saddle_gap: f64,
+        /// Contact area fraction.
+        pub contact_area: f64,
+        /// Solver iterations.
+        pub iterations: usize,
+        /// Wall time (s).
+        pub wall_s: f64,
+        /// Open fine nodes across the channel through the saddle.
+        pub neck_nodes: usize,
+        /// The rung is flagged (`flag` says why).
+        pub flagged: bool,
+    }
+}
+
+formats::record! {
+    /// One running ζ pair of the finest discretisation (`running/*`).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct RefinedPairRow {
+        /// The rung farther from p_c (signed).
+        pub l_hi: f64,
+        /// The rung nearer p_c (signed).
+        pub l_lo: f64,
+        /// ζ_eff.
+        pub value: f64,
+        /// |change from the next coarser level| (NaN if unknown).
+        pub error_levels: f64,
+        /// |change from the margin check| (NaN if unknown).
+        pub error_margin: f64,
+        /// The larger of the two (NaN if either is unknown).
+        pub grid_error: f64,
+        /// From the solver tolerance.
+        pub fit_error: f64,
+    }
+}
+
+/// One discretisation as read back.
+#[derive(Clone, Debug)]
+pub struct RefinedLevel {
+    /// Refinement levels k.
+    pub levels: u32,
+    /// Margin (base cells).
+    pub margin: u32,
+    /// p_c(D) (E* h0/λ).
+    pub p_c: f64,
+    /// Fine spacing (λ).
+    pub spacing: f64,
+    /// The rungs and their flags.
+    pub rungs: Vec<(RefinedRungRow, String)>,
+}
+
+/// A `refined_ladder` artefact as read back.
+#[derive(Clone, Debug)]
+pub struct RefinedData {
+    /// Model.
+    pub lattice: Lattice,
+    /// The base grid's p_fc (E* h0/λ).
+    pub p_fc: f64,
+    /// Window (base cells).
+    pub window: u32,
+    /// The finest fine spacing (λ).
+    pub spacing: f64,
+    /// Discretisations, as computed (coarse to fine, then the margin check).
+    pub levels: Vec<RefinedLevel>,
+    /// Running ζ of the finest discretisation with their flags.
+    pub running: Vec<(RefinedPairRow, String)>,
+}
+
+impl RefinedData {
+    /// Reads a `refined_ladder` artefact.
+    pub fn read(r: &ArtefactReader) -> Result<Self> {
+        let lattice = crate::surface::lattice_from_name(&r.attr_str("lattice")?)?;
+        let mut names = r.members("d")?;
+        names.sort_by_key(|n| n.parse::<usize>().unwrap_or(usize::MAX));
+        let mut levels = Vec::new();
+        for name in names {
+            let at = format!("d/{name}");
+            let rows: Vec<RefinedRungRow> = read_in(r, &at)?;
+            let flags = r.read_strings(&format!("{at}/flag"))?;
+            if flags.len() != rows.len() {
+                return Err(anyhow!(
+                    "{}: {at}: {} flags for {} rungs",
+                    r.path().display(),
+                    flags.len(),
+                    rows.len()
+                ));
+            }
+            levels.push(RefinedLevel {
+                levels: r.attr_i64_at(&at, "levels")? as u32,
+                margin: r.attr_i64_at(&at, "margin")? as u32,
+                p_c: r.attr_f64_at(&at, "p_c")?,
+                spacing: r.attr_f64_at(&at, "spacing")?,
+                rungs: rows.into_iter().zip(flags).collect(),
+            });
+        }
+        let pairs: Vec<RefinedPairRow> = read_in(r, "running")?;
+        let flags = r.read_strings("running/flag")?;
+        Ok(RefinedData {
+            lattice,
+            p_fc: r.attr_f64("p_fc")?,
+            window: r.attr_i64("window")? as u32,
+            spacing: r.attr_f64("spacing")?,
+            levels,
+            running: pairs.into_iter().zip(flags).collect(),
+        })
+    }
+}

@@ -1,0 +1,136 @@
+//! The refined ζ ladder (scene `refined`): the running exponent ζ_eff of the saddle gap below the
+//! uniform grids' reach, from one `refined_ladder` stage per model (`kinds::refined_ladder`,
+//! `critical::refined`).
+//!
+//! Outputs (`results/tables/`):
+//! - `refined_running.csv`: per model and neighbouring pair of rungs of the finest
+//!   discretisation: `model`, `exponent` ("zeta"), `l_hi`, `l_lo` (signed; from that
+//!   discretisation's own p_c), `value`, `grid_error` (the larger of `error_levels`, the change
+//!   from the next coarser level, and `error_margin`, the change from the margin check; NaN if
+//!   either is unknown), `fit_error`, `resolution` (finest fine spacing, λ), `error_levels`,
+//!   `error_margin`, `flag` (empty, or why the value must not be used silently: grid error above
+//!   0.005 or unknown, a rung whose window is too small or whose solve did not converge, a pair
+//!   over which the window's contact set did not change). The first eight columns are those of
+//!   `running_exponents.csv`.
+//! - `refined_rungs.csv`: every rung of every discretisation: `model`, `levels` (k), `margin`,
+//!   `spacing` (λ), `p_c_over_p_fc` (the discretisation's own p_c over the base grid's p_fc),
+//!   `l`, `saddle_gap` (h0), `contact_area`, `neck_nodes` (open fine nodes across the channel
+//!   through the saddle), `iterations`, `flag` (the wall times stay in the stages' artefacts:
+//!   a table is the same on every recomputation).
+
+use crate::scene::{OutputSpec, Outputs, Scene};
+use anyhow::Result;
+use kinds::refined_ladder::RefinedData;
+use orchestrator::{InputSpec, Inputs, Params, StageContext};
+use store::ArtefactWriter;
+use tables::Table;
+
+/// The `refined` scene.
+pub struct Refined;
+
+/// `refined_running.csv` (module docs).
+pub fn running_table(data: &[RefinedData]) -> Table {
+    let pairs = || {
+        data.iter()
+            .flat_map(|d| d.running.iter().map(move |p| (d, p)))
+    };
+    let f = |g: fn(
+        &(
+            &RefinedData,
+            &(kinds::refined_ladder::RefinedPairRow, String),
+        ),
+    ) -> f64| { pairs().map(|p| g(&p)).collect::<Vec<f64>>() };
+    Table::new()
+        .with_str("model", pairs().map(|(d, _)| d.lattice.name()))
+        .with_str("exponent", pairs().map(|_| "zeta"))
+        .with_f64("l_hi", f(|(_, p)| p.0.l_hi))
+        .with_f64("l_lo", f(|(_, p)| p.0.l_lo))
+        .with_f64("value", f(|(_, p)| p.0.value))
+        .with_f64("grid_error", f(|(_, p)| p.0.grid_error))
+        .with_f64("fit_error", f(|(_, p)| p.0.fit_error))
+        .with_f64("resolution", f(|(d, _)| d.spacing))
+        .with_f64("error_levels", f(|(_, p)| p.0.error_levels))
+        .with_f64("error_margin", f(|(_, p)| p.0.error_margin))
+        .with_str("flag", pairs().map(|(_, p)| p.1.clone()))
+}
+
+/// `refined_rungs.csv` (module docs).
+pub fn rungs_table(data: &[RefinedData]) -> Table {
+    let rows: Vec<_> = data
+        .iter()
+        .flat_map(|d| {
+            d.levels
+                .iter()
+                .flat_map(move |lv| lv.rungs.iter().map(move |r| (d, lv, r)))
+        })
+        .collect();
+    let f = |g: &dyn Fn(&(_, _, _)) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
+    Table::new()
+        .with_str("model", rows.iter().map(|(d, _, _)| d.lattice.name()))
+        .with_i64("levels", rows.iter().map(|(_, lv, _)| lv.levels as i64))
+        .with_i64("margin", rows.iter().map(|(_, lv, _)| lv.margin as i64))
+        .with_f64("spacing", f(&|(_, lv, _)| lv.spacing))
+        .with_f64("p_c_over_p_fc", f(&|(d, lv, _)| lv.p_c / d.p_fc))
+        .with_f64("l", f(&|(_, _, r)| r.0.l))
+        .with_f64("saddle_gap", f(&|(_, _, r)| r.0.saddle_gap))
+        .with_f64("contact_area", f(&|(_, _, r)| r.0.contact_area))
+        .with_i64(
+            "neck_nodes",
+            rows.iter().map(|(_, _, r)| r.0.neck_nodes as i64),
+        )
+        .with_i64(
+            "iterations",
+            rows.iter().map(|(_, _, r)| r.0.iterations as i64),
+        )
+        .with_str("flag", rows.iter().map(|(_, _, r)| r.1.clone()))
+}
+
+impl Scene for Refined {
+    fn name(&self) -> &'static str {
+        "refined"
+    }
+    fn doc(&self) -> &'static str {
+        "the running ζ below the uniform grids' reach from locally refined ladders (tables refined_running.csv and refined_rungs.csv)"
+    }
+    fn code_version(&self) -> u64 {
+        1
+    }
+    fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
+        vec![
+            InputSpec::many("refined", &["refined_ladder"])
+                .doc("one `refined_ladder` stage per model"),
+        ]
+    }
+    fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
+        vec![
+            OutputSpec::table("running", "refined_running.csv"),
+            OutputSpec::table("rungs", "refined_rungs.csv"),
+        ]
+    }
+    fn render(
+        &self,
+        ctx: &mut StageContext,
+        _params: &Params,
+        inputs: &Inputs,
+        _out: &mut ArtefactWriter,
+    ) -> Result<Outputs> {
+        let data = inputs
+            .all("refined")
+            .iter()
+            .map(RefinedData::read)
+            .collect::<Result<Vec<_>>>()?;
+        let flagged = data
+            .iter()
+            .flat_map(|d| &d.running)
+            .filter(|p| !p.1.is_empty())
+            .count();
+        if flagged > 0 {
+            ctx.warn(format!(
+                "{flagged} running ζ pairs flagged (see the `flag` column of refined_running.csv)"
+            ));
+        }
+        Ok(Outputs::new()
+            .table("running", running_table(&data))
+            .table("rungs", rungs_table(&data)))
+    }
+}
