@@ -94,7 +94,8 @@
 //!
 //! Running ζ_eff (square; `*` = flagged: a rung of the pair flagged, or a grid error above
 //! 0.005 or unknown; values shown anyway. Δk = |change from k − 1|, Δm = |change from margin
-//! 12|, same window; the grid error is the larger):
+//! 12| (in the "Δk, Δm (12)" column: k − 1 at margin 12, and margin 16), same window; the grid
+//! error is the larger):
 //!
 //! | pair | uniform 2048² (README) | k = 3, w 32 | Δk, Δm | k = 4, w 16 | Δk, Δm | k = 5, w 16 | Δk, Δm | k = 5, margin 12 | Δk, Δm (12) | k = 5, margin 16 | neck (k = 5) |
 //! |---|---|---|---|---|---|---|---|---|---|---|---|
@@ -111,7 +112,7 @@
 //! | 2e-5→1e-5 | – | 1.1808* | 0.15, 6.1e-5 | 1.1667* | 1.4e-2, 1.1e-3 | 1.1618* | 4.9e-3, 6.6e-3 | 1.1552* | 1.0e-2, 1.7e-3 | 1.1535 | 27→19 |
 //!
 //! (neck = open fine nodes across the channel through the saddle at the two rungs; at k = 4 it
-//! is 29→21→13→9 over the last four rungs, at k = 3 half that again. The k = 5 margin-12
+//! is 29→21→13→9 over the last four rungs (the k = 3 runs predate the column). The k = 5 margin-12
 //! ladder (rungs −2e-3 … −1e-5 only) has p_c/p_fc 0.2286051323, reproduced to 7.7e-11 by a
 //! rerun of its search: the search's floor at tol_gap 5e-12. Δk at margin 12 is against k = 4
 //! at margin 12; the margin-16 ladder has rungs −5e-4 … −1e-5, p_c/p_fc 0.2286051253. Costs of
