@@ -94,26 +94,29 @@
 //!
 //! Running ζ_eff (square; `*` = flagged: a rung of the pair flagged, or a grid error above
 //! 0.005 or unknown; values shown anyway. Δk = |change from k − 1|, Δm = |change from margin
-//! 12|, same window; the grid error is the larger):
+//! 12| (in the "Δk, Δm (12)" column: k − 1 at margin 12, and margin 16), same window; the grid
+//! error is the larger):
 //!
-//! | pair | uniform 2048² (README) | k = 3, w 32 | Δk, Δm | k = 4, w 16 | Δk, Δm | k = 5, w 16 | Δk, Δm | k = 5, margin 12 | neck (k = 5) |
-//! |---|---|---|---|---|---|---|---|---|---|
-//! | 0.05→0.02 | 1.2240 | 1.2240* | – | 1.2237* | – | 1.2237* | – | – | 513→513 |
-//! | 0.02→0.01 | 1.2063 | 1.2069 | 1.5e-4, 1e-7 | 1.2075* | – | 1.2075* | – | – | |
-//! | 0.01→0.005 | 1.1955 | 1.1960 | 1.4e-4, 2e-7 | 1.1958* | – | 1.1958* | – | – | |
-//! | 0.005→0.002 | 1.1858 | 1.1849 | 6.1e-4, 4e-7 | 1.1867* | – | 1.1867* | – | – | 383→249 |
-//! | 0.002→0.001 | 1.1781 | 1.1776 | 2.1e-3, 9e-7 | 1.1760 | 4.2e-4, 1.6e-5 | 1.1760 | 2.6e-5, 8.4e-5 | 1.1759 | 249→179 |
-//! | 0.001→5e-4 | 1.1726 | 1.1727 | 3.4e-3, 1.7e-6 | 1.1724 | 7.4e-4, 3.0e-5 | 1.1723 | 8.9e-5, 1.6e-4 | 1.1721 | 179→129 |
-//! | 5e-4→2e-4 | 1.1684* | 1.1688* | 6.3e-3, 3.8e-6 | 1.1663 | 1.7e-3, 6.5e-5 | 1.1662 | 8.7e-5, 3.6e-4 | 1.1658 | 129→83 |
-//! | 2e-4→1e-4 | 1.1647* | 1.1646* | 9.4e-3, 7.9e-6 | 1.1625 | 1.8e-3, 1.4e-4 | 1.1622 | 3.3e-4, 7.6e-4 | 1.1614 | 83→61 |
-//! | 1e-4→5e-5 | – | 1.1689* | 3.1e-2, 1.5e-5 | 1.1595* | 9.2e-3, 2.6e-4 | 1.1590 | 5.2e-4, 1.5e-3 | 1.1575 | 61→43 |
-//! | 5e-5→2e-5 | – | 1.1719* | 3.9e-2, 3.0e-5 | 1.1603* | 1.1e-2, 5.4e-4 | 1.1584 | 1.9e-3, 3.1e-3 | 1.1553 | 43→27 |
-//! | 2e-5→1e-5 | – | 1.1808* | 0.15, 6.1e-5 | 1.1667* | 1.4e-2, 1.1e-3 | 1.1618* | 4.9e-3, 6.6e-3 | 1.1552 | 27→19 |
+//! | pair | uniform 2048² (README) | k = 3, w 32 | Δk, Δm | k = 4, w 16 | Δk, Δm | k = 5, w 16 | Δk, Δm | k = 5, margin 12 | Δk, Δm (12) | k = 5, margin 16 | neck (k = 5) |
+//! |---|---|---|---|---|---|---|---|---|---|---|---|
+//! | 0.05→0.02 | 1.2240 | 1.2240* | – | 1.2237* | – | 1.2237* | – | – | – | – | 513→513 |
+//! | 0.02→0.01 | 1.2063 | 1.2069 | 1.5e-4, 1e-7 | 1.2075* | – | 1.2075* | – | – | – | – | |
+//! | 0.01→0.005 | 1.1955 | 1.1960 | 1.4e-4, 2e-7 | 1.1958* | – | 1.1958* | – | – | – | – | |
+//! | 0.005→0.002 | 1.1858 | 1.1849 | 6.1e-4, 4e-7 | 1.1867* | – | 1.1867* | – | – | – | – | 383→249 |
+//! | 0.002→0.001 | 1.1781 | 1.1776 | 2.1e-3, 9e-7 | 1.1760 | 4.2e-4, 1.6e-5 | 1.1760 | 2.6e-5, 8.4e-5 | 1.1759* | 9.5e-5, – | – | 249→179 |
+//! | 0.001→5e-4 | 1.1726 | 1.1727 | 3.4e-3, 1.7e-6 | 1.1724 | 7.4e-4, 3.0e-5 | 1.1723 | 8.9e-5, 1.6e-4 | 1.1721* | 2.2e-4, – | – | 179→129 |
+//! | 5e-4→2e-4 | 1.1684* | 1.1688* | 6.3e-3, 3.8e-6 | 1.1663 | 1.7e-3, 6.5e-5 | 1.1662 | 8.7e-5, 3.6e-4 | 1.1658 | 3.8e-4, 9.1e-5 | 1.1657 | 129→83 |
+//! | 2e-4→1e-4 | 1.1647* | 1.1646* | 9.4e-3, 7.9e-6 | 1.1625 | 1.8e-3, 1.4e-4 | 1.1622 | 3.3e-4, 7.6e-4 | 1.1614 | 9.5e-4, 1.9e-4 | 1.1612 | 83→61 |
+//! | 1e-4→5e-5 | – | 1.1689* | 3.1e-2, 1.5e-5 | 1.1595* | 9.2e-3, 2.6e-4 | 1.1590 | 5.2e-4, 1.5e-3 | 1.1575 | 1.7e-3, 3.7e-4 | 1.1572 | 61→43 |
+//! | 5e-5→2e-5 | – | 1.1719* | 3.9e-2, 3.0e-5 | 1.1603* | 1.1e-2, 5.4e-4 | 1.1584 | 1.9e-3, 3.1e-3 | 1.1553 | 4.5e-3, 7.9e-4 | 1.1546 | 43→27 |
+//! | 2e-5→1e-5 | – | 1.1808* | 0.15, 6.1e-5 | 1.1667* | 1.4e-2, 1.1e-3 | 1.1618* | 4.9e-3, 6.6e-3 | 1.1552* | 1.0e-2, 1.7e-3 | 1.1535 | 27→19 |
 //!
 //! (neck = open fine nodes across the channel through the saddle at the two rungs; at k = 4 it
-//! is 29→21→13→9 over the last four rungs, at k = 3 half that again. The k = 5 margin-12
+//! is 29→21→13→9 over the last four rungs (the k = 3 runs predate the column). The k = 5 margin-12
 //! ladder (rungs −2e-3 … −1e-5 only) has p_c/p_fc 0.2286051323, reproduced to 7.7e-11 by a
-//! rerun of its search: the search's floor at tol_gap 5e-12.) Check against uniform 2048² (same fine spacing as k = 3): k = 3 (window 32) is
+//! rerun of its search: the search's floor at tol_gap 5e-12. Δk at margin 12 is against k = 4
+//! at margin 12; the margin-16 ladder has rungs −5e-4 … −1e-5, p_c/p_fc 0.2286051253. Costs of
+//! the k = 5 margin 12 and 16 runs: 693 and 979 CPU-s, 363 and 469 MB peak.) Check against uniform 2048² (same fine spacing as k = 3): k = 3 (window 32) is
 //! within 9e-4 of it at every pair 0.02→0.01 … 2e-4→1e-4 (+6e-4, +4.5e-4, −9e-4, −5e-4,
 //! +1.2e-4, +3.6e-4, −1.4e-4), and its grid error against k = 2 (1024²) reproduces the README's
 //! 1024²-vs-2048² grid errors (6.3e-3 vs 7.0e-3 at 5e-4→2e-4, 9.4e-3 vs 9.5e-3 at 2e-4→1e-4).
@@ -163,17 +166,20 @@
 //! not tried for lack of time.
 //!
 //! # What the data say
-//! - Square: ζ_eff keeps falling below the uniform grids' reach. k = 5, margin 8: 1.1723
-//!   (0.001→5e-4), 1.1662, 1.1622 (2e-4→1e-4), 1.1590 (1e-4→5e-5), 1.1584 (5e-5→2e-5), 1.1618
-//!   (2e-5→1e-5); margin 12: 1.1721, 1.1658, 1.1614, 1.1575, 1.1553, 1.1552. Grid errors
-//!   max(Δk, Δm) 1.6e-4, 3.6e-4, 7.6e-4, 1.5e-3, 3.1e-3, 6.6e-3: converged to 0.005 down to
-//!   5e-5→2e-5, not at 2e-5→1e-5, where the margin error (far field) dominates the level error
-//!   (4.9e-3). The upturn of the margin-8 ladder at the last pair (+0.003) is that far-field
-//!   error: with margin 12 the last two pairs are flat (1.1553, 1.1552). So ζ_eff is still
-//!   falling at 1e-4 (by ~0.004 per factor 2) and levels off near 1.155–1.16 between 5e-5 and
-//!   1e-5, within errors of a few 1e-3 (the margin error falls slowly: 8 → 12 still changes
-//!   the last pair by 6.6e-3, and 16 was not run). It does not approach 6/5 from above: it went
-//!   through 1.2 near 0.02→0.01 and lies 0.045 below it at 1e-5.
+//! - Square: ζ_eff keeps falling below the uniform grids' reach. Best ladder (k = 5, margin
+//!   12; grid error = max(Δk against k = 4 at margin 12, Δm against margin 16)): 1.1658
+//!   (5e-4→2e-4, ±3.8e-4), 1.1614 (2e-4→1e-4, ±9.5e-4), 1.1575 (1e-4→5e-5, ±1.7e-3), 1.1553
+//!   (5e-5→2e-5, ±4.5e-3), 1.1552 (2e-5→1e-5, ±1.0e-2: NOT converged). Margin 16 gives
+//!   1.1657, 1.1612, 1.1572, 1.1546, 1.1535; the margin error falls ~4× from 8 → 12 to
+//!   12 → 16 (6.6e-3, 1.7e-3 at the last pair), so the far field is under control at margin
+//!   16, and what is left at 2e-5→1e-5 is the level error (k = 4 → 5: 1.0e-2 at margin 12,
+//!   4.9e-3 at margin 8; the neck is 19–27 fine nodes wide there at k = 5). The margin-8
+//!   ladder's upturn at the last pair (1.1584 → 1.1618) was far-field error.
+//!   So: ζ_eff is still falling at 1e-4 (by ~0.004 per factor 2 in |l|) and is still falling,
+//!   more slowly (−0.001 to −0.002 per pair at margin 16), at 5e-5→2e-5 — the last
+//!   grid-converged pair (1.155 ± 0.005). At 2e-5→1e-5 it is 1.154 ± 0.010: k = 6 is needed
+//!   there. It does not approach 6/5 from above: it went through 1.2 near 0.02→0.01 and lies
+//!   0.045 below it at 5e-5→2e-5.
 //! - Triangular: ζ_eff falls monotonically, 1.3121 → 1.2132 (5e-4→2e-4, converged, grid error
 //!   5.4e-4) → 1.2032 (2e-4→1e-4, grid error 9.2e-3) → ~1.20 at 1e-5 (flagged, grid errors
 //!   4–9e-3): it reaches 1.2 near 1e-4 and is still falling there.
@@ -183,9 +189,9 @@
 //! - The far-field (margin) error grows like 1/|l| as the module doc of `contact::refinement`
 //!   predicted, and with k at a fixed window (the fine window sees the same coarse far field
 //!   at a finer scale): square margin 8 → 12 at 2e-5→1e-5: 6e-5 (k = 3, window 32), 1.1e-3
-//!   (k = 4, window 16), 6.6e-3 (k = 5), i.e. an unabsorbed shift of l by ~1e-8 … 8e-8;
-//!   triangular k = 4: 8.1e-3 (~1e-7). At 1e-5 it is the largest error: the next step is a
-//!   larger margin (16, 24) or a finer base grid, before more levels.
+//!   (k = 4, window 16), 6.6e-3 (k = 5; margin 12 → 16: 1.7e-3), i.e. an unabsorbed shift of
+//!   l by ~1e-8 … 8e-8; triangular k = 4: 8.1e-3 (~1e-7). Use margin ≥ 12 at k ≥ 4 (16 for
+//!   |l| ≤ 2e-5), and compare levels at the same margin.
 //!
 use crate::CriticalError;
 use crate::ladder::{SaddleFrame, axis_saddle};
