@@ -14,8 +14,8 @@
 //! search from (width 2e-5). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
 //! default 1e-13) and iteration cap per attempt (default 20000).
 use critical::refined::{
-    Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, default_ls,
-    periodic_closing_load, running_zeta,
+    Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, base_guess, default_ls,
+    running_zeta,
 };
 use std::io::Write;
 use std::time::Instant;
@@ -144,18 +144,7 @@ fn main() {
     );
     // a guess from the periodic base grid alone
     let t = Instant::now();
-    let r0 = Refinement::new(d.with_levels(1), &opts).expect("base");
-    let base = periodic_closing_load(
-        &r0.surface,
-        &r0.frame,
-        None,
-        &RefinedOptions {
-            rel_tol: 1e-7,
-            ..opts.clone()
-        },
-    )
-    .expect("base p_c");
-    drop(r0);
+    let (base, _) = base_guess(d, &opts).expect("base p_c");
     println!(
         "# periodic base grid 2^{base_log2}: p_c/p_fc {:.10} ({} probes, {:.1} s)",
         base.p_c() / lattice_p_fc(lattice, base_log2),

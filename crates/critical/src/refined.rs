@@ -478,6 +478,29 @@ pub fn find_closing_load(
     })
 }
 
+/// The first guess of p_c(D): the closing load of D's axis saddle on the periodic base grid
+/// alone, to 1e-7 relative ([`periodic_closing_load`]), with the base grid's p_fc. Builds only
+/// the base surface, not D's refined model.
+pub fn base_guess(
+    d: Discretisation,
+    opts: &RefinedOptions,
+) -> Result<(ClosingLoad, f64), CriticalError> {
+    opts.validate()?;
+    let surface =
+        Surface::new(d.lattice, d.base_log2).map_err(|e| CriticalError::Surface(e.to_string()))?;
+    let frame = axis_saddle(&surface)?;
+    let base = periodic_closing_load(
+        &surface,
+        &frame,
+        None,
+        &RefinedOptions {
+            rel_tol: 1e-7,
+            ..opts.clone()
+        },
+    )?;
+    Ok((base, surface.p_fc_grid()))
+}
+
 /// The closing load of the saddle `frame` on the periodic base grid alone (the uniform solve of
 /// `surface`), to `opts.rel_tol`: a cheap guess for p_c(D), and, on a fine surface, the uniform
 /// reference. Warm-started from the last solve.

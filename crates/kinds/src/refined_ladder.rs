@@ -34,8 +34,7 @@
 use crate::surface::lattice_spec;
 use anyhow::{Result, anyhow};
 use critical::refined::{
-    ClosingLoad, Discretisation, RefinedOptions, RefinedRung, Refinement, periodic_closing_load,
-    running_zeta,
+    ClosingLoad, Discretisation, RefinedOptions, RefinedRung, Refinement, base_guess, running_zeta,
 };
 use formats::records::{Record, read_in};
 use orchestrator::{
@@ -220,18 +219,7 @@ impl TypedKind for RefinedLadderKind {
             margin: params.margin as usize,
         };
         // the first guess: the periodic base grid's closing load of the same saddle
-        let r0 = Refinement::new(d, &opts)?;
-        let p_fc = r0.p_fc();
-        let base = periodic_closing_load(
-            &r0.surface,
-            &r0.frame,
-            None,
-            &RefinedOptions {
-                rel_tol: 1e-7,
-                ..opts.clone()
-            },
-        )?;
-        drop(r0);
+        let (base, p_fc) = base_guess(d, &opts)?;
         let mut plan: Vec<Discretisation> =
             params.levels.iter().map(|&k| d.with_levels(k)).collect();
         let finest = *plan.last().expect("levels has one entry at least");
