@@ -394,6 +394,9 @@ pub struct Refined {
     pub composite: Solution,
     /// Contact lines on the region's edge (the window-size check).
     pub edge: EdgeRuns,
+    /// Every refined window's fine solution, in the order of the windows (the fields above
+    /// are the first one's).
+    pub windows: Vec<WindowSolution>,
 }
 
 /// The contact state along the region's edge (its fine nodes, once around): the runs of open
@@ -450,19 +453,30 @@ impl EdgeRuns {
 }
 
 impl Refined {
-    /// Gap at fine-lattice node (i, j), if it lies in the fine region.
+    /// Gap at fine-lattice node (i, j), if it lies in a refined region.
     pub fn fine_gap(&self, i: usize, j: usize) -> Option<f64> {
-        let (fnx, fny) = self.lattice;
-        let (a, b) = (
-            (i % fnx + fnx - self.origin.0) % fnx,
-            (j % fny + fny - self.origin.1) % fny,
-        );
-        (a < self.window_grid.nx && b < self.window_grid.ny).then(|| self.window_gap[[a, b]])
+        self.windows
+            .iter()
+            .find_map(|w| w.fine_gap(self.lattice, i, j))
     }
 }
 
-/// The composite operator (see the module docs): unknowns are the fine nodes of the region
-/// (index a·ry + b) then the coarse base nodes outside it, then padding up to `rows × cols`.
+/// One refined region of the composite operator.
+struct Region {
+    /// Origin on the fine lattice and extent (fine nodes).
+    origin: (usize, usize),
+    rx: usize,
+    ry: usize,
+    /// Index of its first fine unknown.
+    offset: usize,
+    /// Fine-lattice rows (columns) inside the region.
+    in_x: Vec<bool>,
+    in_y: Vec<bool>,
+}
+
+/// The composite operator (see the module docs): unknowns are the fine nodes of each region in
+/// order (index offset + a·ry + b), then the coarse base nodes outside every region, then
+/// padding up to `rows × cols`.
 pub struct Composite {
     /// The fine lattice's kernel (the full application), or None (blockwise, [`blocks`]).
     fine: Option<ElasticKernel>,
@@ -470,7 +484,7 @@ pub struct Composite {
     blocks: Option<Box<[Option<blocks::Blocks>; 2]>>,
     /// The two-level preconditioner, if chosen.
     twolevel: Option<Box<twolevel::TwoLevel>>,
-    /// Whether each base node lies on R.
+    /// Whether each base node lies on a region.
     on_r: Vec<bool>,
     parallel: bool,
     point: f64,
@@ -479,14 +493,11 @@ pub struct Composite {
     f: usize,
     fnx: usize,
     fny: usize,
-    /// Region origin on the fine lattice and its extent (fine nodes).
-    origin: (usize, usize),
-    rx: usize,
-    ry: usize,
-    /// Fine-lattice rows (columns) inside the region.
-    in_x: Vec<bool>,
-    in_y: Vec<bool>,
-    /// Composite index of every base node (the region's fine unknown where it lies inside).
+    /// The refined regions.
+    regions: Vec<Region>,
+    /// Fine unknowns of all regions.
+    nf: usize,
+    /// Composite index of every base node (a region's fine unknown where it lies inside).
     base_index: Vec<usize>,
     /// Unknowns (without padding) and the packed shape.
     n: usize,
@@ -505,31 +516,35 @@ pub struct Composite {
 impl Composite {
     #[allow(clippy::too_many_arguments)]
     /// The operator for a base grid of `nx × ny` nodes on `lx × ly`, refined `f` times in
-    /// `window` (already checked).
+    /// each of `windows` (already checked: inside the grid, and apart as
+    /// [`check_windows`] asks).
     fn new(
         nx: usize,
         ny: usize,
         lx: f64,
         ly: f64,
         f: usize,
-        window: Window,
+        windows: &[Window],
         margin: Option<usize>,
         pre: Preconditioner,
     ) -> Self {
         let (fnx, fny) = (nx * f, ny * f);
-        let geometry = blocks::Geometry {
-            nx,
-            ny,
-            lx,
-            ly,
-            f,
-            i0: window.i0,
-            j0: window.j0,
-            wx: window.wx,
-            wy: window.wy,
-            margin: margin.unwrap_or(0),
-            order: ORDER,
-        };
+        let geometries: Vec<blocks::Geometry> = windows
+            .iter()
+            .map(|w| blocks::Geometry {
+                nx,
+                ny,
+                lx,
+                ly,
+                f,
+                i0: w.i0,
+                j0: w.j0,
+                wx: w.wx,
+                wy: w.wy,
+                margin: margin.unwrap_or(0),
+                order: ORDER,
+            })
+            .collect();
         let (fine, blocks) = match margin {
             None => {
                 let fine_grid = Grid {
@@ -543,9 +558,9 @@ impl Composite {
             }
             Some(_) => {
                 let pair = [
-                    Some(blocks::Blocks::new(geometry, blocks::Kernel::Compliance)),
+                    Some(blocks::Blocks::new(&geometries, blocks::Kernel::Compliance)),
                     (pre == Preconditioner::Galerkin)
-                        .then(|| blocks::Blocks::new(geometry, blocks::Kernel::Stiffness)),
+                        .then(|| blocks::Blocks::new(&geometries, blocks::Kernel::Stiffness)),
                 ];
                 (None, Some(Box::new(pair)))
             }
@@ -558,31 +573,47 @@ impl Composite {
             ),
             _ => unreachable!(),
         };
-        let origin = (window.i0 * f, window.j0 * f);
-        let rx = (window.wx * f + 1).min(fnx);
-        let ry = (window.wy * f + 1).min(fny);
-        let in_x: Vec<bool> = (0..fnx).map(|i| (i + fnx - origin.0) % fnx < rx).collect();
-        let in_y: Vec<bool> = (0..fny).map(|j| (j + fny - origin.1) % fny < ry).collect();
-        let n_fine = rx * ry;
+        let mut regions = Vec::with_capacity(windows.len());
+        let mut offset = 0;
+        for w in windows {
+            let origin = (w.i0 * f, w.j0 * f);
+            let rx = (w.wx * f + 1).min(fnx);
+            let ry = (w.wy * f + 1).min(fny);
+            regions.push(Region {
+                origin,
+                rx,
+                ry,
+                offset,
+                in_x: (0..fnx).map(|i| (i + fnx - origin.0) % fnx < rx).collect(),
+                in_y: (0..fny).map(|j| (j + fny - origin.1) % fny < ry).collect(),
+            });
+            offset += rx * ry;
+        }
+        let n_fine = offset;
         let mut base_index = vec![0; nx * ny];
         let mut next = n_fine;
         for i in 0..nx {
             for j in 0..ny {
-                let (a, b) = (
-                    (f * i + fnx - origin.0) % fnx,
-                    (f * j + fny - origin.1) % fny,
-                );
-                base_index[i * ny + j] = if a < rx && b < ry {
-                    a * ry + b
-                } else {
-                    next += 1;
-                    next - 1
+                let inside = regions.iter().find_map(|r| {
+                    let (a, b) = (
+                        (f * i + fnx - r.origin.0) % fnx,
+                        (f * j + fny - r.origin.1) % fny,
+                    );
+                    (a < r.rx && b < r.ry).then_some(r.offset + a * r.ry + b)
+                });
+                base_index[i * ny + j] = match inside {
+                    Some(k) => k,
+                    None => {
+                        next += 1;
+                        next - 1
+                    }
                 };
             }
         }
         let n = next;
         let on_r: Vec<bool> = base_index.iter().map(|&k| k < n_fine).collect();
-        let cols = ry + ry % 2;
+        let ry0 = regions[0].ry;
+        let cols = ry0 + ry0 % 2;
         let rows = n.div_ceil(cols);
         let rows = rows + rows % 2;
         let full = fine.is_some();
@@ -599,11 +630,8 @@ impl Composite {
             f,
             fnx,
             fny,
-            origin,
-            rx,
-            ry,
-            in_x,
-            in_y,
+            regions,
+            nf: n_fine,
             base_index,
             n,
             rows,
@@ -623,17 +651,27 @@ impl Composite {
             c.restrict();
             c.weight = c.out[..n].to_vec();
         } else {
-            let (wr, wc) = blocks::weights(&geometry);
-            let mut weight = vec![wc; n];
-            weight[..rx * ry].copy_from_slice(&wr);
+            let mut weight = Vec::with_capacity(n);
+            let mut wc = 0.0;
+            for g in &geometries {
+                let (wr, w_coarse) = blocks::weights(g);
+                weight.extend(wr);
+                wc = w_coarse;
+            }
+            weight.resize(n, wc);
             c.weight = weight;
         }
         if pre != Preconditioner::Galerkin {
+            let shapes: Vec<(usize, usize)> = c.regions.iter().map(|r| (r.rx, r.ry)).collect();
+            let weights: Vec<&[f64]> = c
+                .regions
+                .iter()
+                .map(|r| &c.weight[r.offset..r.offset + r.rx * r.ry])
+                .collect();
             c.twolevel = Some(Box::new(twolevel::TwoLevel::new(
-                geometry,
-                rx,
-                ry,
-                &c.weight[..rx * ry],
+                &geometries,
+                &shapes,
+                &weights,
                 pre == Preconditioner::Hierarchical,
             )));
         }
@@ -647,8 +685,7 @@ impl Composite {
 
     /// out = A' x or M x, blockwise.
     fn apply_blocks(&mut self, stiffness: bool, x: &[f64]) {
-        let n = self.n;
-        let nf = self.rx * self.ry;
+        let (n, nf) = (self.n, self.nf);
         let q: Vec<f64> = if stiffness {
             x[..n].to_vec()
         } else {
@@ -682,7 +719,7 @@ impl Composite {
 
     /// out = W B' W x, the two-level preconditioner ([`twolevel`]), padding diagonal.
     fn apply_twolevel(&mut self, x: &[f64]) {
-        let (n, nf) = (self.n, self.rx * self.ry);
+        let (n, nf) = (self.n, self.nf);
         // B' = Π B Πᵀ with Π = I − w 1ᵀ/Σw: a uniform gap (the solver's rigid approach)
         // gives no force, and the output's net force is removed as a uniform pressure, not as
         // the uniform force the solver's mean removal would take from it
@@ -724,11 +761,14 @@ impl Composite {
         }
     }
 
-    /// Fine-region index of fine node (i, j), if inside.
+    /// Fine-region unknown of fine node (i, j), if inside a region.
     fn region(&self, i: usize, j: usize) -> Option<usize> {
-        (self.in_x[i] && self.in_y[j]).then(|| {
-            ((i + self.fnx - self.origin.0) % self.fnx) * self.ry
-                + (j + self.fny - self.origin.1) % self.fny
+        self.regions.iter().find_map(|r| {
+            (r.in_x[i] && r.in_y[j]).then(|| {
+                r.offset
+                    + ((i + self.fnx - r.origin.0) % self.fnx) * r.ry
+                    + (j + self.fny - r.origin.1) % self.fny
+            })
         })
     }
 
@@ -782,7 +822,7 @@ impl Composite {
                     let mut sa = 0.0;
                     for b in 1 - f as isize..f as isize {
                         let fj = (f as isize * j as isize + b).rem_euclid(fny as isize) as usize;
-                        if this.in_x[fi] && this.in_y[fj] {
+                        if this.regions.iter().any(|r| r.in_x[fi] && r.in_y[fj]) {
                             continue;
                         }
                         sa += (1.0 - b.unsigned_abs() as f64 / f as f64) * line[fj];
@@ -799,11 +839,13 @@ impl Composite {
         }
         let mut out = std::mem::take(&mut self.out);
         out.iter_mut().for_each(|v| *v = 0.0);
-        for a in 0..self.rx {
-            let i = (self.origin.0 + a) % fnx;
-            for b in 0..self.ry {
-                let j = (self.origin.1 + b) % fny;
-                out[a * self.ry + b] = self.buf[i * fny + j];
+        for r in &self.regions {
+            for a in 0..r.rx {
+                let i = (r.origin.0 + a) % fnx;
+                for b in 0..r.ry {
+                    let j = (r.origin.1 + b) % fny;
+                    out[r.offset + a * r.ry + b] = self.buf[i * fny + j];
+                }
             }
         }
         for (k, h) in hat.iter().enumerate() {
@@ -915,18 +957,7 @@ impl Compliance for Composite {
 }
 
 fn check(surface: &Surface, pressure: f64, o: &RefineOptions) -> Result<(), ContactError> {
-    let g = &surface.grid;
-    if !(1..=6).contains(&o.levels) {
-        return Err(ContactError::parameter("levels", o.levels as f64, "1..=6"));
-    }
-    let w = o.window;
-    if w.wx == 0 || w.wy == 0 || w.wx > g.nx || w.wy > g.ny || w.i0 >= g.nx || w.j0 >= g.ny {
-        return Err(ContactError::Parameter {
-            name: "window",
-            value: format!("{w:?}"),
-            allowed: "1..=nx × 1..=ny base cells starting inside the grid",
-        });
-    }
+    check_windows(surface, o.levels, &[o.window], None)?;
     if !(pressure.is_finite() && pressure > 0.0) {
         return Err(ContactError::parameter(
             "pressure",
@@ -937,40 +968,145 @@ fn check(surface: &Surface, pressure: f64, o: &RefineOptions) -> Result<(), Cont
     Ok(())
 }
 
-fn check_margin(
+/// Base cells between the closed node intervals [a, a + wa] and [b, b + wb] on a circle of `n`
+/// nodes (0 if they share a node).
+fn interval_gap(a: usize, wa: usize, b: usize, wb: usize, n: usize) -> usize {
+    let (a, b, n) = (a as isize, b as isize, n as isize);
+    let (wa, wb) = (wa as isize, wb as isize);
+    if (b - a).rem_euclid(n) <= wa || (a - b).rem_euclid(n) <= wb {
+        return 0;
+    }
+    (b - a - wa).rem_euclid(n).min((a - b - wb).rem_euclid(n)) as usize
+}
+
+/// Checks the levels, every window, the margin (if blockwise) and that windows lie apart: with
+/// the blockwise operator no base node of one window may lie within `margin` cells of another
+/// (else their fine remainders would meet inside each other's exactly treated near field, which
+/// the operator does not do: see the module docs, "Several windows"); with the full operator
+/// windows must not share a base node.
+fn check_windows(
     surface: &Surface,
-    opts: &RefineOptions,
-    margin: usize,
+    levels: u32,
+    windows: &[Window],
+    margin: Option<usize>,
 ) -> Result<(), ContactError> {
     let g = &surface.grid;
-    let w = opts.window;
-    if margin < ORDER / 2 + 1 || w.wx + 2 * margin + 2 > g.nx || w.wy + 2 * margin + 2 > g.ny {
+    if !(1..=6).contains(&levels) {
+        return Err(ContactError::parameter("levels", levels as f64, "1..=6"));
+    }
+    if windows.is_empty() {
         return Err(ContactError::Parameter {
-            name: "margin",
-            value: format!(
-                "{margin} base cells (window {} × {}, grid {} × {})",
-                w.wx, w.wy, g.nx, g.ny
-            ),
-            allowed: "ORDER/2 + 1 ..= (n − w − 2)/2 along both axes (ORDER = 8)",
+            name: "windows",
+            value: "[]".into(),
+            allowed: "at least one window",
         });
     }
+    for &w in windows {
+        if w.wx == 0 || w.wy == 0 || w.wx > g.nx || w.wy > g.ny || w.i0 >= g.nx || w.j0 >= g.ny {
+            return Err(ContactError::Parameter {
+                name: "window",
+                value: format!("{w:?}"),
+                allowed: "1..=nx × 1..=ny base cells starting inside the grid",
+            });
+        }
+        if windows.len() > 1 && (w.wx >= g.nx || w.wy >= g.ny) {
+            return Err(ContactError::Parameter {
+                name: "window",
+                value: format!("{w:?} (one of {} windows)", windows.len()),
+                allowed: "less than the period along both axes when there are several windows",
+            });
+        }
+        if let Some(margin) = margin
+            && (margin < ORDER / 2 + 1
+                || w.wx + 2 * margin + 2 > g.nx
+                || w.wy + 2 * margin + 2 > g.ny)
+        {
+            return Err(ContactError::Parameter {
+                name: "margin",
+                value: format!(
+                    "{margin} base cells (window {} × {}, grid {} × {})",
+                    w.wx, w.wy, g.nx, g.ny
+                ),
+                allowed: "ORDER/2 + 1 ..= (n − w − 2)/2 along both axes (ORDER = 8)",
+            });
+        }
+    }
+    let need = margin.map_or(1, |m| m + 1);
+    for (ia, a) in windows.iter().enumerate() {
+        for (ib, b) in windows.iter().enumerate().skip(ia + 1) {
+            let gx = interval_gap(a.i0, a.wx, b.i0, b.wx, g.nx);
+            let gy = interval_gap(a.j0, a.wy, b.j0, b.wy, g.ny);
+            if gx.max(gy) < need {
+                return Err(ContactError::Parameter {
+                    name: "windows",
+                    value: format!(
+                        "window {ia} {a:?} and window {ib} {b:?}: {gx} × {gy} base cells apart \
+                         along x × y, margin {margin:?}"
+                    ),
+                    allowed: "windows apart by more than the margin along x or y (blockwise), \
+                              without a common base node (full operator)",
+                });
+            }
+        }
+    }
     Ok(())
+}
+
+/// Options of a refined solve with several windows (one composite discretisation: fine in
+/// every window, coarse outside them; see the module docs, "Several windows").
+#[derive(Debug, Clone)]
+pub struct MultiOptions {
+    /// Refinement levels k (the same in every window), 1..=6.
+    pub levels: u32,
+    /// The refined windows (at least one, apart as [`RefinedModel::multi`] requires).
+    pub windows: Vec<Window>,
+    /// Options of the composite solve.
+    pub solver: SolverOptions,
+}
+
+/// The solution on one refined window.
+#[derive(Debug, Clone)]
+pub struct WindowSolution {
+    /// The window.
+    pub window: Window,
+    /// Grid of the fine region (see [`Refined::window_grid`]).
+    pub grid: Grid,
+    /// Fine-lattice index of the region's first node (periodic).
+    pub origin: (usize, usize),
+    /// Pressure on the fine region (E* h0/λ).
+    pub pressure: Array2<f64>,
+    /// Gap on the fine region (h0; see [`Refined::window_gap`]).
+    pub gap: Array2<f64>,
+    /// Contact lines on the region's edge.
+    pub edge: EdgeRuns,
+}
+
+impl WindowSolution {
+    /// Gap at fine-lattice node (i, j) of the lattice `lattice`, if it lies in this region.
+    pub fn fine_gap(&self, lattice: (usize, usize), i: usize, j: usize) -> Option<f64> {
+        let (fnx, fny) = lattice;
+        let (a, b) = (
+            (i % fnx + fnx - self.origin.0) % fnx,
+            (j % fny + fny - self.origin.1) % fny,
+        );
+        (a < self.grid.nx && b < self.grid.ny).then(|| self.gap[[a, b]])
+    }
 }
 
 /// A refined problem: build once, solve many loads (warm-started from a previous solution).
 pub struct RefinedModel {
     model: Model,
-    window: Window,
+    windows: Vec<Window>,
     lattice: (usize, usize),
     spacing: (f64, f64),
     base: (usize, usize),
-    opts: RefineOptions,
+    solver: SolverOptions,
 }
 
 impl RefinedModel {
     /// The composite problem of `surface` (its grid is the base grid) refined as `opts` asks.
     pub fn new(surface: &Surface, opts: &RefineOptions) -> Result<Self, ContactError> {
-        Self::build(surface, opts, None, Preconditioner::default())
+        Self::with_preconditioner(surface, opts, None, Preconditioner::default())
     }
 
     /// The same composite problem with its operator applied blockwise ([`blocks`]): the fine
@@ -982,8 +1118,7 @@ impl RefinedModel {
         opts: &RefineOptions,
         margin: usize,
     ) -> Result<Self, ContactError> {
-        check_margin(surface, opts, margin)?;
-        Self::build(surface, opts, Some(margin), Preconditioner::default())
+        Self::with_preconditioner(surface, opts, Some(margin), Preconditioner::default())
     }
 
     /// The composite problem with the operator applied in full (`margin` None, as
@@ -995,25 +1130,29 @@ impl RefinedModel {
         margin: Option<usize>,
         pre: Preconditioner,
     ) -> Result<Self, ContactError> {
-        match margin {
-            None => Self::build(surface, opts, None, pre),
-            Some(m) => {
-                check_margin(surface, opts, m)?;
-                Self::build(surface, opts, Some(m), pre)
-            }
-        }
+        let multi = MultiOptions {
+            levels: opts.levels,
+            windows: vec![opts.window],
+            solver: opts.solver.clone(),
+        };
+        Self::multi(surface, &multi, margin, pre)
     }
 
-    fn build(
+    /// The composite problem refined in every window of `opts` (one window: the problems
+    /// above), its operator applied in full (`margin` None) or blockwise with `margin` base
+    /// cells around each window, with the preconditioner `pre`. Windows must lie apart: no
+    /// base node of one within `margin` cells of another (blockwise), no common base node
+    /// (full); refused naming the two windows otherwise.
+    pub fn multi(
         surface: &Surface,
-        opts: &RefineOptions,
+        opts: &MultiOptions,
         margin: Option<usize>,
         pre: Preconditioner,
     ) -> Result<Self, ContactError> {
-        check(surface, 1.0, opts)?;
+        check_windows(surface, opts.levels, &opts.windows, margin)?;
         let g = surface.grid;
         let f = 1usize << opts.levels;
-        let mut comp = Composite::new(g.nx, g.ny, g.lx, g.ly, f, opts.window, margin, pre);
+        let mut comp = Composite::new(g.nx, g.ny, g.lx, g.ly, f, &opts.windows, margin, pre);
         // Heights at the fine nodes (the analytic profile; base node i is fine node f i),
         // averaged by the unknowns' weights: b' = W⁻¹ Pᵀ h.
         let (dx, dy) = (g.dx(), g.dy());
@@ -1021,30 +1160,33 @@ impl RefinedModel {
         let (s0, s1) = g.shift;
         let n = comp.n;
         let pth: Vec<f64> = if let Some(m) = margin {
-            let geometry = blocks::Geometry {
+            let height = |i: usize, j: usize| {
+                profile.height(
+                    (i as f64 / f as f64 + s0) * dx,
+                    (j as f64 / f as f64 + s1) * dy,
+                )
+            };
+            let geometry = |w: &Window| blocks::Geometry {
                 nx: g.nx,
                 ny: g.ny,
                 lx: g.lx,
                 ly: g.ly,
                 f,
-                i0: opts.window.i0,
-                j0: opts.window.j0,
-                wx: opts.window.wx,
-                wy: opts.window.wy,
+                i0: w.i0,
+                j0: w.j0,
+                wx: w.wx,
+                wy: w.wy,
                 margin: m,
                 order: ORDER,
             };
-            let (hr, hv) = blocks::heights(&geometry, |i, j| {
-                profile.height(
-                    (i as f64 / f as f64 + s0) * dx,
-                    (j as f64 / f as f64 + s1) * dy,
-                )
-            });
-            let nf = comp.rx * comp.ry;
+            let hv = blocks::hat_heights(&geometry(&opts.windows[0]), &height);
             let mut out = vec![0.0; n];
-            out[..nf].copy_from_slice(&hr);
+            for (w, r) in opts.windows.iter().zip(&comp.regions) {
+                let hr = blocks::window_heights(&geometry(w), &height, &hv);
+                out[r.offset..r.offset + hr.len()].copy_from_slice(&hr);
+            }
             for (k, &idx) in comp.base_index.iter().enumerate() {
-                if idx >= nf {
+                if idx >= comp.nf {
                     out[idx] = hv[k];
                 }
             }
@@ -1080,11 +1222,11 @@ impl RefinedModel {
         )?;
         Ok(RefinedModel {
             model,
-            window: opts.window,
+            windows: opts.windows.clone(),
             lattice,
             spacing: (dx / f as f64, dy / f as f64),
             base: (g.nx, g.ny),
-            opts: opts.clone(),
+            solver: opts.solver.clone(),
         })
     }
 
@@ -1139,15 +1281,37 @@ impl RefinedModel {
         };
         let sol = self
             .model
-            .solve(Interaction::HardWall, mean, &self.opts.solver, Some(&start))?;
+            .solve(Interaction::HardWall, mean, &self.solver, Some(&start))?;
         let r = sol.pressure.as_slice().expect("layout");
         let approach = self.model.approach(r).unwrap_or(f64::NAN);
         let c = self.comp();
         let q: Vec<f64> = r[..n].iter().zip(&c.weight).map(|(r, w)| r / w).collect();
         let gap = sol.gap.as_slice().expect("layout");
-        let (rx, ry) = (c.rx, c.ry);
-        let window_pressure = Array2::from_shape_fn((rx, ry), |(a, b)| q[a * ry + b]);
-        let window_gap = Array2::from_shape_fn((rx, ry), |(a, b)| gap[a * ry + b]);
+        let windows: Vec<WindowSolution> = c
+            .regions
+            .iter()
+            .zip(&self.windows)
+            .map(|(reg, &window)| {
+                let (rx, ry, o) = (reg.rx, reg.ry, reg.offset);
+                let pressure = Array2::from_shape_fn((rx, ry), |(a, b)| q[o + a * ry + b]);
+                let gap = Array2::from_shape_fn((rx, ry), |(a, b)| gap[o + a * ry + b]);
+                let contact: Vec<bool> = pressure.iter().map(|&p| p > 0.0).collect();
+                WindowSolution {
+                    window,
+                    grid: Grid {
+                        nx: rx,
+                        ny: ry,
+                        lx: rx as f64 * self.spacing.0,
+                        ly: ry as f64 * self.spacing.1,
+                        shift: (0.0, 0.0),
+                    },
+                    origin: reg.origin,
+                    pressure,
+                    gap,
+                    edge: EdgeRuns::of(&contact, rx, ry, c.f),
+                }
+            })
+            .collect();
         let (nx, ny) = self.base;
         let base_pressure = Array2::from_shape_fn((nx, ny), |(i, j)| q[c.base_index[i * ny + j]]);
         let contact_area = (0..n)
@@ -1155,36 +1319,34 @@ impl RefinedModel {
             .map(|k| c.weight[k])
             .sum::<f64>()
             / nodes;
-        let origin = c.origin;
-        let contact: Vec<bool> = window_pressure.iter().map(|&p| p > 0.0).collect();
-        let edge = EdgeRuns::of(&contact, rx, ry, c.f);
+        let first = &windows[0];
         Ok(Refined {
-            window_grid: Grid {
-                nx: rx,
-                ny: ry,
-                lx: rx as f64 * self.spacing.0,
-                ly: ry as f64 * self.spacing.1,
-                shift: (0.0, 0.0),
-            },
-            origin,
+            window_grid: first.grid,
+            origin: first.origin,
             lattice: self.lattice,
-            window_pressure,
-            window_gap,
+            window_pressure: first.pressure.clone(),
+            window_gap: first.gap.clone(),
             base_pressure,
             approach,
             contact_area,
             stats: sol.stats.clone(),
+            edge: first.edge,
             composite: sol,
-            edge,
+            windows,
         })
     }
 
-    /// The refined window.
+    /// The refined window (the first one).
     pub fn window(&self) -> Window {
-        self.window
+        self.windows[0]
     }
 
-    /// Number of composite unknowns (fine region nodes plus coarse nodes outside it).
+    /// The refined windows.
+    pub fn windows(&self) -> &[Window] {
+        &self.windows
+    }
+
+    /// Number of composite unknowns (fine region nodes plus coarse nodes outside them).
     pub fn unknowns(&self) -> usize {
         self.comp().n
     }
@@ -1223,7 +1385,7 @@ mod tests {
             wx: 4,
             wy: 6,
         };
-        let mut c = Composite::new(16, 16, 1.0, 1.0, 4, w, None, Preconditioner::Galerkin);
+        let mut c = Composite::new(16, 16, 1.0, 1.0, 4, &[w], None, Preconditioner::Galerkin);
         let total: f64 = c.weight.iter().sum();
         // a sum of O(1e3) small integers and quarter-integers: exact
         assert_eq!(total, (64 * 64) as f64);
@@ -1399,14 +1561,15 @@ mod tests {
             wy: 5,
         };
         for (f, margin) in [(2, 5), (4, 5), (4, 8), (4, 12)] {
-            let mut full = Composite::new(32, 32, 1.0, 1.3, f, w, None, Preconditioner::Galerkin);
+            let mut full =
+                Composite::new(32, 32, 1.0, 1.3, f, &[w], None, Preconditioner::Galerkin);
             let mut cheap = Composite::new(
                 32,
                 32,
                 1.0,
                 1.3,
                 f,
-                w,
+                &[w],
                 Some(margin),
                 Preconditioner::Galerkin,
             );

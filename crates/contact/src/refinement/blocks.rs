@@ -161,10 +161,10 @@ pub(crate) fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f
     t
 }
 
-/// Half spectra (natural layout, normalised for [`Spectral`]) of C = Hᵀ K H and
-/// C' = (K ∗ hat) sampled on the base lattice: alias sums over the f² fine modes of each base
-/// mode.
-pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>) {
+/// Half spectra (natural layout, normalised for [`Spectral`]) of C = Hᵀ K H,
+/// C' = (K ∗ hat) sampled on the base lattice and K itself sampled on the base lattice: alias
+/// sums over the f² fine modes of each base mode.
+pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let (f, nx, ny) = (g.f, g.nx, g.ny);
     let (fx, fy) = g.fine();
     let phi = |k: usize, n: usize| -> f64 {
@@ -179,11 +179,11 @@ pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>
     let py: Vec<f64> = (0..fy).map(|k| phi(k, fy)).collect();
     let m = ny / 2 + 1;
     let norm = (f * f * nx * ny) as f64;
-    let pairs: Vec<(f64, f64)> = (0..nx * m)
+    let triples: Vec<(f64, f64, f64)> = (0..nx * m)
         .into_par_iter()
         .map(|idx| {
             let (a, b) = (idx / m, idx % m);
-            let (mut c, mut cp) = (0.0, 0.0);
+            let (mut c, mut cp, mut pt) = (0.0, 0.0, 0.0);
             for mx in 0..f {
                 let kx = a + nx * mx;
                 for my in 0..f {
@@ -192,16 +192,24 @@ pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>
                     let h = px[kx] * py[ky];
                     c += h * h * e;
                     cp += h * e;
+                    pt += e;
                 }
             }
-            (c / norm, cp / norm)
+            (c / norm, cp / norm, pt / norm)
         })
         .collect();
-    pairs.into_iter().unzip()
+    let mut out = (Vec::new(), Vec::new(), Vec::new());
+    for (c, cp, pt) in triples {
+        out.0.push(c);
+        out.1.push(cp);
+        out.2.push(pt);
+    }
+    out
 }
 
-/// One kernel's blockwise operator (see the module docs).
-pub(crate) struct Blocks {
+/// The near field of one window: its box with the zero-padded kernel and the base nodes
+/// within `margin` cells of it.
+struct Near {
     g: Geometry,
     rx: usize,
     ry: usize,
@@ -210,11 +218,31 @@ pub(crate) struct Blocks {
     origin: isize,
     /// Zero-padded convolution on the box.
     boxk: FreeKernel,
+    /// Base nodes within `margin` cells of R.
+    in_e: Vec<bool>,
+}
+
+/// One window's intermediate results of an application.
+struct Part {
+    /// G z on the box.
+    gz: Vec<f64>,
+    /// C v_F (F: base nodes outside E).
+    c_vf: Vec<f64>,
+    /// C' v_F.
+    cp_vf: Vec<f64>,
+    /// Sᵀ Πᵀ d: the remainder's adjoint interpolation onto base nodes.
+    w: Vec<f64>,
+}
+
+/// One kernel's blockwise operator for one or several windows (see the module docs).
+pub(crate) struct Blocks {
+    near: Vec<Near>,
     spectral: Spectral,
     c: Vec<f64>,
     cp: Vec<f64>,
-    /// Base nodes within `margin` cells of R.
-    in_e: Vec<bool>,
+    /// The kernel sampled on the base lattice (point to point), for the remainders of two
+    /// windows (only with several windows).
+    cpp: Option<Vec<f64>>,
     /// Interpolation weights per fine offset in a cell (0..f).
     lag: Vec<Vec<f64>>,
     /// The kernel at offset 0.
@@ -222,43 +250,319 @@ pub(crate) struct Blocks {
 }
 
 impl Blocks {
-    pub fn new(g: Geometry, kernel: Kernel) -> Self {
-        let (rx, ry) = g.region();
-        let (bx, by, origin) = g.boxed();
-        let t = table(&g, kernel, bx, by);
-        let stride = by + 1;
-        let boxk = FreeKernel::from_green(bx, by, |i, j| {
-            t[i.unsigned_abs() * stride + j.unsigned_abs()]
-        });
-        let (c, cp) = alias_spectra(&g, kernel);
-        let spectral = Spectral::new(g.nx, g.ny);
+    /// For the windows `gs` (one [`Geometry`] each, same lattice, margin and order; checked by
+    /// the caller to keep every window's R outside the other windows' margins).
+    pub fn new(gs: &[Geometry], kernel: Kernel) -> Self {
+        let g0 = gs[0];
+        let boxes: Vec<(usize, usize, isize)> = gs.iter().map(|g| g.boxed()).collect();
+        let bx_max = boxes.iter().map(|b| b.0).max().expect("a window");
+        let by_max = boxes.iter().map(|b| b.1).max().expect("a window");
+        let t = table(&g0, kernel, bx_max, by_max);
+        let stride = by_max.min(g0.ny * g0.f - 1) + 1;
+        let near = gs
+            .iter()
+            .zip(&boxes)
+            .map(|(&g, &(bx, by, origin))| {
+                let (rx, ry) = g.region();
+                let boxk = FreeKernel::from_green(bx, by, |i, j| {
+                    t[i.unsigned_abs() * stride + j.unsigned_abs()]
+                });
+                let m = g.margin as isize;
+                let mut in_e = vec![false; g.nx * g.ny];
+                for ei in -m..=g.wx as isize + m {
+                    for ej in -m..=g.wy as isize + m {
+                        in_e[g.base(ei, ej)] = true;
+                    }
+                }
+                Near {
+                    g,
+                    rx,
+                    ry,
+                    bx,
+                    by,
+                    origin,
+                    boxk,
+                    in_e,
+                }
+            })
+            .collect();
+        let (c, cp, pt) = alias_spectra(&g0, kernel);
+        let spectral = Spectral::new(g0.nx, g0.ny);
         let c = spectral.multiplier(&c);
         let cp = spectral.multiplier(&cp);
-        let m = g.margin as isize;
-        let mut in_e = vec![false; g.nx * g.ny];
-        for ei in -m..=g.wx as isize + m {
-            for ej in -m..=g.wy as isize + m {
-                in_e[g.base(ei, ej)] = true;
-            }
-        }
-        let lag = (0..g.f)
-            .map(|s| lagrange(s as f64 / g.f as f64, g.order))
+        let cpp = (gs.len() > 1).then(|| spectral.multiplier(&pt));
+        let lag = (0..g0.f)
+            .map(|s| lagrange(s as f64 / g0.f as f64, g0.order))
             .collect();
         Blocks {
+            near,
             lag,
             point: t[0],
-            g,
-            rx,
-            ry,
-            bx,
-            by,
-            origin,
-            boxk,
             spectral,
             c,
             cp,
-            in_e,
+            cpp,
         }
+    }
+
+    /// Applies Tᵀ Ĝ T to the unknowns: `fine` the fine nodes of every window's R in order
+    /// (each rx × ry, row-major) and `v` the nodal values on every base node (R's base nodes
+    /// carrying the fine unknown there). Returns the gradient on the windows' fine unknowns
+    /// (with their base nodes' coarse terms added, same layout) and on every base node (only
+    /// the nodes outside every R are used by the caller).
+    pub fn apply(&mut self, fine: &[f64], v: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let nb = v.len();
+        let mut parts = Vec::with_capacity(self.near.len());
+        let mut off = 0;
+        for near in &mut self.near {
+            let n = near.rx * near.ry;
+            let d = near.remainder(&fine[off..off + n], v);
+            let gz = near.box_field(&d, v);
+            let vf: Vec<f64> = v
+                .iter()
+                .zip(&near.in_e)
+                .map(|(x, e)| if *e { 0.0 } else { *x })
+                .collect();
+            let mut cp_vf = vec![0.0; nb];
+            self.spectral.convolve_with(&vf, &self.cp, &mut cp_vf);
+            let mut c_vf = vec![0.0; nb];
+            self.spectral.convolve_with(&vf, &self.c, &mut c_vf);
+            let w = near.adjoint(&self.lag, &d, nb);
+            parts.push(Part { gz, c_vf, cp_vf, w });
+            off += n;
+        }
+        let mut c_v = vec![0.0; nb];
+        self.spectral.convolve_with(v, &self.c, &mut c_v);
+        let cp_w: Vec<Vec<f64>> = parts
+            .iter()
+            .map(|p| {
+                let mut o = vec![0.0; nb];
+                self.spectral.convolve_with(&p.w, &self.cp, &mut o);
+                o
+            })
+            .collect();
+        // remainders of the other windows, as point sources at base nodes (adjoint
+        // interpolation), their field sampled at base nodes
+        if let Some(cpp) = &self.cpp {
+            let total: Vec<f64> = (0..nb)
+                .map(|k| parts.iter().map(|p| p.w[k]).sum::<f64>())
+                .collect();
+            for p in parts.iter_mut() {
+                let others: Vec<f64> = total.iter().zip(&p.w).map(|(t, w)| t - w).collect();
+                let mut field = vec![0.0; nb];
+                self.spectral.convolve_with(&others, cpp, &mut field);
+                for (a, b) in p.cp_vf.iter_mut().zip(&field) {
+                    *a += b;
+                }
+            }
+        }
+        // Hᵀ G z on each window's E
+        let hgz: Vec<Vec<f64>> = self
+            .near
+            .iter()
+            .zip(&parts)
+            .map(|(near, p)| near.hat_field(&p.gz, nb))
+            .collect();
+        // g_v: one window's E: C v_F + Hᵀ G z (+ the other windows' far remainders);
+        // outside every E: C v + C' Sᵀ Πᵀ d of every window; in several windows' E (their
+        // margins overlap): C v + Σ (Hᵀ G z − C v_E) over those, far terms of the rest
+        let mut gv = vec![0.0; nb];
+        for (k, g) in gv.iter_mut().enumerate() {
+            let inside: Vec<usize> = (0..parts.len()).filter(|&w| self.near[w].in_e[k]).collect();
+            let far = |skip: &dyn Fn(usize) -> bool| -> f64 {
+                (0..parts.len())
+                    .filter(|&w| !skip(w))
+                    .map(|w| cp_w[w][k])
+                    .sum()
+            };
+            *g = match inside[..] {
+                [] => {
+                    if parts.len() == 1 {
+                        c_v[k] + cp_w[0][k]
+                    } else {
+                        c_v[k] + far(&|_| false)
+                    }
+                }
+                [a] => {
+                    let s = parts[a].c_vf[k] + hgz[a][k];
+                    if parts.len() == 1 {
+                        s
+                    } else {
+                        s + far(&|w| w == a)
+                    }
+                }
+                _ => {
+                    let near: f64 = inside
+                        .iter()
+                        .map(|&w| hgz[w][k] - (c_v[k] - parts[w].c_vf[k]))
+                        .sum();
+                    c_v[k] + near + far(&|w| inside.contains(&w))
+                }
+            };
+        }
+        let mut out = Vec::with_capacity(fine.len());
+        for (near, p) in self.near.iter().zip(&parts) {
+            out.extend(near.gradient(&self.lag, p, &gv));
+        }
+        (out, gv)
+    }
+}
+
+impl Near {
+    /// d = p_R − I_R v.
+    fn remainder(&self, fine: &[f64], v: &[f64]) -> Vec<f64> {
+        let ry = self.ry;
+        let mut d = vec![0.0; self.rx * ry];
+        d.par_chunks_mut(ry).enumerate().for_each(|(a, row)| {
+            for (b, x) in row.iter_mut().enumerate() {
+                *x = fine[a * ry + b] - self.bilinear(v, None, a as isize, b as isize);
+            }
+        });
+        d
+    }
+
+    /// G z on the box, z = H v_E + d.
+    fn box_field(&mut self, d: &[f64], v: &[f64]) -> Vec<f64> {
+        let (rx, ry, bx, by, o) = (self.rx, self.ry, self.bx, self.by, self.origin);
+        let mut z = vec![0.0; bx * by];
+        {
+            let this = &*self;
+            let mask = Some(&this.in_e[..]);
+            z.par_chunks_mut(by).enumerate().for_each(|(u, row)| {
+                let a = u as isize + o;
+                for (w, x) in row.iter_mut().enumerate() {
+                    let b = w as isize + o;
+                    let mut s = this.bilinear(v, mask, a, b);
+                    if a >= 0 && (a as usize) < rx && b >= 0 && (b as usize) < ry {
+                        s += d[a as usize * ry + b as usize];
+                    }
+                    *x = s;
+                }
+            });
+        }
+        let mut gz = vec![0.0; bx * by];
+        crate::compliance::Compliance::displacement(&mut self.boxk, &z, &mut gz);
+        gz
+    }
+
+    /// w = Sᵀ Πᵀ d on every base node (zero off the stencil's base nodes): the adjoint of the
+    /// Lagrange interpolation from base nodes R ± order/2 onto R's fine nodes.
+    fn adjoint(&self, lag: &[Vec<f64>], d: &[f64], nb: usize) -> Vec<f64> {
+        let (rx, ry, fu, pp) = (self.rx, self.ry, self.g.f, self.g.order);
+        let lo = 1 - (pp / 2) as isize;
+        let sx = self.g.wx + pp;
+        let mut bx_ = vec![0.0; sx * ry];
+        for a in 0..rx {
+            let (ca, wa) = (a / fu, &lag[a % fu]);
+            for (p, wp) in wa.iter().enumerate() {
+                if *wp != 0.0 {
+                    let dst = &mut bx_[(ca + p) * ry..(ca + p + 1) * ry];
+                    for (x, dv) in dst.iter_mut().zip(&d[a * ry..(a + 1) * ry]) {
+                        *x += wp * dv;
+                    }
+                }
+            }
+        }
+        let mut w = vec![0.0; nb];
+        for is in 0..sx {
+            for b in 0..ry {
+                let (cb, wb) = (b / fu, &lag[b % fu]);
+                let val = bx_[is * ry + b];
+                for (q, wq) in wb.iter().enumerate() {
+                    if *wq != 0.0 {
+                        w[self.g.base(is as isize + lo, (cb + q) as isize + lo)] += wq * val;
+                    }
+                }
+            }
+        }
+        w
+    }
+
+    /// Hᵀ G z on the base nodes of E (NaN elsewhere).
+    fn hat_field(&self, gz: &[f64], nb: usize) -> Vec<f64> {
+        let (by, o) = (self.by, self.origin);
+        let f = self.g.f as isize;
+        let m = self.g.margin as isize;
+        let mut out = vec![f64::NAN; nb];
+        for ei in -m..=self.g.wx as isize + m {
+            for ej in -m..=self.g.wy as isize + m {
+                let mut s = 0.0;
+                for da in 1 - f..f {
+                    let u = (ei * f + da - o) as usize;
+                    let line = &gz[u * by..(u + 1) * by];
+                    let mut sa = 0.0;
+                    for db in 1 - f..f {
+                        sa += hat(db, self.g.f) * line[(ej * f + db - o) as usize];
+                    }
+                    s += hat(da, self.g.f) * sa;
+                }
+                out[self.g.base(ei, ej)] = s;
+            }
+        }
+        out
+    }
+
+    /// The gradient on R's fine unknowns: g_d = (G z)|_R + Π (far field at base nodes), and
+    /// on R's base nodes g_v − I_Rᵀ g_d added (Tᵀ).
+    fn gradient(&self, lag: &[Vec<f64>], p: &Part, gv: &[f64]) -> Vec<f64> {
+        let (rx, ry, by, o) = (self.rx, self.ry, self.by, self.origin);
+        let f = self.g.f as isize;
+        let (fu, pp) = (self.g.f, self.g.order);
+        let lo = 1 - (pp / 2) as isize;
+        let sx = self.g.wx + pp;
+        let (gz, far) = (&p.gz, &p.cp_vf);
+        let mut ay = vec![0.0; sx * ry];
+        ay.par_chunks_mut(ry).enumerate().for_each(|(is, row)| {
+            for (b, x) in row.iter_mut().enumerate() {
+                let (cb, wb) = (b / fu, &lag[b % fu]);
+                let mut acc = 0.0;
+                for (q, wq) in wb.iter().enumerate() {
+                    if *wq != 0.0 {
+                        acc += wq * far[self.g.base(is as isize + lo, (cb + q) as isize + lo)];
+                    }
+                }
+                *x = acc;
+            }
+        });
+        let mut gd = vec![0.0; rx * ry];
+        gd.par_chunks_mut(ry).enumerate().for_each(|(a, row)| {
+            let (ca, wa) = (a / fu, &lag[a % fu]);
+            for (b, x) in row.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (q, wq) in wa.iter().enumerate() {
+                    if *wq != 0.0 {
+                        acc += wq * ay[(ca + q) * ry + b];
+                    }
+                }
+                let (u, t) = ((a as isize - o) as usize, (b as isize - o) as usize);
+                *x = gz[u * by + t] + acc;
+            }
+        });
+        // Tᵀ: fine unknowns get g_d; R's base nodes add g_v − I_Rᵀ g_d
+        let mut out = gd.clone();
+        for ci in 0..=self.g.wx as isize {
+            for cj in 0..=self.g.wy as isize {
+                let mut s = 0.0;
+                for da in 1 - f..f {
+                    let a = ci * f + da;
+                    if a < 0 || a as usize >= rx {
+                        continue;
+                    }
+                    for db in 1 - f..f {
+                        let b = cj * f + db;
+                        if b < 0 || b as usize >= ry {
+                            continue;
+                        }
+                        s += hat(da, self.g.f)
+                            * hat(db, self.g.f)
+                            * gd[a as usize * ry + b as usize];
+                    }
+                }
+                let k = (ci * f) as usize * ry + (cj * f) as usize;
+                out[k] += gv[self.g.base(ci, cj)] - s;
+            }
+        }
+        out
     }
 
     /// Bilinear interpolant of base values `v` (masked by `mask` if given) at the fine node
@@ -288,163 +592,6 @@ impl Blocks {
         }
         s
     }
-
-    /// Applies Tᵀ Ĝ T to the unknowns: `fine` on R (rx × ry, row-major) and `v` the nodal
-    /// values on every base node (R's base nodes carrying the fine unknown there). Returns the
-    /// gradient on R's fine unknowns (with the base nodes' coarse terms added) and on every base
-    /// node (only the nodes outside R are used by the caller).
-    pub fn apply(&mut self, fine: &[f64], v: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let (rx, ry, bx, by, o) = (self.rx, self.ry, self.bx, self.by, self.origin);
-        let f = self.g.f as isize;
-        let nb = self.g.nx * self.g.ny;
-        // d = p_R − I_R v
-        let mut d = vec![0.0; rx * ry];
-        d.par_chunks_mut(ry).enumerate().for_each(|(a, row)| {
-            for (b, x) in row.iter_mut().enumerate() {
-                *x = fine[a * ry + b] - self.bilinear(v, None, a as isize, b as isize);
-            }
-        });
-        // z = H v_E + d on the box
-        let mut z = vec![0.0; bx * by];
-        {
-            let this = &*self;
-            let mask = Some(&this.in_e[..]);
-            z.par_chunks_mut(by).enumerate().for_each(|(u, row)| {
-                let a = u as isize + o;
-                for (w, x) in row.iter_mut().enumerate() {
-                    let b = w as isize + o;
-                    let mut s = this.bilinear(v, mask, a, b);
-                    if a >= 0 && (a as usize) < rx && b >= 0 && (b as usize) < ry {
-                        s += d[a as usize * ry + b as usize];
-                    }
-                    *x = s;
-                }
-            });
-        }
-        let mut gz = vec![0.0; bx * by];
-        crate::compliance::Compliance::displacement(&mut self.boxk, &z, &mut gz);
-        // far field
-        let vf: Vec<f64> = v
-            .iter()
-            .zip(&self.in_e)
-            .map(|(x, e)| if *e { 0.0 } else { *x })
-            .collect();
-        let mut cp_vf = vec![0.0; nb];
-        self.spectral.convolve_with(&vf, &self.cp, &mut cp_vf);
-        let mut c_vf = vec![0.0; nb];
-        self.spectral.convolve_with(&vf, &self.c, &mut c_vf);
-        let mut c_v = vec![0.0; nb];
-        self.spectral.convolve_with(v, &self.c, &mut c_v);
-        // g_d = (G z)|_R + Π S C' v_F and w = Sᵀ Πᵀ d, separably: the stencil's base rows are
-        // rel 1 − P/2 ..= wx + P/2 (sx of them), fine row a uses rows a/f .. a/f + P.
-        let (fu, pp) = (self.g.f, self.g.order);
-        let lo = 1 - (pp / 2) as isize;
-        let (sx, sy) = (self.g.wx + pp, self.g.wy + pp);
-        let mut ay = vec![0.0; sx * ry];
-        ay.par_chunks_mut(ry).enumerate().for_each(|(is, row)| {
-            for (b, x) in row.iter_mut().enumerate() {
-                let (cb, wb) = (b / fu, &self.lag[b % fu]);
-                let mut acc = 0.0;
-                for (q, wq) in wb.iter().enumerate() {
-                    if *wq != 0.0 {
-                        acc += wq * cp_vf[self.g.base(is as isize + lo, (cb + q) as isize + lo)];
-                    }
-                }
-                *x = acc;
-            }
-        });
-        let mut gd = vec![0.0; rx * ry];
-        gd.par_chunks_mut(ry).enumerate().for_each(|(a, row)| {
-            let (ca, wa) = (a / fu, &self.lag[a % fu]);
-            for (b, x) in row.iter_mut().enumerate() {
-                let mut acc = 0.0;
-                for (p, wp) in wa.iter().enumerate() {
-                    if *wp != 0.0 {
-                        acc += wp * ay[(ca + p) * ry + b];
-                    }
-                }
-                let (u, t) = ((a as isize - o) as usize, (b as isize - o) as usize);
-                *x = gz[u * by + t] + acc;
-            }
-        });
-        let mut bx_ = vec![0.0; sx * ry];
-        for a in 0..rx {
-            let (ca, wa) = (a / fu, &self.lag[a % fu]);
-            for (p, wp) in wa.iter().enumerate() {
-                if *wp != 0.0 {
-                    let dst = &mut bx_[(ca + p) * ry..(ca + p + 1) * ry];
-                    for (x, dv) in dst.iter_mut().zip(&d[a * ry..(a + 1) * ry]) {
-                        *x += wp * dv;
-                    }
-                }
-            }
-        }
-        let mut w = vec![0.0; nb];
-        for is in 0..sx {
-            for b in 0..ry {
-                let (cb, wb) = (b / fu, &self.lag[b % fu]);
-                let val = bx_[is * ry + b];
-                for (q, wq) in wb.iter().enumerate() {
-                    if *wq != 0.0 {
-                        w[self.g.base(is as isize + lo, (cb + q) as isize + lo)] += wq * val;
-                    }
-                }
-            }
-        }
-        let _ = sy;
-        let oy = o;
-        let mut cp_w = vec![0.0; nb];
-        self.spectral.convolve_with(&w, &self.cp, &mut cp_w);
-        // g_v: on E, C v_F + Hᵀ G z; outside E, C v + C' Sᵀ Πᵀ d
-        let mut gv = vec![0.0; nb];
-        for k in 0..nb {
-            if !self.in_e[k] {
-                gv[k] = c_v[k] + cp_w[k];
-            }
-        }
-        let m = self.g.margin as isize;
-        for ei in -m..=self.g.wx as isize + m {
-            for ej in -m..=self.g.wy as isize + m {
-                let mut s = 0.0;
-                for da in 1 - f..f {
-                    let u = (ei * f + da - o) as usize;
-                    let line = &gz[u * by..(u + 1) * by];
-                    let mut sa = 0.0;
-                    for db in 1 - f..f {
-                        sa += hat(db, self.g.f) * line[(ej * f + db - oy) as usize];
-                    }
-                    s += hat(da, self.g.f) * sa;
-                }
-                let k = self.g.base(ei, ej);
-                gv[k] = c_vf[k] + s;
-            }
-        }
-        // Tᵀ: fine unknowns get g_d; R's base nodes add g_v − I_Rᵀ g_d
-        let mut out = gd.clone();
-        for ci in 0..=self.g.wx as isize {
-            for cj in 0..=self.g.wy as isize {
-                let mut s = 0.0;
-                for da in 1 - f..f {
-                    let a = ci * f + da;
-                    if a < 0 || a as usize >= rx {
-                        continue;
-                    }
-                    for db in 1 - f..f {
-                        let b = cj * f + db;
-                        if b < 0 || b as usize >= ry {
-                            continue;
-                        }
-                        s += hat(da, self.g.f)
-                            * hat(db, self.g.f)
-                            * gd[a as usize * ry + b as usize];
-                    }
-                }
-                let k = (ci * f) as usize * ry + (cj * f) as usize;
-                out[k] += gv[self.g.base(ci, cj)] - s;
-            }
-        }
-        (out, gv)
-    }
 }
 
 /// Weights W = Pᵀ1 of the composite unknowns: f² for a coarse hat, 1 for a fine node of R, and
@@ -470,19 +617,15 @@ pub(crate) fn weights(g: &Geometry) -> (Vec<f64>, f64) {
     (w, (f * f) as f64)
 }
 
-/// Pᵀ h for a height function h(i, j) of the fine lattice node (i, j) (global indices): on R
-/// (rx × ry) and on every base node (Hᵀ h; the caller uses the nodes outside R). Streams the
-/// fine lattice by fine rows, each fine node evaluated once (at k = 6 on a 256² base this is
-/// the largest part of the setup: 16 s of 31 when each node was evaluated twice).
-pub(crate) fn heights(
-    g: &Geometry,
-    h: impl Fn(usize, usize) -> f64 + Sync,
-) -> (Vec<f64>, Vec<f64>) {
+/// Hᵀ h on every base node for a height function h(i, j) of the fine lattice node (i, j)
+/// (global indices). Streams the fine lattice by fine rows, each fine node evaluated once
+/// (memory F_x × ny, not the fine lattice; at k = 6 on a 256² base this is the largest part of
+/// the setup: 16 s of 31 when each node was evaluated twice).
+pub(crate) fn hat_heights(g: &Geometry, h: &(impl Fn(usize, usize) -> f64 + Sync)) -> Vec<f64> {
     let (fx, fy) = g.fine();
     let f = g.f;
     let (nx, ny) = (g.nx, g.ny);
-    // s[fi ny + j] = Σ_db hat(db) h(fi, f j + db): each fine node evaluated once (memory
-    // F_x × ny, not the fine lattice)
+    // s[fi ny + j] = Σ_db hat(db) h(fi, f j + db)
     let mut rows = vec![0.0; fx * ny];
     rows.par_chunks_mut(ny).enumerate().for_each(|(fi, out)| {
         let line: Vec<f64> = (0..fy).map(|j| h(fi, j)).collect();
@@ -495,7 +638,7 @@ pub(crate) fn heights(
             *o = sa;
         }
     });
-    let hv: Vec<f64> = (0..nx * ny)
+    (0..nx * ny)
         .into_par_iter()
         .map(|k| {
             let (i, j) = (k / ny, k % ny);
@@ -506,7 +649,19 @@ pub(crate) fn heights(
             }
             s
         })
-        .collect();
+        .collect()
+}
+
+/// Pᵀ h on R (rx × ry) of the window `g`, given Hᵀ h on every base node (`hv`,
+/// [`hat_heights`]): the heights at R's fine nodes, R's base nodes adding the hat mass outside
+/// R.
+pub(crate) fn window_heights(
+    g: &Geometry,
+    h: &(impl Fn(usize, usize) -> f64 + Sync),
+    hv: &[f64],
+) -> Vec<f64> {
+    let (fx, fy) = g.fine();
+    let f = g.f;
     let (rx, ry) = g.region();
     let hr: Vec<f64> = (0..rx * ry)
         .map(|k| {
@@ -534,5 +689,5 @@ pub(crate) fn heights(
             out[ci * f * ry + cj * f] += hv[g.base(ci as isize, cj as isize)] - s;
         }
     }
-    (out, hv)
+    out
 }

@@ -28,30 +28,43 @@ use crate::compliance::Compliance;
 use crate::free_kernel::FreeKernel;
 use crate::spectral::Spectral;
 
-/// The additive two-level preconditioner (see the module docs).
-pub(crate) struct TwoLevel {
+/// One window's fine space.
+struct FineSpace {
     g: Geometry,
     rx: usize,
     ry: usize,
-    spectral: Spectral,
-    /// 1/C on the base grid (zero at the mean mode), as a [`Spectral`] multiplier.
-    cinv: Vec<f64>,
     /// K_f's table on R, applied by zero-padded FFT.
     fine: FreeKernel,
     /// The fine nodes of R that belong to the fine space (their scale; 0 outside it).
     in_fine: Vec<f64>,
 }
 
+/// The additive two-level preconditioner (see the module docs).
+pub(crate) struct TwoLevel {
+    spectral: Spectral,
+    /// 1/C on the base grid (zero at the mean mode), as a [`Spectral`] multiplier.
+    cinv: Vec<f64>,
+    /// One fine space per window (R and the windows' fine unknowns in order).
+    spaces: Vec<FineSpace>,
+}
+
 impl TwoLevel {
-    /// For the fine region `rx × ry` (R's fine nodes; at most the fine lattice) whose unknowns
-    /// have the weights `weight` (rx × ry). The fine space holds every node of R (with
-    /// `hierarchical` none of R's base nodes); the base nodes on R's edge, whose basis function
-    /// also carries the coarse hats next to R (weight w > 1), enter it scaled by 1/w, so that
-    /// W B W gives them the fine diagonal K_f(0) rather than w² K_f(0) (up to f⁴/4 too stiff;
-    /// measured: leaving them out of the fine space, or not scaling them, costs up to 3× the
-    /// iterations, see the parent module's docs).
-    pub fn new(g: Geometry, rx: usize, ry: usize, weight: &[f64], hierarchical: bool) -> Self {
-        let (c, _) = alias_spectra(&g, Kernel::Compliance);
+    /// For the windows `gs` whose fine regions are `regions` (rx × ry each, R's fine nodes; at most
+    /// the fine lattice) and whose unknowns have the weights `weight` (rx × ry each, in order). The fine
+    /// space holds every node of each R (with `hierarchical` none of R's base nodes); the base
+    /// nodes on R's edge, whose basis function also carries the coarse hats next to R (weight
+    /// w > 1), enter it scaled by 1/w, so that W B W gives them the fine diagonal K_f(0) rather
+    /// than w² K_f(0) (up to f⁴/4 too stiff; measured: leaving them out of the fine space, or
+    /// not scaling them, costs up to 3× the iterations, see the parent module's docs). The
+    /// windows' fine spaces are disjoint and uncoupled (block diagonal).
+    pub fn new(
+        gs: &[Geometry],
+        regions: &[(usize, usize)],
+        weights: &[&[f64]],
+        hierarchical: bool,
+    ) -> Self {
+        let g = gs[0];
+        let (c, _, _) = alias_spectra(&g, Kernel::Compliance);
         let nb = (g.nx * g.ny) as f64;
         // `c` includes the 1/(nx ny) of the inverse transform: eigenvalue λ = c nb, and the
         // inverse's multiplier is 1/(λ nb). The mean mode (index 0) is zero up to the rounding
@@ -69,98 +82,124 @@ impl TwoLevel {
             .collect();
         let spectral = Spectral::new(g.nx, g.ny);
         let cinv = spectral.multiplier(&inv);
-        let t = table(&g, Kernel::Stiffness, rx, ry);
+        let rx_max = regions.iter().map(|r| r.0).max().expect("a window");
+        let ry_max = regions.iter().map(|r| r.1).max().expect("a window");
+        let t = table(&g, Kernel::Stiffness, rx_max, ry_max);
         // (the table holds offsets up to the fine period − 1; a region spanning the period
         // reaches offset = period, which is offset 0)
         let (fx, fy) = (g.nx * g.f, g.ny * g.f);
-        let stride = ry.min(fy - 1) + 1;
-        let fine = FreeKernel::from_green(rx, ry, |i, j| {
-            t[(i.unsigned_abs() % fx) * stride + j.unsigned_abs() % fy]
-        });
+        let stride = ry_max.min(fy - 1) + 1;
+        let spaces = gs
+            .iter()
+            .zip(regions)
+            .zip(weights)
+            .map(|((&g, &(rx, ry)), weight)| FineSpace {
+                g,
+                rx,
+                ry,
+                fine: FreeKernel::from_green(rx, ry, |i, j| {
+                    t[(i.unsigned_abs() % fx) * stride + j.unsigned_abs() % fy]
+                }),
+                in_fine: (0..rx * ry)
+                    .map(|k| {
+                        let base = (k / ry).is_multiple_of(g.f) && (k % ry).is_multiple_of(g.f);
+                        if hierarchical && base {
+                            0.0
+                        } else {
+                            1.0 / weight[k]
+                        }
+                    })
+                    .collect(),
+            })
+            .collect();
         TwoLevel {
-            g,
-            rx,
-            ry,
             spectral,
             cinv,
-            fine,
-            in_fine: (0..rx * ry)
-                .map(|k| {
-                    let base = (k / ry).is_multiple_of(g.f) && (k % ry).is_multiple_of(g.f);
-                    if hierarchical && base {
-                        0.0
-                    } else {
-                        1.0 / weight[k]
-                    }
-                })
-                .collect(),
+            spaces,
         }
     }
 
-    /// B y for y given on R's fine nodes (`y_r`, rx × ry row-major) and on the base nodes
-    /// outside R (`y_out`, every base node, entries of nodes on R ignored). Returns B y in the
-    /// same two parts (the second's entries on R's base nodes are z_v there, unused).
+    /// B y for y given on the windows' fine nodes (`y_r`, each rx × ry row-major, in order)
+    /// and on the base nodes outside them (`y_out`, every base node, entries of nodes on a
+    /// window ignored). Returns B y in the same two parts (the second's entries on the
+    /// windows' base nodes are z_v there, unused).
     pub fn apply(&mut self, y_r: &[f64], y_out: &[f64], on_r: &[bool]) -> (Vec<f64>, Vec<f64>) {
-        let (rx, ry, f) = (self.rx, self.ry, self.g.f);
-        let fi = f as isize;
         // y_v = J_cᵀ y
         let mut y_v: Vec<f64> = y_out
             .iter()
             .zip(on_r)
             .map(|(y, r)| if *r { 0.0 } else { *y })
             .collect();
-        for ci in 0..=self.g.wx as isize {
-            for cj in 0..=self.g.wy as isize {
-                let mut s = 0.0;
-                for da in 1 - fi..fi {
-                    let a = ci * fi + da;
-                    if a < 0 || a as usize >= rx {
-                        continue;
-                    }
-                    let wa = hat(da, f);
-                    let row = &y_r[a as usize * ry..(a as usize + 1) * ry];
-                    for db in 1 - fi..fi {
-                        let b = cj * fi + db;
-                        if b < 0 || b as usize >= ry {
+        let mut off = 0;
+        for sp in &self.spaces {
+            let (rx, ry, f) = (sp.rx, sp.ry, sp.g.f);
+            let fi = f as isize;
+            let y_r = &y_r[off..off + rx * ry];
+            for ci in 0..=sp.g.wx as isize {
+                for cj in 0..=sp.g.wy as isize {
+                    let mut s = 0.0;
+                    for da in 1 - fi..fi {
+                        let a = ci * fi + da;
+                        if a < 0 || a as usize >= rx {
                             continue;
                         }
-                        s += wa * hat(db, f) * row[b as usize];
+                        let wa = hat(da, f);
+                        let row = &y_r[a as usize * ry..(a as usize + 1) * ry];
+                        for db in 1 - fi..fi {
+                            let b = cj * fi + db;
+                            if b < 0 || b as usize >= ry {
+                                continue;
+                            }
+                            s += wa * hat(db, f) * row[b as usize];
+                        }
                     }
+                    y_v[sp.g.base(ci, cj)] += s;
                 }
-                y_v[self.g.base(ci, cj)] += s;
             }
+            off += rx * ry;
         }
         let mut z_v = vec![0.0; y_v.len()];
         self.spectral.convolve_with(&y_v, &self.cinv, &mut z_v);
-        // fine space
-        let y_d: Vec<f64> = y_r.iter().zip(&self.in_fine).map(|(y, m)| y * m).collect();
-        let mut z_r = vec![0.0; rx * ry];
-        self.fine.displacement(&y_d, &mut z_r);
-        for (z, m) in z_r.iter_mut().zip(&self.in_fine) {
-            *z *= m;
-        }
-        // + J_c z_v
-        for (a, row) in z_r.chunks_mut(ry).enumerate() {
-            let (ca, sa) = ((a / f) as isize, a % f);
-            let wa = sa as f64 / f as f64;
-            for (b, z) in row.iter_mut().enumerate() {
-                let (cb, sb) = ((b / f) as isize, b % f);
-                let wb = sb as f64 / f as f64;
-                let v = |di: isize, dj: isize| z_v[self.g.base(ca + di, cb + dj)];
-                let mut s = (1.0 - wa) * (1.0 - wb) * v(0, 0);
-                if sb > 0 {
-                    s += (1.0 - wa) * wb * v(0, 1);
-                }
-                if sa > 0 {
-                    s += wa * (1.0 - wb) * v(1, 0);
-                    if sb > 0 {
-                        s += wa * wb * v(1, 1);
-                    }
-                }
-                *z += s;
+        let mut out = Vec::with_capacity(y_r.len());
+        let mut off = 0;
+        for sp in &mut self.spaces {
+            let (rx, ry, f) = (sp.rx, sp.ry, sp.g.f);
+            // fine space
+            let y_d: Vec<f64> = y_r[off..off + rx * ry]
+                .iter()
+                .zip(&sp.in_fine)
+                .map(|(y, m)| y * m)
+                .collect();
+            off += rx * ry;
+            let mut z_r = vec![0.0; rx * ry];
+            sp.fine.displacement(&y_d, &mut z_r);
+            for (z, m) in z_r.iter_mut().zip(&sp.in_fine) {
+                *z *= m;
             }
+            // + J_c z_v
+            for (a, row) in z_r.chunks_mut(ry).enumerate() {
+                let (ca, sa) = ((a / f) as isize, a % f);
+                let wa = sa as f64 / f as f64;
+                for (b, z) in row.iter_mut().enumerate() {
+                    let (cb, sb) = ((b / f) as isize, b % f);
+                    let wb = sb as f64 / f as f64;
+                    let v = |di: isize, dj: isize| z_v[sp.g.base(ca + di, cb + dj)];
+                    let mut s = (1.0 - wa) * (1.0 - wb) * v(0, 0);
+                    if sb > 0 {
+                        s += (1.0 - wa) * wb * v(0, 1);
+                    }
+                    if sa > 0 {
+                        s += wa * (1.0 - wb) * v(1, 0);
+                        if sb > 0 {
+                            s += wa * wb * v(1, 1);
+                        }
+                    }
+                    *z += s;
+                }
+            }
+            out.extend(z_r);
         }
-        (z_r, z_v)
+        (out, z_v)
     }
 }
 
@@ -184,8 +223,8 @@ mod tests {
             margin: 0,
             order: 8,
         };
-        let mut t = TwoLevel::new(g, 17, 13, &[1.0; 17 * 13], false);
-        let (c, _) = alias_spectra(&g, Kernel::Compliance);
+        let mut t = TwoLevel::new(&[g], &[(17, 13)], &[&[1.0; 17 * 13]], false);
+        let (c, _, _) = alias_spectra(&g, Kernel::Compliance);
         let cm = t.spectral.multiplier(&c);
         let n = g.nx * g.ny;
         let mut x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
