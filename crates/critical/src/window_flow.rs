@@ -556,6 +556,287 @@ pub fn refined_flow(
     )
 }
 
+/// A refined saddle's flow window: a rectangle of base nodes around the saddle and the grid
+/// axis of its two-terminal (isobar) problem, the axis nearest the saddle's channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SaddleFlowWindow {
+    /// The window (base nodes).
+    pub window: FlowWindow,
+    /// Axis of the window's own flow problem.
+    pub axis: FlowAxis,
+}
+
+impl SaddleFlowWindow {
+    /// The flow window inside the refined region `region` around a saddle whose channel lies
+    /// at `angle_deg` (0° = x): its axis the grid axis nearest the channel, trimmed as
+    /// [`FlowWindow::within`].
+    pub fn around(
+        region: Window,
+        angle_deg: f64,
+        base: &Grid,
+        trim_along: usize,
+        trim_across: usize,
+    ) -> Result<SaddleFlowWindow, WindowFlowError> {
+        let a = angle_deg.to_radians();
+        let axis = if a.cos().abs() >= a.sin().abs() {
+            FlowAxis::X
+        } else {
+            FlowAxis::Y
+        };
+        Ok(SaddleFlowWindow {
+            window: FlowWindow::within(region, base, axis, trim_along, trim_across)?,
+            axis,
+        })
+    }
+}
+
+/// One window of [`scaled_replacement`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct WindowScale {
+    /// Flux through the window between its isobaric end lines on the base gap (ΔP = 1).
+    pub flux_coarse: f64,
+    /// The same on the fine gap.
+    pub flux_fine: f64,
+    /// s = flux_fine / flux_coarse, the factor on g³ of the window's base nodes.
+    pub scale: f64,
+    /// Open fine nodes on the window's two side lines (closed in the window problems).
+    pub open_side_nodes: usize,
+}
+
+/// The flow of a cell with several refined windows ([`scaled_replacement`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MultiWindowFlow {
+    /// Conductivity of the cell with every window's conductance replaced.
+    pub conductivity: f64,
+    /// The base cell's own conductivity.
+    pub conductivity_coarse: f64,
+    /// Per window, in order.
+    pub windows: Vec<WindowScale>,
+    /// Wall time of all flow solves (s).
+    pub wall_s: f64,
+}
+
+fn usable(
+    which: &'static str,
+    r: Result<FlowResult, reynolds::FlowError>,
+) -> Result<FlowResult, WindowFlowError> {
+    let r = r.map_err(|e| WindowFlowError::Flow {
+        which,
+        detail: e.to_string(),
+    })?;
+    if !r.converged {
+        return Err(WindowFlowError::Flow {
+            which,
+            detail: format!("not converged ({:?})", r.termination),
+        });
+    }
+    Ok(r)
+}
+
+/// Flow along `axis` of the periodic cell `lx × ly` whose base gap is `coarse`, with the
+/// conductance of each window replaced by that of its fine gap (`fines[w]`: (f wx + 1) ×
+/// (f wy + 1) fine nodes of `windows[w].window`, first index x). Each window's two-terminal
+/// problem (isobaric end lines across its own axis, closed sides) is solved on both gaps; its
+/// flux ratio s = Q_fine / Q_coarse multiplies g³ on every base node of the window (g × s^⅓),
+/// which multiplies every face conductance inside the window, and so the window's two-terminal
+/// conductance, by exactly s; the cell is then solved once more. See the module docs,
+/// "Several windows", for what this gets right (series and parallel windows, any number) and
+/// what it approximates (the faces that join a window's edge nodes to the rest).
+#[allow(clippy::too_many_arguments)]
+pub fn scaled_replacement(
+    coarse: ArrayView2<f64>,
+    lx: f64,
+    ly: f64,
+    fines: &[ArrayView2<f64>],
+    f: usize,
+    windows: &[SaddleFlowWindow],
+    axis: FlowAxis,
+    opts: &FlowOptions,
+) -> Result<MultiWindowFlow, WindowFlowError> {
+    let start = Instant::now();
+    let (nx, ny) = coarse.dim();
+    if fines.len() != windows.len() || windows.is_empty() {
+        return Err(param(
+            "windows",
+            format!("{} windows, {} fine gaps", windows.len(), fines.len()),
+            "one fine gap per window, at least one window",
+        ));
+    }
+    let (dx, dy) = (lx / nx as f64, ly / ny as f64);
+    let mut owner = Array2::<Option<usize>>::from_elem((nx, ny), None);
+    let mut scales = Vec::with_capacity(windows.len());
+    for (k, (sw, fine)) in windows.iter().zip(fines).enumerate() {
+        let w = sw.window;
+        if f == 0 || fine.dim() != (f * w.wx + 1, f * w.wy + 1) {
+            return Err(param(
+                "fine window shape",
+                format!("window {k}: {:?}", fine.dim()),
+                format!(
+                    "(f wx + 1, f wy + 1) = ({}, {})",
+                    f * w.wx + 1,
+                    f * w.wy + 1
+                ),
+            ));
+        }
+        if w.wx + 1 > nx || w.wy + 1 > ny || w.i0 >= nx || w.j0 >= ny {
+            return Err(param(
+                "window",
+                format!("window {k}: {w:?}"),
+                format!(
+                    "at most {} × {} base cells, first node inside the grid",
+                    nx - 1,
+                    ny - 1
+                ),
+            ));
+        }
+        for a in 0..=w.wx {
+            for b in 0..=w.wy {
+                let node = ((w.i0 + a) % nx, (w.j0 + b) % ny);
+                if let Some(other) = owner[node] {
+                    return Err(param(
+                        "windows",
+                        format!(
+                            "window {other} {:?} and window {k} {w:?}",
+                            windows[other].window
+                        ),
+                        "disjoint (no common base node)",
+                    ));
+                }
+                owner[node] = Some(k);
+            }
+        }
+        let base_window = Array2::from_shape_fn((w.wx + 1, w.wy + 1), |(a, b)| {
+            coarse[[(w.i0 + a) % nx, (w.j0 + b) % ny]]
+        });
+        let (fdx, fdy) = (dx / f as f64, dy / f as f64);
+        let wc = usable(
+            "base window",
+            reynolds::solve_between_isobars(
+                base_window.view(),
+                (w.wx + 1) as f64 * dx,
+                (w.wy + 1) as f64 * dy,
+                sw.axis,
+                SideEdges::NoFlux,
+                opts,
+            ),
+        )?;
+        let wf = usable(
+            "fine window",
+            reynolds::solve_between_isobars(
+                *fine,
+                (f * w.wx + 1) as f64 * fdx,
+                (f * w.wy + 1) as f64 * fdy,
+                sw.axis,
+                SideEdges::NoFlux,
+                opts,
+            ),
+        )?;
+        let (qc, qf) = (
+            if wc.percolating { wc.flux } else { 0.0 },
+            if wf.percolating { wf.flux } else { 0.0 },
+        );
+        let scale = match (qc > 0.0, qf > 0.0) {
+            (true, _) => qf / qc,
+            (false, false) => 1.0,
+            (false, true) => {
+                return Err(WindowFlowError::Flow {
+                    which: "base window",
+                    detail: format!(
+                        "window {k} {w:?}: closed on the base gap but open on the fine gap \
+                         (flux {qf:e}); a closed coarse window cannot be rescaled"
+                    ),
+                });
+            }
+        };
+        let (fx, fy) = fine.dim();
+        let side = |a: usize, b: usize| usize::from(fine[[a, b]] > 0.0);
+        let open_side_nodes = match sw.axis {
+            FlowAxis::X => (0..fx).map(|a| side(a, 0) + side(a, fy - 1)).sum(),
+            FlowAxis::Y => (0..fy).map(|b| side(0, b) + side(fx - 1, b)).sum(),
+        };
+        scales.push(WindowScale {
+            flux_coarse: qc,
+            flux_fine: qf,
+            scale,
+            open_side_nodes,
+        });
+    }
+    let cell = usable("base cell", reynolds::solve(coarse, lx, ly, axis, opts))?;
+    let modified = Array2::from_shape_fn((nx, ny), |(i, j)| match owner[[i, j]] {
+        Some(k) => coarse[[i, j]] * scales[k].scale.cbrt(),
+        None => coarse[[i, j]],
+    });
+    let scaled = usable(
+        "rescaled cell",
+        reynolds::solve(modified.view(), lx, ly, axis, opts),
+    )?;
+    let k_of = |r: &FlowResult| if r.percolating { r.conductivity } else { 0.0 };
+    Ok(MultiWindowFlow {
+        conductivity: k_of(&scaled),
+        conductivity_coarse: k_of(&cell),
+        windows: scales,
+        wall_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// The fine gap of `window` cut out of the refined solution (from whichever refined region
+/// holds it), negative gaps set to 0.
+pub fn fine_window_gap(
+    refined: &Refined,
+    base: &Grid,
+    window: FlowWindow,
+) -> Result<Array2<f64>, WindowFlowError> {
+    let f = refinement_factor(refined, base)?;
+    let (fnx, fny) = refined.lattice;
+    for r in &refined.windows {
+        let (rx, ry) = r.gap.dim();
+        let a0 = (f * window.i0 + fnx - r.origin.0) % fnx;
+        let b0 = (f * window.j0 + fny - r.origin.1) % fny;
+        if a0 + f * window.wx < rx && b0 + f * window.wy < ry {
+            return Ok(r
+                .gap
+                .slice(ndarray::s![
+                    a0..=a0 + f * window.wx,
+                    b0..=b0 + f * window.wy
+                ])
+                .mapv(|g| g.max(0.0)));
+        }
+    }
+    Err(param(
+        "flow window",
+        format!("{window:?}"),
+        "inside one refined region of the solution",
+    ))
+}
+
+/// The flow of a refined solve with several windows: [`scaled_replacement`] with the base gap
+/// ([`Refined::base_gap`]) and each window's fine gap ([`fine_window_gap`]).
+pub fn refined_multi_flow(
+    refined: &Refined,
+    base: &Grid,
+    windows: &[SaddleFlowWindow],
+    axis: FlowAxis,
+    opts: &FlowOptions,
+) -> Result<MultiWindowFlow, WindowFlowError> {
+    let f = refinement_factor(refined, base)?;
+    let fines: Vec<Array2<f64>> = windows
+        .iter()
+        .map(|w| fine_window_gap(refined, base, w.window))
+        .collect::<Result<_, _>>()?;
+    let coarse = refined.base_gap.mapv(|g| g.max(0.0));
+    let views: Vec<ArrayView2<f64>> = fines.iter().map(|a| a.view()).collect();
+    scaled_replacement(
+        coarse.view(),
+        base.lx,
+        base.ly,
+        &views,
+        f,
+        windows,
+        axis,
+        opts,
+    )
+}
+
 /// Options of [`compare`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct CompareOptions {
