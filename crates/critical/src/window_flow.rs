@@ -141,12 +141,45 @@
 //!   and then cold) after 875 CPU-s; no flow was reached. That is the contact solver's limit,
 //!   not this module's.
 //!
+//! # Several windows ([`scaled_replacement`], [`refined_multi_flow`])
+//! In the hexagonal and triangular cells the flow passes through twelve saddles
+//! ([`contact::refinement::flow_saddles`]), in series and in parallel, four of them with their
+//! channel along a grid axis and eight at ±60° to it. The single-window subtraction
+//! R_cc − R_wc + R_wf is exact for one window in series with the rest, but the corrections of
+//! several windows do not add: for two equal windows in parallel, each changed from R to R',
+//! the cell changes by (R' − R)/2, not 2 (R' − R) (in general ∂R_cell/∂R_w = (Q_w/Q)², Q_w the
+//! flux through window w: 1 in series, 1/n² for n parallel equal windows, and first order
+//! only).
+//!
+//! What is done instead: each window's two-terminal problem (isobaric end lines across the
+//! grid axis nearest its channel, [`SaddleFlowWindow::around`]; closed sides) is solved on the
+//! base gap and on the fine gap; the ratio s_w = Q_fine/Q_coarse multiplies g³ on every base node
+//! of the window (g × s_w^⅓). Face conductances are harmonic means of g³, so every face inside
+//! the window is multiplied by exactly s_w, and with it the window's two-terminal conductance;
+//! the periodic base cell with its windows so rescaled is solved once more (K along x and
+//! along y from the same rescaled windows). The network (series, parallel, any number of
+//! windows, flow along either axis) is then the base cell's own, with each window carrying the
+//! fine gap's conductance. Approximated: (i) the faces joining a window's edge nodes to the
+//! rest of the cell are harmonic means of one scaled and one unscaled node (changed by up to
+//! 2 s/(1 + s) where they should not change) — they lie in the funnels at the window's ends,
+//! whose share of the resistance vanishes as the neck closes; (ii) the isobar and closed-side
+//! conditions of the window problems, as for one window ([`WindowScale::open_side_nodes`]);
+//! for a channel at ±60° the end lines cross it obliquely. For one window this is not the
+//! series replacement (which stays as it was for the square ladder): the two differ by (i).
+//!
+//! Measured (tests/window_flow_multi.rs; triangular, 64² base, k = 1, regions 10² at every
+//! saddle, flow windows 6 × 8 or 8 × 6 base cells, against uniform 128²): the method alone
+//! (the uniform solution's own gap, subsampled outside the windows) −3.1e-4 (Kx), −4.5e-4 (Ky)
+//! at l = −2e-2, −6.7e-5, −1.0e-4 at −1e-2, −8.7e-6, −1.3e-5 at −5e-3, −3.8e-7, −4.8e-7 at −2e-3
+//! (the base gap alone −0.13 … +0.14): it falls as the necks take the cell's resistance, as
+//! for one window. The refined composite's K: +3.2e-2 … +5.7e-2 (x), +3.2e-2 … +0.16 (y) from
+//! uniform, the contact gap's error (up to 7.5e-2 on this base, see contact::refinement) times
+//! d ln K/d ln g_s ≈ 3; Kx/Ky 0.916, 0.921, 0.803, 0.836 against the uniform 128² grid's
+//! 0.916, 0.934, 0.834, 0.919. The uniform grid's own Kx ≠ Ky is its anisotropy at this
+//! spacing; refinement to the same spacing reproduces it (to the contact floor), it cannot
+//! do better than the fine spacing it refines to.
+//!
 //! # Left out
-//! - Only the square model was measured: its flow along x crosses one saddle per cell. The
-//!   hexagonal and triangular cells send the flow through several saddles (in series and in
-//!   parallel, some at ±60° to the grid); each needs its own refined region and window, and the
-//!   replacement then sums one correction R_wf − R_wc per window (exact under the same isobar
-//!   conditions), which this module does not do yet.
 //! - No two-grid (Schwarz) iteration: the series replacement's own error is ≤ 1e-4 and falls
 //!   like |l|^β, far below the contact solve's.
 //!
