@@ -127,7 +127,7 @@ fn main() {
     let pfc = base.p_fc_grid();
     let mut bm = Model::new(&base).expect("base model");
     let mut bwarm: Option<Solution> = None;
-    let pc_b = bisect(0.05 * pfc, 0.95 * pfc, 1e-7, &mut |p| {
+    let pc_b = bisect(0.001 * pfc, 0.95 * pfc, 1e-7, &mut |p| {
         let s = bm
             .solve(Interaction::HardWall, p, &solver, bwarm.as_ref())
             .expect("base solve");
