@@ -302,8 +302,17 @@
 //! (f = 4) for two windows 10 cells apart at margin 5, 2.6e-3 at margin 7, against 5.6e-5 and
 //! 7.8e-5 for one window; with the cross term switched off (a temporary edit, not kept) 3.4e-2, so it carries ~99 % of the cross
 //! interaction. That error does not fall with the windows' distance (1.2e-3 at 34 cells, f = 4)
-//! nor with ORDER (4 → 12 leaves it at ~1e-4, f = 2) — not what two smooth interpolations should
-//! do; not understood, flagged. In solves it shows: triangular, 64² base, k = 2, twelve
+//! nor with ORDER (4 → 12 leaves it at ~1e-4, f = 2), because the fine lattice's kernel is not
+//! smooth on the fine scale: its spectrum 2/|q| is cut off sharply at the fine Nyquist
+//! frequency, which leaves a component alternating from fine node to fine node, (−1)^i, that
+//! decays like the kernel itself (second differences along x at 40–60 fine nodes alternate in
+//! sign, ±1.3e-6 where the kernel is 3.3e-6; ignored test `blocks::ringing`). Sampled on the base
+//! lattice it is a constant offset per residue class, which no interpolation from base nodes
+//! represents. The hats' far field does not have it (the hat's spectrum vanishes at those
+//! aliases), so one window is unaffected; between two windows' point-like remainders it is lost,
+//! a relative error of ~1e-3 of their (small) interaction. An exact treatment needs the kernel per
+//! fine residue class (f² base convolutions per window, or (2f − 1)² by differences): not done.
+//! It is a lattice artefact: the uniform fine solve has it, the continuum does not. In solves it shows: triangular, 64² base, k = 2, twelve
 //! windows of 6², p_c −3.7e-4 from uniform 256² blockwise (margins 5 and 8 alike) against
 //! −2.8e-4 with the full operator; for one window the two agree to 7e-6. So with many windows
 //! the full operator (where the fine lattice fits) or larger margins are the reference.
@@ -352,7 +361,8 @@
 //! - The flow on the composite gap: `critical::window_flow` (series replacement for one
 //!   window, a rescaled base cell for several); [`Refined::windows`] holds each region's fine
 //!   gap, [`Refined::base_gap`] every base node's.
-//! - Several windows: the cross-window far-field error above (not understood), and the coarse
+//! - Several windows: the cross-window far-field error above (the fine kernel's grid-scale
+//!   component), and the coarse
 //!   region's floor for the triangular model (larger windows, or nested ones).
 //! - [`EdgeRuns`] reports a window that is too small (no contact line crossing its edge, or a
 //!   run of open or contact nodes on the edge shorter than a given number of base cells).

@@ -767,3 +767,43 @@ mod tests {
         assert!(worst.iter().all(|w| *w < 1e-10), "{worst:?}");
     }
 }
+
+#[cfg(test)]
+mod ringing {
+    use super::*;
+
+    /// Diagnostic (ignored): the fine kernel along x at distance, its smooth part (a local
+    /// cubic fit over every f-th node) and the remainder at the other nodes.
+    #[test]
+    #[ignore]
+    fn fine_kernel_has_a_grid_scale_component() {
+        let g = Geometry {
+            nx: 64,
+            ny: 32,
+            lx: 1.0,
+            ly: 1.3,
+            f: 2,
+            i0: 0,
+            j0: 0,
+            wx: 1,
+            wy: 1,
+            margin: 0,
+            order: 8,
+        };
+        let (fx, fy) = (g.nx * g.f, g.ny * g.f);
+        let t = table(&g, Kernel::Compliance, fx - 1, fy - 1);
+        for j in [0usize, 1, 2] {
+            let v: Vec<f64> = (40..60).map(|i| t[i * fy + j]).collect();
+            // second differences: smooth → slowly varying, grid-scale part → alternating
+            let d2: Vec<String> = v
+                .windows(3)
+                .map(|w| format!("{:+.2e}", w[0] - 2.0 * w[1] + w[2]))
+                .collect();
+            eprintln!(
+                "row j = {j}: G {:.4e} …; second differences {}",
+                v[0],
+                d2.join(" ")
+            );
+        }
+    }
+}
