@@ -179,6 +179,30 @@
 //! spacing; refinement to the same spacing reproduces it (to the contact floor), it cannot
 //! do better than the fine spacing it refines to.
 //!
+//! Near p_c (example `multi_window`, `n=8 k=2 region=16 margin=8`: triangular, 256² base,
+//! k = 2, twelve regions of 16², flow windows 12 × 14 or 14 × 12, blockwise margin 8, against
+//! uniform 1024² at the same reduced load from its own p_c; 0.4 s of flow per load): at
+//! l = −1e-3, −5e-4, −2e-4, −1e-4
+//! - Kx relative to uniform: +5.0e-3, −2.8e-3, −4.0e-3, −2.1e-3; Ky: +1.7e-2, +2.7e-2, +7.1e-2, +0.12
+//!   (the flow along y crosses the 90° saddles in series, and their gaps are the ones off by
+//!   +7.6e-3 … +6.0e-2, a load shift, see contact::refinement);
+//! - Kx/Ky refined 0.972, 0.949, 0.928, 0.931; uniform 1024² 0.983, 0.977, 0.998, 1.047; one
+//!   window at the axis saddle (the others coarse) 1.081, 1.136, 1.093, 0.963;
+//! - β_eff along x refined 3.540, 3.445, 3.293 (uniform 3.528, 3.444, 3.296); along y 3.506,
+//!   3.421, 3.297 (uniform 3.520, 3.467, 3.364); one window: 3.37, 3.07, 1.84 and 3.45, 3.03,
+//!   1.65 (the coarse saddles close early).
+//! - up to 40 open fine nodes on the flow windows' side lines (the ±60° channels leave the
+//!   windows through their sides: the oblique necks are wider than these windows at these
+//!   loads).
+//!
+//! Is Kx = Ky restored by refinement? Not beyond the fine spacing's own: the uniform 1024²
+//! grid departs from Kx = Ky by up to 4.7 % over these loads, the refined composite with the
+//! same fine spacing by up to 7.2 % (its contact floor: the 90° saddles' load shift), and one
+//! refined window leaves it at up to 14 %. Refining every saddle removes the one-window
+//! artefact (coarse saddles closing early, β_eff collapsing); the remaining anisotropy is the
+//! composite contact discretisation's (coarse region, ~4e-6 in the closing loads), which must
+//! fall below ~1e-7 before Kx = Ky can check anything at |l| = 1e-4.
+//!
 //! # Left out
 //! - No two-grid (Schwarz) iteration: the series replacement's own error is ≤ 1e-4 and falls
 //!   like |l|^β, far below the contact solve's.
