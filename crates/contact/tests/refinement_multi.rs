@@ -309,3 +309,48 @@ fn explore() {
         );
     }
 }
+
+/// Windows nearer than margin + ORDER/2 base cells (blockwise) or sharing a base node (full
+/// operator) are refused, the error naming both; apart enough, they are accepted.
+#[test]
+fn windows_too_close_are_refused_naming_both() {
+    let s = Surface::new(Lattice::Square, 6).unwrap();
+    let a = Window {
+        i0: 4,
+        j0: 4,
+        wx: 6,
+        wy: 6,
+    };
+    let build = |b: Window, margin: Option<usize>| {
+        RefinedModel::multi(
+            &s,
+            &MultiOptions {
+                levels: 1,
+                windows: vec![a, b],
+                solver: solver(),
+            },
+            margin,
+            Preconditioner::Additive,
+        )
+        .map(|_| ())
+    };
+    // 12 base cells apart along x (nodes 10 and 22), margin 8: needs more than 8 + 4
+    let near = Window { i0: 22, ..a };
+    let e = build(near, Some(8)).unwrap_err().to_string();
+    assert!(
+        e.contains("window 0") && e.contains("window 1") && e.contains("i0: 22"),
+        "{e}"
+    );
+    assert!(build(Window { i0: 23, ..a }, Some(8)).is_ok());
+    // the full operator only needs them not to share a node; wrapping the period counts
+    assert!(build(near, None).is_ok());
+    let touching = Window { i0: 10, ..a };
+    assert!(
+        build(touching, None)
+            .unwrap_err()
+            .to_string()
+            .contains("window 1")
+    );
+    let wrapped = Window { i0: 62, wx: 6, ..a };
+    assert!(build(wrapped, None).is_err());
+}
