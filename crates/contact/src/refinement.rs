@@ -361,6 +361,22 @@
 //!   (272²) and ~50 base-grid convolutions (four per window: C' v_F, C v_F, C' w, C'' w); the
 //!   latter dominate and could be cut (restrict C v_F to E, merge the far terms).
 //!
+//! Hexagonal model, the same set-up (`lattice=hexagonal`; 103 CPU-s with the uniform
+//! reference, 262 MB): p_c/p_fc 0.0317204494 against uniform 1024² 0.0317213933 (−3.0e-5; base
+//! alone −2.6e-4 from uniform); saddle gaps of the 60° and 120° groups +1.2e-3, +1.4e-3,
+//! +1.4e-3, +1.8e-3 from uniform at l = −1e-3 … −1e-4 (the group that closes first in both),
+//! of the 0° group (channel along x) −2.7e-2, −4.6e-2, −8.9e-2, −0.15; max/min − 1 of the
+//! twelve 2.8e-2, 3.2e-2, 2.7e-2, 0.17 against the uniform 1024² grid's own 3.9e-4, 1.7e-2,
+//! 0.13, 0.37. So on the uniform grid the 0° saddles stay open well after the ±60° ones close
+//! (by 37 % in the gap at l = −1e-4, a split of the closing loads of ~3e-5), and the composite
+//! splits them less (17 %), but the two discretisations of the same fine spacing disagree on the
+//! 0° saddles by up to 15 %: the coarse region, not the spacing, decides this split, so neither
+//! number is the continuum's (0). 3.1 s and 30 iterations per solve, flow 0.6 s per load.
+//!
+//! Triangular, k = 3 (2048² spacing), twelve windows of 16², no uniform reference: stopped
+//! after 14 min 43 s CPU (25 min wall) inside the p_c bisection; not measured. With twelve
+//! boxes of 544² per iteration this is well over the cost target.
+//!
 //! Kx/Ky from the refined composite (critical::window_flow::refined_multi_flow) and its
 //! comparison with uniform 1024² are in critical::window_flow's docs.
 //!

@@ -195,6 +195,12 @@
 //!   windows through their sides: the oblique necks are wider than these windows at these
 //!   loads).
 //!
+//! Hexagonal model, the same set-up: the uniform 1024² cell's flow along x did not converge
+//! (reynolds: RoundoffLimited) from l = −5e-4 on, nor the refined base cell's from −2e-4 on
+//! (K ~ 1e-14): no Kx there. At l = −1e-3 Kx/Ky is 0.805 refined against 0.850 uniform, at
+//! −5e-4 0.690 refined. Ky follows uniform within +4.1e-3, +5.3e-3, +5.8e-3, +8.5e-3, β_eff
+//! along y 3.224, 3.241, 3.098 against 3.226, 3.242, 3.102.
+//!
 //! Is Kx = Ky restored by refinement? Not beyond the fine spacing's own: the uniform 1024²
 //! grid departs from Kx = Ky by up to 4.7 % over these loads, the refined composite with the
 //! same fine spacing by up to 7.2 % (its contact floor: the 90° saddles' load shift), and one
