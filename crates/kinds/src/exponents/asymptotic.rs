@@ -14,6 +14,20 @@
 //! identity: 3ζ + υ − χ of the asymptotic ζ, υ, χ, errors in quadrature (correlations ignored:
 //! [`analysis::verdict`]).
 //!
+//! # The combined ladder ([`estimate_combined`])
+//! With a `refined_ladder` of the same model (ζ, υ, χ; β has no refined flux yet), the fit
+//! takes, pair by pair, the best grid-converged value available
+//! (`critical::refined::combined_ladder`): the uniform finest grid's rungs from the largest |l|
+//! down to the first flagged pair (grid error, unknown grid error or anisotropy, as above),
+//! then, from that rung on, the refined ladder's finest discretisation down to its first
+//! flagged pair (grid error = max(level, margin change) above [`GRID_BOUND`] or unknown, a
+//! window too small, a frozen contact set), its values rescaled at the junction so that the
+//! ladder is continuous (the local slopes are the refined ones). Without a refined ladder, or
+//! when it has no usable pair at the junction, this is the uniform estimate exactly. The
+//! uniform-only estimate is kept beside it (`uniform_asymptotic_*` in `exponents.csv`) so that
+//! the change is traceable; `asymptotic_method` says which ladder the estimate used and where
+//! the refined one took over.
+//!
 //! # Verdict ([`verdict`])
 //! The deviation of the asymptotic estimate from the conjecture (6/5, 9/20, 3/5, 69/20) in σ of
 //! its error. The rule:
@@ -26,10 +40,15 @@
 //! The text states the σ either way so that the reader can judge.
 
 use crate::ladder::{LadderData, LadderLevel};
-use analysis::{AsymptoticOptions, Estimate, ScalingPoint};
+use crate::refined_ladder::RefinedData;
+use analysis::{AsymptoticEstimate, AsymptoticOptions, Estimate, ScalingPoint};
 use critical::ladder::Rung;
-use critical::running::{Exponent as Which, MeasureOptions, Resolution, asymptotic, measure};
+use critical::refined::{LadderPair, Measured, Source, combined_ladder};
+use critical::running::{
+    Exponent as Which, MeasureOptions, Resolution, asymptotic, measure, running_records,
+};
 use store::{ArtefactReader, ArtefactWriter};
+use surface::Lattice;
 
 /// Grid-error bound of a running exponent (the 0.005); pairs above it are flagged.
 pub const GRID_BOUND: f64 = 0.005;
@@ -198,9 +217,92 @@ impl Asymptotic {
 pub fn estimate(levels: &[Resolution]) -> Result<Asymptotic, String> {
     let e =
         asymptotic(levels, GRID_BOUND, &AsymptoticOptions::default()).map_err(|e| e.to_string())?;
+    Ok(from_estimate(&e))
+}
+
+/// The refined quantity of an exponent (None: β, which the refined ladder does not measure).
+pub fn refined_measure(e: Which) -> Option<Measured> {
+    match e {
+        Which::Zeta => Some(Measured::SaddleGap),
+        Which::Upsilon => Some(Measured::OpenHalfWidth),
+        Which::Chi => Some(Measured::BlockedHalfLength),
+        Which::Beta => None,
+    }
+}
+
+/// What [`estimate_combined`] used.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Combined {
+    /// `uniform`, or `uniform+refined below |l| = <junction>` (`refined` without uniform rungs).
+    pub method: String,
+    /// Why the refined ladder did not extend the uniform one, if given and it did not.
+    pub note: Option<String>,
+    /// Rungs of the combined ladder (uniform, refined).
+    pub rungs: (usize, usize),
+}
+
+/// The asymptotic estimate of exponent `e` of `model` from the combined ladder (module docs):
+/// the uniform levels and, if given, the model's refined ladder. The estimate or why none, and
+/// what was used.
+pub fn estimate_combined(
+    model: Lattice,
+    e: Which,
+    levels: &[Resolution],
+    refined: Option<&RefinedData>,
+) -> (Result<Asymptotic, String>, Combined) {
+    let mut order: Vec<&Resolution> = levels.iter().collect();
+    order.sort_by(|a, b| a.spacing.total_cmp(&b.spacing));
+    let (upoints, upairs) = match order.first() {
+        Some(fine) => match running_records(model, e, levels, GRID_BOUND) {
+            Ok(recs) => (
+                fine.points.clone(),
+                recs.iter()
+                    .map(|r| LadderPair {
+                        l_hi: r.l_hi,
+                        l_lo: r.l_lo,
+                        usable: r.flag.is_none(),
+                    })
+                    .collect(),
+            ),
+            Err(err) => {
+                let c = Combined {
+                    method: "uniform".into(),
+                    note: None,
+                    rungs: (0, 0),
+                };
+                return (Err(err.to_string()), c);
+            }
+        },
+        None => (Vec::new(), Vec::new()),
+    };
+    let (rpoints, rpairs): (Vec<ScalingPoint>, Vec<LadderPair>) =
+        match (refined, refined_measure(e)) {
+            (Some(d), Some(m)) => (d.points(m), d.pairs(m)),
+            _ => (Vec::new(), Vec::new()),
+        };
+    let c = combined_ladder(&upoints, &upairs, &rpoints, &rpairs);
+    let nref = c.sources.iter().filter(|s| **s == Source::Refined).count();
+    let method = match c.junction {
+        Some(j) if upoints.is_empty() => format!("refined from |l| = {:e}", j.abs()),
+        Some(j) => format!("uniform+refined below |l| = {:e}", j.abs()),
+        None => "uniform".into(),
+    };
+    let info = Combined {
+        method,
+        note: (!rpoints.is_empty()).then_some(c.note.clone()).flatten(),
+        rungs: (c.points.len() - nref, nref),
+    };
+    let est = analysis::asymptotic_estimate(&c.points, &AsymptoticOptions::default())
+        .map(|a| from_estimate(&a))
+        .map_err(|e| e.to_string());
+    (est, info)
+}
+
+/// The stored fields of an [`AsymptoticEstimate`].
+fn from_estimate(e: &AsymptoticEstimate) -> Asymptotic {
     let f = e.reference_fit();
     let fixed = e.omega_fixed;
-    Ok(Asymptotic {
+    Asymptotic {
         value: e.value,
         error: e.error,
         stat_error: e.stat_error,
@@ -209,7 +311,7 @@ pub fn estimate(levels: &[Resolution]) -> Result<Asymptotic, String> {
         omega: if f.omega_free { f.omega } else { fixed },
         points: f.points as f64,
         l_min: f.l_range.0,
-    })
+    }
 }
 
 /// 3ζ + υ − χ of asymptotic estimates (NaN if any is missing).
