@@ -1,4 +1,5 @@
-//! The refined ζ ladder: the saddle gap g_s at reduced loads down to |l| = 1e-5 on a composite
+//! The refined ladder: the saddle gap g_s (and the channel's width and length, for υ and χ) at
+//! reduced loads down to |l| = 1e-5 on a composite
 //! discretisation that resolves one saddle 2^k times finer than the periodic base grid
 //! ([`contact::refinement`], blockwise operator, two-level preconditioner).
 //!
@@ -65,7 +66,33 @@
 //! contact set the solution is affine in the load and the slope is the discretisation's (→ 1).
 //! Each rung also records `neck_nodes`, the open fine nodes across the channel through the
 //! saddle: the neck's resolution (square, k = 5: 19 at l = −1e-5). `fit_error` is the
-//! propagated solver tolerance only (σ_g = tol_gap).
+//! propagated solver tolerance only (σ_g = tol_gap: the saddle gap is a node value, not a fit,
+//! so its only measurement error is how well the solve fixes it, relative to g_s).
+//!
+//! # Refined υ and χ ([`Refinement::saddle_window`], [`running_exponent`])
+//! Every rung also cuts a [`crate::ladder::Window`] out of the fine region around the saddle
+//! (fine spacing, channel frame, the largest node-centred rectangle inside the region without
+//! its outermost ring of fine nodes) and measures on it what the uniform ladders measure on
+//! theirs: below p_c(D) the open channel's half-width r_c ([`open_half_width`], square-root
+//! onset across the channel), above it the blocked channel's half-length a
+//! ([`blocked_half_length`], Hertz fit along the channel; `ls` may hold l > 0 for this: those
+//! rungs are not flagged for a closed saddle). A failed fit leaves the rung out of that
+//! exponent (its pair widens; [`RefinedRung::edge_note`] says why). υ_eff and χ_eff have the
+//! same level and margin errors and flags as ζ_eff; their `fit_error` propagates the fits' 1σ.
+//! The fine window is `window` base cells wide, so r_c and a must stay well inside half of it:
+//! this bounds the ladder's largest useful |l| (a 16-cell window on a 128² base is 0.125 λ).
+//! Test (32² base, k = 2, window 8 against uniform 128², each at its own p_c, |l| = 0.01 …
+//! 0.05): r_c and a within 0.7 %, the running υ and χ within 3.7e-3.
+//!
+//! # The combined ladder ([`combined_ladder`])
+//! For the asymptotic fits the refined ladder continues a uniform one: the uniform finest grid's
+//! rungs from the largest |l| down to its first flagged pair, then the refined finest D's
+//! rungs from that rung (the junction, a rung of both) down to its first flagged pair, the
+//! refined values multiplied by y_uniform/y_refined at the junction. The rescaling keeps the
+//! refined local slopes and makes the ladder continuous: the two discretisations' prefactors
+//! differ by their discretisation errors (~1e-3 in g_s), which a direct fit of y would read as
+//! a step. Stopping at the first flagged pair on either side is the uniform ladders' rule
+//! ([`analysis::grid_converged_rungs`]): grid errors grow towards p_c.
 //!
 //! # Measurements (2026-11-25, `examples/refined_ladder.rs`)
 //! Square model, 256² base (2^8), margin 8, comparison margin 12; triangular likewise. Commands
@@ -1211,9 +1238,10 @@ pub struct CombinedLadder {
 /// which both must have) down to its first unusable pair. The refined values are multiplied
 /// by y_uniform/y_refined at the junction: their local slopes are unchanged, and the ladder
 /// stays continuous (the two discretisations' prefactors differ by their discretisation
-/// errors, ~1e-3, which a direct fit would otherwise read as a step). Without uniform points,
-/// the refined ladder alone from its first usable pair. Pairs are matched by their loads to a
-/// relative 1e-9; the points of either ladder in any order.
+/// errors, ~1e-3, which a direct fit would otherwise read as a step). Without a usable uniform
+/// pair (no uniform points, or its first pair flagged), the refined ladder alone from its first
+/// usable pair. Pairs are matched by their loads to a relative 1e-9; the points of either
+/// ladder in any order.
 pub fn combined_ladder(
     uniform: &[ScalingPoint],
     uniform_pairs: &[LadderPair],
@@ -1234,22 +1262,26 @@ pub fn combined_ladder(
             .copied()
             .max_by(|a, b| a.l.abs().total_cmp(&b.l.abs()))
     };
-    let mut current = match top(uniform) {
-        Some(p) => {
-            out.points.push(p);
-            let mut cur = p.l;
-            while let Some(pair) = next(uniform_pairs, cur).filter(|p| p.usable) {
-                let Some(q) = at(uniform, pair.l_lo) else {
-                    break;
-                };
-                out.points.push(q);
-                out.sources.push(Source::Uniform);
-                cur = q.l;
-            }
-            cur
+    let mut uniform_chain = Vec::new();
+    if let Some(p) = top(uniform) {
+        uniform_chain.push(p);
+        let mut cur = p.l;
+        while let Some(pair) = next(uniform_pairs, cur).filter(|p| p.usable) {
+            let Some(q) = at(uniform, pair.l_lo) else {
+                break;
+            };
+            uniform_chain.push(q);
+            cur = q.l;
         }
-        None => {
-            // refined only: from the first usable pair
+    }
+    let mut current = match uniform_chain.last() {
+        Some(&last) if uniform_chain.len() > 1 || refined.is_empty() => {
+            out.sources = vec![Source::Uniform; uniform_chain.len() - 1];
+            out.points = uniform_chain;
+            last.l
+        }
+        _ => {
+            // refined only (its own values: the scale below is 1), from the first usable pair
             let mut v: Vec<&LadderPair> = refined_pairs.iter().filter(|p| p.usable).collect();
             v.sort_by(|a, b| b.l_hi.abs().total_cmp(&a.l_hi.abs()));
             match v.first().and_then(|p| at(refined, p.l_hi)) {
@@ -1258,7 +1290,8 @@ pub fn combined_ladder(
                     p.l
                 }
                 None => {
-                    out.note = Some("no uniform rung and no usable refined pair".into());
+                    out.note = Some("no usable uniform or refined pair".into());
+                    out.points = uniform_chain;
                     return out;
                 }
             }

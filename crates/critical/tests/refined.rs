@@ -290,6 +290,17 @@ fn combined_ladder_recovers_a_corrected_power_law_and_stops_at_a_flagged_refined
     let c4 = combined_ladder(&uniform, &up, &refined, &pairs(rls, |k| k != 2));
     assert_eq!(c4.points.len(), 7);
     assert!(c4.note.as_deref().unwrap().contains("flagged"));
+    // no usable uniform pair (its first one flagged): the refined ladder alone, unscaled, from
+    // its first usable pair (here its second: 1e-3 → 5e-4)
+    let c5 = combined_ladder(
+        &uniform,
+        &pairs(&LS, |_| false),
+        &refined,
+        &pairs(rls, |k| k != 0),
+    );
+    assert_eq!(c5.sources, [Source::Refined; 6]);
+    assert_eq!(c5.junction, Some(-1e-3));
+    assert_eq!(c5.points[..], refined[1..]);
 }
 
 /// Refined υ and χ equal the uniform fine grid's: 32² base refined k = 2 (the fine spacing of

@@ -233,7 +233,8 @@ pub fn refined_measure(e: Which) -> Option<Measured> {
 /// What [`estimate_combined`] used.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Combined {
-    /// `uniform`, or `uniform+refined below |l| = <junction>` (`refined` without uniform rungs).
+    /// `uniform`, `uniform+refined below |l| = <junction>`, or `refined from |l| = <first>`
+    /// (no usable uniform pair).
     pub method: String,
     /// Why the refined ladder did not extend the uniform one, if given and it did not.
     pub note: Option<String>,
@@ -283,7 +284,7 @@ pub fn estimate_combined(
     let c = combined_ladder(&upoints, &upairs, &rpoints, &rpairs);
     let nref = c.sources.iter().filter(|s| **s == Source::Refined).count();
     let method = match c.junction {
-        Some(j) if upoints.is_empty() => format!("refined from |l| = {:e}", j.abs()),
+        Some(j) if nref == c.sources.len() => format!("refined from |l| = {:e}", j.abs()),
         Some(j) => format!("uniform+refined below |l| = {:e}", j.abs()),
         None => "uniform".into(),
     };
@@ -402,6 +403,107 @@ mod tests {
         assert!(a.stat_error < 1e-8 && a.range_spread < 1e-6, "{a:?}");
         // a single grid: every pair is unknown-flagged, nothing grid-converged to fit
         assert!(estimate(&[level(1.0 / 2048.0, 0.0)]).is_err());
+    }
+
+    /// The combined ladder through the kind's glue: uniform levels converged down to 1e-3 (the
+    /// coarse grid drifts below), a refined ladder of the same law (prefactor +0.3 %, another
+    /// discretisation) from 2e-3 to 1e-5: ζ from 5e-2 to 1e-5, recovered exactly; the uniform
+    /// estimate alone stops at 1e-3; a flagged refined pair (5e-5 → 2e-5) ends the fit at 5e-5.
+    #[test]
+    fn combined_estimate_uses_the_refined_ladder_below_the_uniform_one() {
+        use crate::refined_ladder::{RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow};
+        let ls = [
+            5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
+        ];
+        let g = |a: f64| 0.3 * a.powf(1.2) * (1.0 + 0.8 * a.sqrt());
+        let level = |spacing: f64, drift: f64| Resolution {
+            spacing,
+            points: ls
+                .iter()
+                .enumerate()
+                .map(|(k, &a)| {
+                    let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
+                    ScalingPoint::new(-a, g(a) * d, 0.0)
+                })
+                .collect(),
+            across: Vec::new(),
+        };
+        let levels = [level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)];
+        let rls = &ls[4..];
+        let rung = |&a: &f64| {
+            (
+                RefinedRungRow {
+                    l: -a,
+                    load: 1.0 - a,
+                    saddle_gap: 1.003 * g(a),
+                    contact_area: 0.4,
+                    iterations: 1,
+                    wall_s: 0.0,
+                    neck_nodes: 20,
+                    flagged: false,
+                    half_width: f64::NAN,
+                    half_width_error: f64::NAN,
+                    half_length: f64::NAN,
+                    half_length_error: f64::NAN,
+                },
+                String::new(),
+            )
+        };
+        let refined = |flagged: usize| RefinedData {
+            lattice: Lattice::Square,
+            p_fc: 1.0,
+            window: 16,
+            spacing: 1.0 / 8192.0,
+            tol_gap: 0.0,
+            levels: vec![RefinedLevel {
+                levels: 5,
+                margin: 12,
+                p_c: 1.0,
+                spacing: 1.0 / 8192.0,
+                rungs: rls.iter().map(rung).collect(),
+            }],
+            running: rls
+                .windows(2)
+                .enumerate()
+                .map(|(k, w)| RefinedPair {
+                    exponent: Measured::SaddleGap,
+                    row: RefinedPairRow {
+                        l_hi: -w[0],
+                        l_lo: -w[1],
+                        value: 1.2,
+                        error_levels: 0.0,
+                        error_margin: 0.0,
+                        grid_error: 0.0,
+                        fit_error: 0.0,
+                    },
+                    flag: if k == flagged {
+                        "grid error 9e-3 > 5e-3".into()
+                    } else {
+                        String::new()
+                    },
+                })
+                .collect(),
+        };
+        let uniform = estimate(&levels).unwrap();
+        assert_eq!(uniform.l_min, 1e-3);
+        let (est, how) =
+            estimate_combined(Lattice::Square, Which::Zeta, &levels, Some(&refined(99)));
+        let a = est.unwrap();
+        // exact data, rescaled at the junction: the direct fit's tolerance (1e-8) and rounding
+        assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
+        assert_eq!(a.l_min, 1e-5);
+        assert_eq!(how.method, "uniform+refined below |l| = 1e-3");
+        assert_eq!(how.rungs, (6, 6));
+        let (est, how) =
+            estimate_combined(Lattice::Square, Which::Zeta, &levels, Some(&refined(5)));
+        assert_eq!(est.unwrap().l_min, 5e-5);
+        assert_eq!(how.rungs, (6, 4));
+        // without a refined ladder (or for β): the uniform estimate, exactly
+        let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, None);
+        assert_eq!(est.unwrap(), uniform);
+        assert_eq!(how.method, "uniform");
+        let (est, _) = estimate_combined(Lattice::Square, Which::Beta, &levels, Some(&refined(99)));
+        assert_eq!(est.unwrap(), uniform);
     }
 
     #[test]
