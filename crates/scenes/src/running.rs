@@ -40,7 +40,7 @@
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Context, Result};
-use critical::refined::Source;
+use critical::refined::{Measured, Source};
 use critical::running::{Exponent, RunningRecord, running_records};
 use figures::scenes::running::{RunningCurve, RunningData, RunningPanel, RunningPoint};
 use figures::style::Model;
@@ -106,10 +106,10 @@ pub fn refined_rows(d: &RefinedData) -> Vec<Row> {
         .map(|p| Row {
             rec: RunningRecord {
                 model: d.lattice,
-                exponent: match p.exponent.name() {
-                    "zeta" => Exponent::Zeta,
-                    "upsilon" => Exponent::Upsilon,
-                    _ => Exponent::Chi,
+                exponent: match p.exponent {
+                    Measured::SaddleGap => Exponent::Zeta,
+                    Measured::OpenHalfWidth => Exponent::Upsilon,
+                    Measured::BlockedHalfLength => Exponent::Chi,
                 },
                 l_hi: p.row.l_hi,
                 l_lo: p.row.l_lo,
