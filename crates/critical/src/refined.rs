@@ -77,7 +77,10 @@
 //! onset across the channel), above it the blocked channel's half-length a
 //! ([`blocked_half_length`], Hertz fit along the channel; `ls` may hold l > 0 for this: those
 //! rungs are not flagged for a closed saddle). A failed fit leaves the rung out of that
-//! exponent (its pair widens; [`RefinedRung::edge_note`] says why). υ_eff and χ_eff have the
+//! exponent (its pair widens; [`RefinedRung::edge_note`] says why), and so does an onset fit
+//! whose range ((1 + span) r_c) reaches beyond the fine window, where the uniform windows would
+//! have fitted more nodes (draft, 128² base, window 16: r_c ≈ 0.046 λ at l = −0.02 against a
+//! window half-width of 0.061 λ). υ_eff and χ_eff have the
 //! same level and margin errors and flags as ζ_eff; their `fit_error` propagates the fits' 1σ.
 //! The fine window is `window` base cells wide, so r_c and a must stay well inside half of it:
 //! this bounds the ladder's largest useful |l| (a 16-cell window on a 128² base is 0.125 λ).
@@ -945,8 +948,21 @@ impl Refinement {
             let neck_nodes = self.neck_nodes(&r);
             // υ below p_c(D), χ above, on the fine window (module docs, "Refined υ and χ")
             let w = self.saddle_window(&r);
+            let eo = EdgeOptions::default();
             let fit = if l < 0.0 {
-                open_half_width(&w, &EdgeOptions::default())
+                // the onset fit takes the loaded nodes out to (1 + span) r_c; a window that ends
+                // before that cuts the fit short (unlike the uniform ladders' windows): no value
+                let edge = w.r_perp(2 * w.k_perp());
+                open_half_width(&w, &eo).and_then(|e| {
+                    if e.r * (1.0 + eo.span) > edge {
+                        Err(format!(
+                            "the onset fit reaches {:.3e} λ, beyond the fine window's {edge:.3e} λ: enlarge `window`",
+                            e.r * (1.0 + eo.span)
+                        ))
+                    } else {
+                        Ok(e)
+                    }
+                })
             } else {
                 blocked_half_length(&w)
             };

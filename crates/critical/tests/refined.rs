@@ -371,6 +371,20 @@ fn refined_upsilon_and_chi_match_the_uniform_fine_grid() {
         }
     }
     assert!(compared >= 4, "only {compared} rungs measured on both");
+    // a window of 6 base cells (half-width ≈ 0.09 λ) cuts the onset fit at l = −0.05 short
+    // (r_c ≈ 0.072 λ, fit range 1.5 r_c ≈ 0.108 λ): no value, and the note says so
+    let mut small = d(5, 6, 8);
+    small.levels = 2;
+    let mut rs = Refinement::new(small, &opts).unwrap();
+    let pcs = rs
+        .critical_load(Some(0.2286 * rs.p_fc()), 1e-2)
+        .unwrap()
+        .p_c();
+    let g = &rs.ladder(pcs, &[-5e-2], &mut |_, _| {}).unwrap()[0];
+    assert!(g.half_width.0.is_nan(), "{g:?}");
+    let note = g.edge_note.as_deref().unwrap_or_default();
+    eprintln!("window 6: {note}");
+    assert!(note.contains("beyond the fine window"), "{note}");
     // measured (2026-11-26): r_c +0.40 %, +0.69 %, +0.68 %, a +0.27 %, +0.02 %, +0.23 %
     // the running υ and χ of the same rungs: no coarser or margin ladder, so unknown grid
     // errors, but the values are the slopes of the measured edges and match the uniform ones

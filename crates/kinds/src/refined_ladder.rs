@@ -60,7 +60,7 @@ use surface::Lattice;
 pub struct RefinedLadderKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 2;
+pub const CODE_VERSION: u64 = 3;
 
 /// The running exponents' grid-error bound (as the uniform ladders', issue 13).
 pub const GRID_BOUND: f64 = 0.005;
