@@ -266,6 +266,10 @@ fn read_rungs(path: &str, levels: u32, margin: usize) -> (f64, Vec<RefinedRung>)
                 neck_nodes: neck,
                 contact_hash: contact as u64,
                 flag: (!flag.is_empty()).then_some(RungFlag::Window(edge)),
+                // not in the example's CSV: the edge fits are the kind's (kinds::refined_ladder)
+                half_width: (f64::NAN, f64::NAN),
+                half_length: (f64::NAN, f64::NAN),
+                edge_note: None,
             });
         }
     }

@@ -1,4 +1,5 @@
-//! The refined ζ ladder: the saddle gap g_s at reduced loads down to |l| = 1e-5 on a composite
+//! The refined ladder: the saddle gap g_s (and the channel's width and length, for υ and χ) at
+//! reduced loads down to |l| = 1e-5 on a composite
 //! discretisation that resolves one saddle 2^k times finer than the periodic base grid
 //! ([`contact::refinement`], blockwise operator, two-level preconditioner).
 //!
@@ -65,7 +66,36 @@
 //! contact set the solution is affine in the load and the slope is the discretisation's (→ 1).
 //! Each rung also records `neck_nodes`, the open fine nodes across the channel through the
 //! saddle: the neck's resolution (square, k = 5: 19 at l = −1e-5). `fit_error` is the
-//! propagated solver tolerance only (σ_g = tol_gap).
+//! propagated solver tolerance only (σ_g = tol_gap: the saddle gap is a node value, not a fit,
+//! so its only measurement error is how well the solve fixes it, relative to g_s).
+//!
+//! # Refined υ and χ ([`Refinement::saddle_window`], [`running_exponent`])
+//! Every rung also cuts a [`crate::ladder::Window`] out of the fine region around the saddle
+//! (fine spacing, channel frame, the largest node-centred rectangle inside the region without
+//! its outermost ring of fine nodes) and measures on it what the uniform ladders measure on
+//! theirs: below p_c(D) the open channel's half-width r_c ([`open_half_width`], square-root
+//! onset across the channel), above it the blocked channel's half-length a
+//! ([`blocked_half_length`], Hertz fit along the channel; `ls` may hold l > 0 for this: those
+//! rungs are not flagged for a closed saddle). A failed fit leaves the rung out of that
+//! exponent (its pair widens; [`RefinedRung::edge_note`] says why), and so does an onset fit
+//! whose range ((1 + span) r_c) reaches beyond the fine window, where the uniform windows would
+//! have fitted more nodes (draft, 128² base, window 16: r_c ≈ 0.046 λ at l = −0.02 against a
+//! window half-width of 0.061 λ). υ_eff and χ_eff have the
+//! same level and margin errors and flags as ζ_eff; their `fit_error` propagates the fits' 1σ.
+//! The fine window is `window` base cells wide, so r_c and a must stay well inside half of it:
+//! this bounds the ladder's largest useful |l| (a 16-cell window on a 128² base is 0.125 λ).
+//! Test (32² base, k = 2, window 8 against uniform 128², each at its own p_c, |l| = 0.01 …
+//! 0.05): r_c and a within 0.7 %, the running υ and χ within 3.7e-3.
+//!
+//! # The combined ladder ([`combined_ladder`])
+//! For the asymptotic fits the refined ladder continues a uniform one: the uniform finest grid's
+//! rungs from the largest |l| down to its first flagged pair, then the refined finest D's
+//! rungs from that rung (the junction, a rung of both) down to its first flagged pair, the
+//! refined values multiplied by y_uniform/y_refined at the junction. The rescaling keeps the
+//! refined local slopes and makes the ladder continuous: the two discretisations' prefactors
+//! differ by their discretisation errors (~1e-3 in g_s), which a direct fit of y would read as
+//! a step. Stopping at the first flagged pair on either side is the uniform ladders' rule
+//! ([`analysis::grid_converged_rungs`]): grid errors grow towards p_c.
 //!
 //! # Measurements (2026-11-25, `examples/refined_ladder.rs`)
 //! Square model, 256² base (2^8), margin 8, comparison margin 12; triangular likewise. Commands
@@ -194,7 +224,9 @@
 //!   |l| ≤ 2e-5), and compare levels at the same margin.
 //!
 use crate::CriticalError;
-use crate::ladder::{SaddleFrame, axis_saddle};
+use crate::ladder::{SaddleFrame, Window as SaddleWindow, axis_saddle};
+use crate::scaling::{EdgeOptions, blocked_half_length, open_half_width};
+use analysis::ScalingPoint;
 use contact::SolverOptions;
 use contact::refinement::{EdgeRuns, RefineOptions, Refined, RefinedModel, Window};
 use std::time::Instant;
@@ -629,6 +661,15 @@ pub struct RefinedRung {
     pub contact_hash: u64,
     /// Why the rung must not be used silently, if so.
     pub flag: Option<RungFlag>,
+    /// l < 0: the open channel's half-width r_c (λ) and its fit's 1σ, measured on the fine
+    /// window ([`Refinement::saddle_window`], [`open_half_width`]); NaN if not measured or the
+    /// fit failed (`edge_note` says why).
+    pub half_width: (f64, f64),
+    /// l > 0: the blocked channel's half-length a (λ) and its fit's 1σ
+    /// ([`blocked_half_length`]); NaN likewise.
+    pub half_length: (f64, f64),
+    /// Why the edge measurement of this rung failed, if it did.
+    pub edge_note: Option<String>,
 }
 
 /// The default reduced loads below p_c: −{5e-2, 2e-2, 1e-2, …, 2e-5, 1e-5}.
@@ -781,6 +822,46 @@ impl Refinement {
         1 + up + down
     }
 
+    /// The fields of the fine region around the refined saddle as a [`SaddleWindow`] in the
+    /// saddle's frame (first index along the channel, saddle at the centre, fine spacing): the
+    /// largest node-centred rectangle inside the region without its outermost ring of fine
+    /// nodes (whose base nodes carry the coarse hats too, [`Refined::window_gap`]). This is
+    /// what [`open_half_width`] and [`blocked_half_length`] measure, as on a uniform grid's
+    /// window ([`crate::ladder::extract_window`]).
+    pub fn saddle_window(&self, r: &Refined) -> SaddleWindow {
+        let f = 1usize << self.disc.levels;
+        let (fnx, fny) = r.lattice;
+        let (i, j) = self.frame.node;
+        let a = (f * i + fnx - r.origin.0) % fnx;
+        let b = (f * j + fny - r.origin.1) % fny;
+        let (rx, ry) = r.window_gap.dim();
+        let kx = a.min(rx.saturating_sub(a + 1)).saturating_sub(1);
+        let ky = b.min(ry.saturating_sub(b + 1)).saturating_sub(1);
+        let (dx, dy) = (r.window_grid.dx(), r.window_grid.dy());
+        let along_x = self.frame.channel_axis == 0;
+        let (k_par, k_perp, d_par, d_perp) = if along_x {
+            (kx, ky, dx, dy)
+        } else {
+            (ky, kx, dy, dx)
+        };
+        let at = |field: &ndarray::Array2<f64>, p: usize, q: usize| {
+            let (u, v) = if along_x { (p, q) } else { (q, p) };
+            let (du, dv) = if along_x {
+                (k_par, k_perp)
+            } else {
+                (k_perp, k_par)
+            };
+            field[[a + u - du, b + v - dv]]
+        };
+        let shape = (2 * k_par + 1, 2 * k_perp + 1);
+        SaddleWindow {
+            d_par,
+            d_perp,
+            gap: ndarray::Array2::from_shape_fn(shape, |(p, q)| at(&r.window_gap, p, q)),
+            pressure: ndarray::Array2::from_shape_fn(shape, |(p, q)| at(&r.window_pressure, p, q)),
+        }
+    }
+
     /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 1e-4;
     /// without a guess, 0.5 p_fc and 0.45). Errors if a solve does not converge.
     pub fn critical_load(
@@ -830,9 +911,13 @@ impl Refinement {
         }
         if let Some(&l) = ls
             .iter()
-            .find(|l| !(l.is_finite() && **l < 0.0 && **l > -1.0))
+            .find(|l| !(l.is_finite() && **l != 0.0 && l.abs() < 1.0))
         {
-            return Err(CriticalError::param("ls", l, "reduced loads in (−1, 0)"));
+            return Err(CriticalError::param(
+                "ls",
+                l,
+                "reduced loads in (−1, 0) (ζ, υ) or (0, 1) (χ)",
+            ));
         }
         let mut ls = ls.to_vec();
         ls.sort_by(f64::total_cmp);
@@ -845,7 +930,7 @@ impl Refinement {
             let edge = r.edge;
             let flag = if !r.stats.converged {
                 Some(RungFlag::NotConverged)
-            } else if g <= 0.0 {
+            } else if l < 0.0 && g <= 0.0 {
                 Some(RungFlag::Closed)
             } else if edge.crossings < 4 || edge.too_small(self.opts.min_edge_cells) {
                 Some(RungFlag::Window(edge))
@@ -861,6 +946,36 @@ impl Refinement {
                 contact_hash = (contact_hash ^ u64::from(c)).wrapping_mul(0x100000001b3);
             }
             let neck_nodes = self.neck_nodes(&r);
+            // υ below p_c(D), χ above, on the fine window (module docs, "Refined υ and χ")
+            let w = self.saddle_window(&r);
+            let eo = EdgeOptions::default();
+            let fit = if l < 0.0 {
+                // the onset fit takes the loaded nodes out to (1 + span) r_c; a window that ends
+                // before that cuts the fit short (unlike the uniform ladders' windows): no value
+                let edge = w.r_perp(2 * w.k_perp());
+                open_half_width(&w, &eo).and_then(|e| {
+                    if e.r * (1.0 + eo.span) > edge {
+                        Err(format!(
+                            "the onset fit reaches {:.3e} λ, beyond the fine window's {edge:.3e} λ: enlarge `window`",
+                            e.r * (1.0 + eo.span)
+                        ))
+                    } else {
+                        Ok(e)
+                    }
+                })
+            } else {
+                blocked_half_length(&w)
+            };
+            let (edge_fit, edge_note) = match fit {
+                Ok(e) => ((e.r, e.r_error), None),
+                Err(e) => ((f64::NAN, f64::NAN), Some(e)),
+            };
+            let nan = (f64::NAN, f64::NAN);
+            let (half_width, half_length) = if l < 0.0 {
+                (edge_fit, nan)
+            } else {
+                (nan, edge_fit)
+            };
             let rung = RefinedRung {
                 l,
                 load,
@@ -873,6 +988,9 @@ impl Refinement {
                 neck_nodes,
                 contact_hash,
                 flag,
+                half_width,
+                half_length,
+                edge_note,
             };
             on_rung(&rung, &r);
             rungs.push(rung);
@@ -914,7 +1032,7 @@ impl std::fmt::Display for PairFlag {
     }
 }
 
-/// A running ζ between two neighbouring rungs.
+/// A running exponent (ζ, υ or χ) between two neighbouring rungs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunningZeta {
     /// The rung farther from p_c (signed).
@@ -935,25 +1053,90 @@ pub struct RunningZeta {
     pub flag: Option<PairFlag>,
 }
 
-fn slopes(rungs: &[RefinedRung]) -> Vec<(f64, f64, f64, Option<PairFlag>)> {
-    let mut r: Vec<&RefinedRung> = rungs.iter().collect();
-    r.sort_by(|a, b| b.l.abs().total_cmp(&a.l.abs()));
+/// What a refined running exponent measures on each rung.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Measured {
+    /// ζ: the saddle gap (l < 0); 1σ the solver tolerance.
+    SaddleGap,
+    /// υ: the open half-width r_c (l < 0); 1σ its fit's.
+    OpenHalfWidth,
+    /// χ: the blocked half-length a (l > 0); 1σ its fit's.
+    BlockedHalfLength,
+}
+
+impl Measured {
+    /// All three, in table order (ζ, υ, χ).
+    pub const ALL: [Measured; 3] = [
+        Measured::SaddleGap,
+        Measured::OpenHalfWidth,
+        Measured::BlockedHalfLength,
+    ];
+
+    /// The exponent's table name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Measured::SaddleGap => "zeta",
+            Measured::OpenHalfWidth => "upsilon",
+            Measured::BlockedHalfLength => "chi",
+        }
+    }
+
+    /// Whether it is measured above p_c(D).
+    pub fn above_critical(self) -> bool {
+        self == Measured::BlockedHalfLength
+    }
+
+    /// The rung's value and 1σ (`sigma_gap`: the saddle gap's), if this rung measures it. ζ
+    /// takes every rung below p_c(D) (a closed one is flagged); υ and χ only those whose edge
+    /// fit succeeded (a failed fit widens the pair, as on the uniform ladders).
+    pub fn point(self, r: &RefinedRung, sigma_gap: f64) -> Option<ScalingPoint> {
+        let (y, s) = match self {
+            Measured::SaddleGap if r.l < 0.0 => (r.saddle_gap, sigma_gap),
+            Measured::OpenHalfWidth if r.l < 0.0 => r.half_width,
+            Measured::BlockedHalfLength if r.l > 0.0 => r.half_length,
+            _ => return None,
+        };
+        if self != Measured::SaddleGap && !(y.is_finite() && y > 0.0) {
+            return None;
+        }
+        // a fit with no degree of freedom has no error: σ = 0 (as critical::running::measure)
+        Some(ScalingPoint::new(
+            r.l,
+            y,
+            if s.is_finite() { s } else { 0.0 },
+        ))
+    }
+}
+
+/// (l_hi, l_lo, value, fit error, flag) of the neighbouring rungs measuring `m`.
+fn slopes(
+    rungs: &[RefinedRung],
+    m: Measured,
+    sigma_gap: f64,
+) -> Vec<(f64, f64, f64, f64, Option<PairFlag>)> {
+    let mut r: Vec<(&RefinedRung, ScalingPoint)> = rungs
+        .iter()
+        .filter_map(|r| m.point(r, sigma_gap).map(|p| (r, p)))
+        .collect();
+    r.sort_by(|a, b| b.0.l.abs().total_cmp(&a.0.l.abs()));
     r.windows(2)
         .map(|w| {
-            let (a, b) = (w[0], w[1]);
-            let v = (a.saddle_gap / b.saddle_gap).ln() / (a.l.abs() / b.l.abs()).ln();
+            let ((a, pa), (b, pb)) = (w[0], w[1]);
+            let d = (a.l.abs() / b.l.abs()).ln();
+            let v = (pa.y / pb.y).ln() / d;
+            let fit_error = (pa.sigma / pa.y).hypot(pb.sigma / pb.y) / d;
             let flag = [a, b]
                 .iter()
                 .find_map(|x| x.flag.map(|f| PairFlag::Rung(x.l, f)))
                 .or((a.contact_hash == b.contact_hash).then_some(PairFlag::Frozen));
-            (a.l, b.l, v, flag)
+            (a.l, b.l, v, fit_error, flag)
         })
         .collect()
 }
 
 /// Running ζ of the finest D's rungs with grid errors from D with k − 1 levels (`coarser`) and
 /// from D with another margin (`margin`) (module docs); flagged above `bound`. `sigma`: 1σ of a
-/// saddle gap (the solver tolerance).
+/// saddle gap (the solver tolerance). Same as [`running_exponent`] of [`Measured::SaddleGap`].
 pub fn running_zeta(
     fine: &[RefinedRung],
     coarser: Option<&[RefinedRung]>,
@@ -961,24 +1144,35 @@ pub fn running_zeta(
     bound: f64,
     sigma: f64,
 ) -> Vec<RunningZeta> {
+    running_exponent(Measured::SaddleGap, fine, coarser, margin, bound, sigma)
+}
+
+/// Running exponent of `m` (ζ, υ or χ) between neighbouring rungs of the finest D that measure
+/// it, with grid errors from D with k − 1 levels (`coarser`) and from D with another margin
+/// (`margin`) for the same pair of loads; flagged above `bound`, when unknown, when a rung is
+/// flagged or the window's contact set did not change (module docs). `sigma_gap`: 1σ of a
+/// saddle gap (ζ); υ and χ take their edge fits' 1σ.
+pub fn running_exponent(
+    m: Measured,
+    fine: &[RefinedRung],
+    coarser: Option<&[RefinedRung]>,
+    margin: Option<&[RefinedRung]>,
+    bound: f64,
+    sigma_gap: f64,
+) -> Vec<RunningZeta> {
     let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
     let other = |set: Option<&[RefinedRung]>, hi: f64, lo: f64| {
         set.and_then(|s| {
-            slopes(s)
+            slopes(s, m, sigma_gap)
                 .into_iter()
                 .find(|c| same(c.0, hi) && same(c.1, lo))
-                .filter(|c| c.3.is_none() && c.2.is_finite())
+                .filter(|c| c.4.is_none() && c.2.is_finite())
                 .map(|c| c.2)
         })
     };
-    let gap_of = |l: f64| {
-        fine.iter()
-            .find(|r| r.l == l)
-            .map_or(f64::NAN, |r| r.saddle_gap)
-    };
-    slopes(fine)
+    slopes(fine, m, sigma_gap)
         .into_iter()
-        .map(|(hi, lo, v, flag)| {
+        .map(|(hi, lo, v, fit_error, flag)| {
             let el = other(coarser, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
             let em = other(margin, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
             let grid_error = if el.is_nan() || em.is_nan() {
@@ -986,9 +1180,6 @@ pub fn running_zeta(
             } else {
                 el.max(em)
             };
-            let d = (hi.abs() / lo.abs()).ln();
-            let fit_error =
-                ((sigma / gap_of(hi)).powi(2) + (sigma / gap_of(lo)).powi(2)).sqrt() / d;
             let flag = flag.or(if grid_error.is_nan() {
                 Some(PairFlag::Unknown)
             } else if grid_error > bound {
@@ -1011,4 +1202,144 @@ pub fn running_zeta(
             }
         })
         .collect()
+}
+
+/// One neighbouring pair of a ladder as [`combined_ladder`] takes it: its two reduced loads
+/// (signed) and whether it may be used (unflagged).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LadderPair {
+    /// The rung farther from the critical load (signed).
+    pub l_hi: f64,
+    /// The rung nearer it (signed).
+    pub l_lo: f64,
+    /// Not flagged.
+    pub usable: bool,
+}
+
+/// Which ladder a pair of the combined ladder comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// The uniform ladder's finest grid.
+    Uniform,
+    /// The refined ladder's finest discretisation.
+    Refined,
+}
+
+impl Source {
+    /// Table name (`uniform`, `refined`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Source::Uniform => "uniform",
+            Source::Refined => "refined",
+        }
+    }
+}
+
+/// The combined ladder of [`combined_ladder`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct CombinedLadder {
+    /// Its rungs by descending |l|; the refined ones rescaled (module docs).
+    pub points: Vec<ScalingPoint>,
+    /// The source of each neighbouring pair (one fewer than `points`).
+    pub sources: Vec<Source>,
+    /// The reduced load where the refined ladder takes over (None: uniform only).
+    pub junction: Option<f64>,
+    /// Why the refined ladder did not extend the uniform one, if it did not.
+    pub note: Option<String>,
+}
+
+/// The ladder an asymptotic fit uses, pair by pair the best grid-converged value available
+/// (module docs, "The combined ladder"): the uniform ladder's finest rungs from the largest |l|
+/// down to its first unusable pair, then the refined ladder's from that rung (the junction,
+/// which both must have) down to its first unusable pair. The refined values are multiplied
+/// by y_uniform/y_refined at the junction: their local slopes are unchanged, and the ladder
+/// stays continuous (the two discretisations' prefactors differ by their discretisation
+/// errors, ~1e-3, which a direct fit would otherwise read as a step). Without a usable uniform
+/// pair (no uniform points, or its first pair flagged), the refined ladder alone from its first
+/// usable pair. Pairs are matched by their loads to a relative 1e-9; the points of either
+/// ladder in any order.
+pub fn combined_ladder(
+    uniform: &[ScalingPoint],
+    uniform_pairs: &[LadderPair],
+    refined: &[ScalingPoint],
+    refined_pairs: &[LadderPair],
+) -> CombinedLadder {
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    let at = |pts: &[ScalingPoint], l: f64| pts.iter().find(|p| same(p.l, l)).copied();
+    let next = |pairs: &[LadderPair], l: f64| pairs.iter().find(|p| same(p.l_hi, l)).copied();
+    let mut out = CombinedLadder {
+        points: Vec::new(),
+        sources: Vec::new(),
+        junction: None,
+        note: None,
+    };
+    let top = |pts: &[ScalingPoint]| {
+        pts.iter()
+            .copied()
+            .max_by(|a, b| a.l.abs().total_cmp(&b.l.abs()))
+    };
+    let mut uniform_chain = Vec::new();
+    if let Some(p) = top(uniform) {
+        uniform_chain.push(p);
+        let mut cur = p.l;
+        while let Some(pair) = next(uniform_pairs, cur).filter(|p| p.usable) {
+            let Some(q) = at(uniform, pair.l_lo) else {
+                break;
+            };
+            uniform_chain.push(q);
+            cur = q.l;
+        }
+    }
+    let mut current = match uniform_chain.last() {
+        Some(&last) if uniform_chain.len() > 1 || refined.is_empty() => {
+            out.sources = vec![Source::Uniform; uniform_chain.len() - 1];
+            out.points = uniform_chain;
+            last.l
+        }
+        _ => {
+            // refined only (its own values: the scale below is 1), from the first usable pair
+            let mut v: Vec<&LadderPair> = refined_pairs.iter().filter(|p| p.usable).collect();
+            v.sort_by(|a, b| b.l_hi.abs().total_cmp(&a.l_hi.abs()));
+            match v.first().and_then(|p| at(refined, p.l_hi)) {
+                Some(p) => {
+                    out.points.push(p);
+                    p.l
+                }
+                None => {
+                    out.note = Some("no usable uniform or refined pair".into());
+                    out.points = uniform_chain;
+                    return out;
+                }
+            }
+        }
+    };
+    if refined.is_empty() {
+        return out;
+    }
+    let Some(j) = at(refined, current) else {
+        out.note = Some(format!(
+            "the refined ladder has no rung at the junction l = {current:e}"
+        ));
+        return out;
+    };
+    let scale = out.points.last().map_or(1.0, |p| p.y / j.y);
+    let start = out.points.len();
+    while let Some(pair) = next(refined_pairs, current).filter(|p| p.usable) {
+        let Some(q) = at(refined, pair.l_lo) else {
+            break;
+        };
+        out.points
+            .push(ScalingPoint::new(q.l, q.y * scale, q.sigma * scale));
+        out.sources.push(Source::Refined);
+        current = q.l;
+    }
+    if out.points.len() > start {
+        out.junction = Some(out.points[start - 1].l);
+    } else {
+        out.note = Some(format!(
+            "the refined pair from l = {:e} is flagged or missing",
+            out.points[start - 1].l
+        ));
+    }
+    out
 }

@@ -1,8 +1,9 @@
-//! `refined_ladder`: the saddle gap of one model at reduced loads down to |l| = 1e-5 on locally
-//! refined discretisations (`critical::refined`: a window of `window` base cells around the axis
-//! saddle refined 2^k times, the rest of the periodic cell on the base grid), and its running
-//! exponent ζ_eff with grid errors. This is where the near-critical ladder goes below the
-//! uniform grids' reach (README "Near-critical exponents").
+//! `refined_ladder`: the saddle gap, the open channel's half-width and the blocked channel's
+//! half-length of one model at reduced loads down to |l| = 1e-5 on locally refined
+//! discretisations (`critical::refined`: a window of `window` base cells around the axis saddle
+//! refined 2^k times, the rest of the periodic cell on the base grid), and their running
+//! exponents ζ_eff, υ_eff (l < 0) and χ_eff (l > 0) with grid errors. This is where the
+//! near-critical ladder goes below the uniform grids' reach (README "Near-critical exponents").
 //!
 //! # What is computed
 //! For every k of `levels` (ascending) a discretisation D(k) = (model, base 2^`base`, k,
@@ -10,31 +11,41 @@
 //! secant to 1e-11 relative, the first from the periodic base grid's closing load, each next
 //! from the previous D's), then the ladder at p_c(D)(1 + l) for every l of `ls` (< 0),
 //! warm-started. With `margin_check` > 0 the finest D once more with that margin (the
-//! far-field interpolation error, which at |l| ~ 1e-5 is the largest one). The running ζ
-//! (`critical::refined::running_zeta`): ζ_eff between neighbouring rungs of the finest D, its
-//! grid error the larger of the change from the next coarser D and from the margin check,
-//! flagged above 0.005, when unknown, when a rung's window is too small or its solve did not
-//! converge, or when the window's contact set did not change between the two rungs.
+//! far-field interpolation error, which at |l| ~ 1e-5 is the largest one). On every rung the
+//! saddle gap (ζ, l < 0) and, on the fine window around the saddle
+//! (`Refinement::saddle_window`), the open half-width r_c (υ, l < 0, square-root onset) or the
+//! blocked half-length a (χ, l > 0, Hertz fit), as on the uniform ladders' windows. The running
+//! exponents (`critical::refined::running_exponent`): between neighbouring rungs of the finest D
+//! that measure the quantity, the grid error the larger of the change from the next coarser D
+//! and from the margin check, flagged above 0.005, when unknown, when a rung's window is too
+//! small or its solve did not converge, or when the window's contact set did not change between
+//! the two rungs. Fit errors: ζ from the solver tolerance (`tol_gap`, the 1σ of a node value,
+//! relative to g_s); υ, χ from the edge fits' 1σ (0 for a fit without a degree of freedom).
 //!
 //! # Parameters
 //! `lattice`, `base` (base grid exponent), `levels` (ascending k, 1..=6; two or more give the
 //! level error), `window` (base cells), `margin` (base cells of exact near field around the
-//! window), `margin_check` (0: none), `ls` (reduced loads < 0), `tol_gap` (h0; the composite
+//! window), `margin_check` (0: none), `ls` (reduced loads ≠ 0; > 0 give χ only), `tol_gap` (h0; the composite
 //! solve stagnates near p_c below ~1e-13 at k = 3, 1e-12 at k = 4, 5e-12 at k = 5), `max_iter`.
 //!
 //! # Artefact
 //! Root attributes `lattice`, `base`, `window`, `spacing` (finest fine spacing, λ), `p_fc`
-//! (the base grid's p_fc); per discretisation `d/<i>` (coarse to fine, then the margin check)
+//! (the base grid's p_fc), `tol_gap`; per discretisation `d/<i>` (coarse to fine, then the margin check)
 //! attributes `levels`, `margin`, `p_c`, `p_c_lo`, `p_c_hi`, `probes`, `spacing`, `wall_s`,
 //! `iterations` and datasets ([`RefinedRungRow`]) `l`, `load`, `saddle_gap`, `contact_area`,
-//! `iterations`, `wall_s`, `neck_nodes`, `flagged` plus `flag` (strings, empty if none); the
-//! running exponents `running/*` ([`RefinedPairRow`]: `l_hi`, `l_lo`, `value`, `error_levels`,
-//! `error_margin`, `grid_error`, `fit_error`) and `running/flag`.
+//! `iterations`, `wall_s`, `neck_nodes`, `flagged`, `half_width`, `half_width_error`,
+//! `half_length`, `half_length_error` (NaN where not measured) plus `flag` (strings, empty if
+//! none) and `edge_note` (why an edge fit failed, empty if none); the running exponents
+//! `running/*` (ζ), `running_upsilon/*` and `running_chi/*` ([`RefinedPairRow`]: `l_hi`,
+//! `l_lo`, `value`, `error_levels`, `error_margin`, `grid_error`, `fit_error`) and their
+//! `flag`s.
 
 use crate::surface::lattice_spec;
+use analysis::ScalingPoint;
 use anyhow::{Result, anyhow};
 use critical::refined::{
-    ClosingLoad, Discretisation, RefinedOptions, RefinedRung, Refinement, base_guess, running_zeta,
+    ClosingLoad, Discretisation, LadderPair, Measured, RefinedOptions, RefinedRung, Refinement,
+    base_guess, running_exponent,
 };
 use formats::records::{Record, read_in};
 use orchestrator::{
@@ -49,7 +60,7 @@ use surface::Lattice;
 pub struct RefinedLadderKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 1;
+pub const CODE_VERSION: u64 = 3;
 
 /// The running exponents' grid-error bound (as the uniform ladders', issue 13).
 pub const GRID_BOUND: f64 = 0.005;
@@ -71,7 +82,7 @@ pub struct RefinedLadderParams {
     pub margin: u32,
     /// A second margin for the finest level (0: none).
     pub margin_check: u32,
-    /// Reduced loads, all < 0.
+    /// Reduced loads, ≠ 0 (> 0: χ only).
     pub ls: Vec<f64>,
     /// Composite Polonsky–Keer tolerance (h0).
     pub tol_gap: f64,
@@ -139,13 +150,13 @@ impl TypedKind for RefinedLadderKind {
             ParamSpec::new(
                 "ls",
                 ParamType::Array {
-                    elem: Box::new(ParamType::float_range(-0.5, -1e-12)),
+                    elem: Box::new(ParamType::float_range(-0.5, 0.5)),
                     min_len: 2,
                     max_len: Some(64),
                 },
             )
             .default(json!(critical::refined::default_ls()))
-            .doc("reduced loads (L − L_c)/L_c < 0, distinct"),
+            .doc("reduced loads (L − L_c)/L_c ≠ 0, distinct: those < 0 give ζ and υ, those > 0 χ"),
             crate::solver::tol_gap_spec(),
             ParamSpec::new("max_iter", ParamType::int_range(10, 1_000_000))
                 .default(2000)
@@ -177,6 +188,14 @@ impl TypedKind for RefinedLadderKind {
                 format!(
                     "{}: equal to `margin`; allowed 0 (none) or another margin",
                     params.margin_check
+                ),
+            ));
+        }
+        if let Some(l) = params.ls.iter().find(|l| l.abs() < 1e-12) {
+            return Err(ParamIssue::new(
+                "ls",
+                format!(
+                    "{l}: allowed reduced loads with |l| ≥ 1e-12 (p_c itself measures nothing)"
                 ),
             ));
         }
@@ -246,25 +265,32 @@ impl TypedKind for RefinedLadderKind {
         let fine = &runs[params.levels.len() - 1].2;
         let coarser = (params.levels.len() > 1).then(|| &runs[params.levels.len() - 2].2[..]);
         let margin = (params.margin_check > 0).then(|| &runs[runs.len() - 1].2[..]);
-        let pairs = running_zeta(fine, coarser, margin, GRID_BOUND, opts.tol_gap);
-        let rows: Vec<RefinedPairRow> = pairs
-            .iter()
-            .map(|z| RefinedPairRow {
-                l_hi: z.l_hi,
-                l_lo: z.l_lo,
-                value: z.value,
-                error_levels: z.error_levels,
-                error_margin: z.error_margin,
-                grid_error: z.grid_error,
-                fit_error: z.fit_error,
-            })
-            .collect();
-        RefinedPairRow::write(&rows, out, "running")?;
-        let flags: Vec<String> = pairs
-            .iter()
-            .map(|z| z.flag.as_ref().map_or(String::new(), |f| f.to_string()))
-            .collect();
-        out.write_strings("running/flag", &flags)?;
+        let mut npairs = 0;
+        let mut flagged = 0;
+        for m in Measured::ALL {
+            let pairs = running_exponent(m, fine, coarser, margin, GRID_BOUND, opts.tol_gap);
+            let rows: Vec<RefinedPairRow> = pairs
+                .iter()
+                .map(|z| RefinedPairRow {
+                    l_hi: z.l_hi,
+                    l_lo: z.l_lo,
+                    value: z.value,
+                    error_levels: z.error_levels,
+                    error_margin: z.error_margin,
+                    grid_error: z.grid_error,
+                    fit_error: z.fit_error,
+                })
+                .collect();
+            let at = running_group(m);
+            RefinedPairRow::write(&rows, out, at)?;
+            let flags: Vec<String> = pairs
+                .iter()
+                .map(|z| z.flag.as_ref().map_or(String::new(), |f| f.to_string()))
+                .collect();
+            out.write_strings(&format!("{at}/flag"), &flags)?;
+            npairs += pairs.len();
+            flagged += flags.iter().filter(|f| !f.is_empty()).count();
+        }
         let (lx, ly) = params.lattice.cell();
         out.set_cell(lx, ly)?;
         out.set_attr("lattice", params.lattice.name())?;
@@ -272,13 +298,23 @@ impl TypedKind for RefinedLadderKind {
         out.set_attr("window", params.window as i64)?;
         out.set_attr("spacing", finest.spacing())?;
         out.set_attr("p_fc", p_fc)?;
-        let flagged = flags.iter().filter(|f| !f.is_empty()).count();
+        out.set_attr("tol_gap", params.tol_gap)?;
         ctx.progress(1.0, "written");
         Ok(StageReport::with_stats(json!({
             "p_c_over_p_fc": runs.iter().map(|r| r.1.p_c() / p_fc).collect::<Vec<_>>(),
-            "pairs": pairs.len(),
+            "pairs": npairs,
             "flagged_pairs": flagged,
         })))
+    }
+}
+
+/// The artefact group of a measured quantity's running exponents (`running` for ζ, as before υ
+/// and χ were measured).
+pub fn running_group(m: Measured) -> &'static str {
+    match m {
+        Measured::SaddleGap => "running",
+        Measured::OpenHalfWidth => "running_upsilon",
+        Measured::BlockedHalfLength => "running_chi",
     }
 }
 
@@ -303,6 +339,10 @@ fn write_discretisation(
             wall_s: r.wall_s,
             neck_nodes: r.neck_nodes,
             flagged: r.flag.is_some(),
+            half_width: r.half_width.0,
+            half_width_error: r.half_width.1,
+            half_length: r.half_length.0,
+            half_length_error: r.half_length.1,
         })
         .collect();
     RefinedRungRow::write(&rows, out, at)?;
@@ -311,6 +351,11 @@ fn write_discretisation(
         .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string()))
         .collect();
     out.write_strings(&format!("{at}/flag"), &flags)?;
+    let notes: Vec<String> = rungs
+        .iter()
+        .map(|r| r.edge_note.clone().unwrap_or_default())
+        .collect();
+    out.write_strings(&format!("{at}/edge_note"), &notes)?;
     out.set_attr_at(at, "levels", d.levels as i64)?;
     out.set_attr_at(at, "margin", d.margin as i64)?;
     out.set_attr_at(at, "p_c", c.p_c())?;
@@ -343,18 +388,27 @@ formats::record! {
         pub neck_nodes: usize,
         /// The rung is flagged (`flag` says why).
         pub flagged: bool,
+        /// l < 0: open half-width r_c (λ), NaN if not measured.
+        pub half_width: f64,
+        /// Its fit's 1σ.
+        pub half_width_error: f64,
+        /// l > 0: blocked half-length a (λ), NaN if not measured.
+        pub half_length: f64,
+        /// Its fit's 1σ.
+        pub half_length_error: f64,
     }
 }
 
 formats::record! {
-    /// One running ζ pair of the finest discretisation (`running/*`).
+    /// One running-exponent pair of the finest discretisation (`running/*` for ζ,
+    /// `running_upsilon/*`, `running_chi/*`).
     #[derive(Clone, Debug, PartialEq)]
     pub struct RefinedPairRow {
         /// The rung farther from p_c (signed).
         pub l_hi: f64,
         /// The rung nearer p_c (signed).
         pub l_lo: f64,
-        /// ζ_eff.
+        /// ζ_eff, υ_eff or χ_eff.
         pub value: f64,
         /// |change from the next coarser level| (NaN if unknown).
         pub error_levels: f64,
@@ -362,7 +416,7 @@ formats::record! {
         pub error_margin: f64,
         /// The larger of the two (NaN if either is unknown).
         pub grid_error: f64,
-        /// From the solver tolerance.
+        /// ζ: from the solver tolerance; υ, χ: from the edge fits.
         pub fit_error: f64,
     }
 }
@@ -393,10 +447,23 @@ pub struct RefinedData {
     pub window: u32,
     /// The finest fine spacing (λ).
     pub spacing: f64,
+    /// The composite solver tolerance (h0): the 1σ of a saddle gap.
+    pub tol_gap: f64,
     /// Discretisations, as computed (coarse to fine, then the margin check).
     pub levels: Vec<RefinedLevel>,
-    /// Running ζ of the finest discretisation with their flags.
-    pub running: Vec<(RefinedPairRow, String)>,
+    /// Running exponents of the finest discretisation (ζ, then υ, then χ) with their flags.
+    pub running: Vec<RefinedPair>,
+}
+
+/// One running-exponent pair as read back.
+#[derive(Clone, Debug)]
+pub struct RefinedPair {
+    /// What it measures (ζ, υ, χ).
+    pub exponent: Measured,
+    /// The pair.
+    pub row: RefinedPairRow,
+    /// Why it must not be used silently (empty: usable).
+    pub flag: String,
 }
 
 impl RefinedData {
@@ -426,15 +493,77 @@ impl RefinedData {
                 rungs: rows.into_iter().zip(flags).collect(),
             });
         }
-        let pairs: Vec<RefinedPairRow> = read_in(r, "running")?;
-        let flags = r.read_strings("running/flag")?;
+        let mut running = Vec::new();
+        for m in Measured::ALL {
+            let at = running_group(m);
+            let pairs: Vec<RefinedPairRow> = read_in(r, at)?;
+            let flags = r.read_strings(&format!("{at}/flag"))?;
+            if flags.len() != pairs.len() {
+                return Err(anyhow!(
+                    "{}: {at}: {} flags for {} pairs",
+                    r.path().display(),
+                    flags.len(),
+                    pairs.len()
+                ));
+            }
+            running.extend(pairs.into_iter().zip(flags).map(|(row, flag)| RefinedPair {
+                exponent: m,
+                row,
+                flag,
+            }));
+        }
         Ok(RefinedData {
             lattice,
             p_fc: r.attr_f64("p_fc")?,
             window: r.attr_i64("window")? as u32,
             spacing: r.attr_f64("spacing")?,
+            tol_gap: r.attr_f64("tol_gap")?,
             levels,
-            running: pairs.into_iter().zip(flags).collect(),
+            running,
         })
+    }
+
+    /// The finest discretisation (the one whose rungs give the running exponents: the first
+    /// with the most levels; the margin check comes after it).
+    pub fn finest(&self) -> Option<&RefinedLevel> {
+        let k = self.levels.iter().map(|l| l.levels).max()?;
+        self.levels.iter().find(|l| l.levels == k)
+    }
+
+    /// The finest discretisation's measurements of `m` as scaling points (ζ: saddle gap, 1σ
+    /// `tol_gap`; υ, χ: the edge fits, 1σ theirs, 0 if NaN; rungs without a measurement left
+    /// out, as `critical::refined::Measured::point`).
+    pub fn points(&self, m: Measured) -> Vec<ScalingPoint> {
+        let Some(f) = self.finest() else {
+            return Vec::new();
+        };
+        f.rungs
+            .iter()
+            .filter_map(|(r, _)| {
+                let (y, s) = match m {
+                    Measured::SaddleGap if r.l < 0.0 => (r.saddle_gap, self.tol_gap),
+                    Measured::OpenHalfWidth if r.l < 0.0 => (r.half_width, r.half_width_error),
+                    Measured::BlockedHalfLength if r.l > 0.0 => {
+                        (r.half_length, r.half_length_error)
+                    }
+                    _ => return None,
+                };
+                (y.is_finite() && y > 0.0)
+                    .then(|| ScalingPoint::new(r.l, y, if s.is_finite() { s } else { 0.0 }))
+            })
+            .collect()
+    }
+
+    /// The running pairs of `m` as `critical::refined::combined_ladder` takes them.
+    pub fn pairs(&self, m: Measured) -> Vec<LadderPair> {
+        self.running
+            .iter()
+            .filter(|p| p.exponent == m)
+            .map(|p| LadderPair {
+                l_hi: p.row.l_hi,
+                l_lo: p.row.l_lo,
+                usable: p.flag.is_empty() && p.row.value.is_finite(),
+            })
+            .collect()
     }
 }

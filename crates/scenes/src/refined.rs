@@ -1,10 +1,11 @@
-//! The refined ζ ladder (scene `refined`): the running exponent ζ_eff of the saddle gap below the
-//! uniform grids' reach, from one `refined_ladder` stage per model (`kinds::refined_ladder`,
-//! `critical::refined`).
+//! The refined ladder (scene `refined`): the running exponents ζ_eff (saddle gap), υ_eff (open
+//! half-width) and χ_eff (blocked half-length, l > 0) below the uniform grids' reach, from one
+//! `refined_ladder` stage per model (`kinds::refined_ladder`, `critical::refined`). The same
+//! pairs enter `running_exponents.csv` (scene `running`, `method` = `refined`).
 //!
 //! Outputs (`results/tables/`):
 //! - `refined_running.csv`: per model and neighbouring pair of rungs of the finest
-//!   discretisation: `model`, `exponent` ("zeta"), `l_hi`, `l_lo` (signed; from that
+//!   discretisation: `model`, `exponent` ("zeta", "upsilon", "chi"), `l_hi`, `l_lo` (signed; from that
 //!   discretisation's own p_c), `value`, `grid_error` (the larger of `error_levels`, the change
 //!   from the next coarser level, and `error_margin`, the change from the margin check; NaN if
 //!   either is unknown), `fit_error`, `resolution` (finest fine spacing, λ), `error_levels`,
@@ -16,11 +17,13 @@
 //!   `spacing` (λ), `p_c_over_p_fc` (the discretisation's own p_c over the base grid's p_fc),
 //!   `l`, `saddle_gap` (h0), `contact_area`, `neck_nodes` (open fine nodes across the channel
 //!   through the saddle), `iterations`, `flag` (the wall times stay in the stages' artefacts:
-//!   a table is the same on every recomputation).
+//!   a table is the same on every recomputation), then `half_width`, `half_width_error` (l < 0:
+//!   the open channel's r_c and its fit's 1σ, λ) and `half_length`, `half_length_error` (l > 0:
+//!   the blocked channel's a), NaN where not measured.
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
-use kinds::refined_ladder::RefinedData;
+use kinds::refined_ladder::{RefinedData, RefinedPair};
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
 use tables::Table;
@@ -34,24 +37,20 @@ pub fn running_table(data: &[RefinedData]) -> Table {
         data.iter()
             .flat_map(|d| d.running.iter().map(move |p| (d, p)))
     };
-    let f = |g: fn(
-        &(
-            &RefinedData,
-            &(kinds::refined_ladder::RefinedPairRow, String),
-        ),
-    ) -> f64| { pairs().map(|p| g(&p)).collect::<Vec<f64>>() };
+    let f =
+        |g: fn(&(&RefinedData, &RefinedPair)) -> f64| pairs().map(|p| g(&p)).collect::<Vec<f64>>();
     Table::new()
         .with_str("model", pairs().map(|(d, _)| d.lattice.name()))
-        .with_str("exponent", pairs().map(|_| "zeta"))
-        .with_f64("l_hi", f(|(_, p)| p.0.l_hi))
-        .with_f64("l_lo", f(|(_, p)| p.0.l_lo))
-        .with_f64("value", f(|(_, p)| p.0.value))
-        .with_f64("grid_error", f(|(_, p)| p.0.grid_error))
-        .with_f64("fit_error", f(|(_, p)| p.0.fit_error))
+        .with_str("exponent", pairs().map(|(_, p)| p.exponent.name()))
+        .with_f64("l_hi", f(|(_, p)| p.row.l_hi))
+        .with_f64("l_lo", f(|(_, p)| p.row.l_lo))
+        .with_f64("value", f(|(_, p)| p.row.value))
+        .with_f64("grid_error", f(|(_, p)| p.row.grid_error))
+        .with_f64("fit_error", f(|(_, p)| p.row.fit_error))
         .with_f64("resolution", f(|(d, _)| d.spacing))
-        .with_f64("error_levels", f(|(_, p)| p.0.error_levels))
-        .with_f64("error_margin", f(|(_, p)| p.0.error_margin))
-        .with_str("flag", pairs().map(|(_, p)| p.1.clone()))
+        .with_f64("error_levels", f(|(_, p)| p.row.error_levels))
+        .with_f64("error_margin", f(|(_, p)| p.row.error_margin))
+        .with_str("flag", pairs().map(|(_, p)| p.flag.clone()))
 }
 
 /// `refined_rungs.csv` (module docs).
@@ -83,6 +82,10 @@ pub fn rungs_table(data: &[RefinedData]) -> Table {
             rows.iter().map(|(_, _, r)| r.0.iterations as i64),
         )
         .with_str("flag", rows.iter().map(|(_, _, r)| r.1.clone()))
+        .with_f64("half_width", f(&|(_, _, r)| r.0.half_width))
+        .with_f64("half_width_error", f(&|(_, _, r)| r.0.half_width_error))
+        .with_f64("half_length", f(&|(_, _, r)| r.0.half_length))
+        .with_f64("half_length_error", f(&|(_, _, r)| r.0.half_length_error))
 }
 
 impl Scene for Refined {
@@ -90,10 +93,10 @@ impl Scene for Refined {
         "refined"
     }
     fn doc(&self) -> &'static str {
-        "the running ζ below the uniform grids' reach from locally refined ladders (tables refined_running.csv and refined_rungs.csv)"
+        "the running ζ, υ, χ below the uniform grids' reach from locally refined ladders (tables refined_running.csv and refined_rungs.csv)"
     }
     fn code_version(&self) -> u64 {
-        1
+        2
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
@@ -122,11 +125,11 @@ impl Scene for Refined {
         let flagged = data
             .iter()
             .flat_map(|d| &d.running)
-            .filter(|p| !p.1.is_empty())
+            .filter(|p| !p.flag.is_empty())
             .count();
         if flagged > 0 {
             ctx.warn(format!(
-                "{flagged} running ζ pairs flagged (see the `flag` column of refined_running.csv)"
+                "{flagged} running-exponent pairs flagged (see the `flag` column of refined_running.csv)"
             ));
         }
         Ok(Outputs::new()

@@ -6,9 +6,12 @@
 //! shows pair by pair.
 //!
 //! Inputs `ladder`: one `ladder` stage per model (two or more levels each give grid errors; one
-//! level flags every pair as "grid error unknown").
+//! level flags every pair as "grid error unknown"); optional `refined`: `refined_ladder` stages
+//! (`kinds::refined_ladder`, one per model; a preset without them gives the uniform rows only),
+//! whose running ζ, υ, χ pairs are added as rows of their own.
 //!
-//! Output `running_exponents.csv`, one row per model, exponent and neighbouring pair of rungs:
+//! Output `running_exponents.csv`, one row per model, exponent, neighbouring pair of rungs and
+//! method (uniform rows first, then the refined ones):
 //! `model`, `exponent`, `l_hi` (the rung farther from L_c, signed), `l_lo` (the nearer one),
 //! `value`, `grid_error` (|value − value on the next coarser level|, NaN if unknown; for β the
 //! larger of that and |value − the same slope of the conductivity across|, the isotropy check
@@ -16,12 +19,20 @@
 //! `fit_error` (1σ from the measurements), `resolution` (finest spacing, λ) — the names of
 //! `critical::running::RunningRecord::COLUMNS` — and `flag` (empty, or why the value must not be
 //! used silently: grid error above 0.005, or unknown; β: along and across differ by more than
-//! 0.005, or the flow across was not measured).
+//! 0.005, or the flow across was not measured), and `method`: `uniform` (the ladder's finest
+//! grid, as above) or `refined` (the refined ladder's finest discretisation: `resolution` its
+//! finest fine spacing, λ; `grid_error` the larger of the change from the discretisation with
+//! one level fewer and from the margin check, NaN if either is unknown; `fit_error` for ζ the
+//! solver tolerance `tol_gap` as the 1σ of each saddle gap (a node value: no fit), relative to
+//! g_s and propagated to the slope, for υ and χ the edge fits' 1σ propagated likewise; `flag` as
+//! the refined kind gives it: grid error above 0.005 or unknown, a rung whose window is too
+//! small or whose solve did not converge, a pair over which the window's contact set did not
+//! change). The refined pairs' l are measured from the refined discretisation's own p_c.
 //!
 //! Output figure `running_exponents` (PNG, SVG; `figures::scenes::running`): one panel per
 //! exponent, the local slope against the pair's geometric-mean |l| (log axis), the three models,
 //! error bars grid error ⊕ fit error (an unknown grid error counts as 0 in the bar: those pairs
-//! are flagged), flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
+//! are flagged), the refined pairs as diamonds in the model's colour, flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
 //! gives no error), the conjecture as a dotted line.
 //!
 //! Measurements that fail on a rung (a closed saddle node, an unresolved edge) are left out and
@@ -29,14 +40,17 @@
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Context, Result};
+use critical::refined::{Measured, Source};
 use critical::running::{Exponent, RunningRecord, running_records};
 use figures::scenes::running::{RunningCurve, RunningData, RunningPanel, RunningPoint};
 use figures::style::Model;
 use kinds::exponents::asymptotic::{GRID_BOUND, resolutions};
 use kinds::exponents::{CONJECTURED, PAPER, symbol};
 use kinds::ladder::LadderData;
+use kinds::refined_ladder::RefinedData;
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
+use surface::Lattice;
 use tables::{ColumnData, Table};
 
 /// The `running` scene.
@@ -63,61 +77,128 @@ pub fn records(d: &LadderData, notes: &mut Vec<String>) -> Result<Vec<RunningRec
     Ok(out)
 }
 
+/// One row of `running_exponents.csv` (module docs): a uniform record or a refined pair.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// The columns of [`RunningRecord::COLUMNS`] (its `flag` unused: see `flag`).
+    pub rec: RunningRecord,
+    /// Why the value must not be used silently (empty: usable).
+    pub flag: String,
+    /// Which ladder it comes from.
+    pub method: Source,
+}
+
+impl From<RunningRecord> for Row {
+    fn from(rec: RunningRecord) -> Self {
+        let flag = rec.flag.as_ref().map_or(String::new(), |f| f.to_string());
+        Row {
+            rec,
+            flag,
+            method: Source::Uniform,
+        }
+    }
+}
+
+/// The running pairs of one refined ladder as rows (module docs).
+pub fn refined_rows(d: &RefinedData) -> Vec<Row> {
+    d.running
+        .iter()
+        .map(|p| Row {
+            rec: RunningRecord {
+                model: d.lattice,
+                exponent: match p.exponent {
+                    Measured::SaddleGap => Exponent::Zeta,
+                    Measured::OpenHalfWidth => Exponent::Upsilon,
+                    Measured::BlockedHalfLength => Exponent::Chi,
+                },
+                l_hi: p.row.l_hi,
+                l_lo: p.row.l_lo,
+                value: p.row.value,
+                grid_error: p.row.grid_error,
+                fit_error: p.row.fit_error,
+                resolution: d.spacing,
+                flag: None,
+            },
+            flag: p.flag.clone(),
+            method: Source::Refined,
+        })
+        .collect()
+}
+
 /// The cells of [`RunningRecord::COLUMNS`], in that order (one list of names).
 #[allow(clippy::type_complexity)]
-const CELLS: [fn(&[RunningRecord]) -> ColumnData; 8] = [
-    |r| ColumnData::Str(r.iter().map(|r| r.model.name().to_string()).collect()),
-    |r| ColumnData::Str(r.iter().map(|r| r.exponent.name().to_string()).collect()),
-    |r| ColumnData::F64(r.iter().map(|r| r.l_hi).collect()),
-    |r| ColumnData::F64(r.iter().map(|r| r.l_lo).collect()),
-    |r| ColumnData::F64(r.iter().map(|r| r.value).collect()),
-    |r| ColumnData::F64(r.iter().map(|r| r.grid_error).collect()),
-    |r| ColumnData::F64(r.iter().map(|r| r.fit_error).collect()),
-    |r| ColumnData::F64(r.iter().map(|r| r.resolution).collect()),
+const CELLS: [fn(&[Row]) -> ColumnData; 8] = [
+    |r| ColumnData::Str(r.iter().map(|r| r.rec.model.name().to_string()).collect()),
+    |r| {
+        ColumnData::Str(
+            r.iter()
+                .map(|r| r.rec.exponent.name().to_string())
+                .collect(),
+        )
+    },
+    |r| ColumnData::F64(r.iter().map(|r| r.rec.l_hi).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.rec.l_lo).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.rec.value).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.rec.grid_error).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.rec.fit_error).collect()),
+    |r| ColumnData::F64(r.iter().map(|r| r.rec.resolution).collect()),
 ];
 
-/// The table of [`RunningRecord`]s (columns in the module docs).
-pub fn table(rows: &[RunningRecord]) -> Result<Table> {
+/// The table of [`Row`]s (columns in the module docs).
+pub fn table(rows: &[Row]) -> Result<Table> {
     let mut t = Table::new();
     for (name, cell) in RunningRecord::COLUMNS.iter().zip(CELLS) {
         t.push(*name, cell(rows))?;
     }
     t.push(
         "flag",
-        ColumnData::Str(
-            rows.iter()
-                .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string()))
-                .collect(),
-        ),
+        ColumnData::Str(rows.iter().map(|r| r.flag.clone()).collect()),
+    )?;
+    t.push(
+        "method",
+        ColumnData::Str(rows.iter().map(|r| r.method.name().to_string()).collect()),
     )?;
     Ok(t)
 }
 
-/// The figure's data (module docs): one panel per exponent, one curve per model.
-pub fn figure_data(rows: &[RunningRecord]) -> RunningData {
+/// The figure's data (module docs): one panel per exponent, one curve per model and method.
+pub fn figure_data(rows: &[Row]) -> RunningData {
     let panels = Exponent::ALL
         .iter()
         .enumerate()
         .map(|(k, &e)| {
             let curves = Model::ALL
                 .iter()
-                .filter_map(|&m| {
+                .flat_map(|&m| [(m, Source::Uniform), (m, Source::Refined)])
+                .filter_map(|(m, method)| {
                     let points: Vec<RunningPoint> = rows
                         .iter()
-                        .filter(|r| r.exponent == e && r.model.name() == m.name())
+                        .filter(|r| {
+                            r.rec.exponent == e
+                                && r.rec.model.name() == m.name()
+                                && r.method == method
+                        })
                         .map(|r| RunningPoint {
-                            l_mid: (r.l_hi * r.l_lo).abs().sqrt(),
-                            value: r.value,
-                            error: if r.grid_error.is_nan() {
+                            l_mid: (r.rec.l_hi * r.rec.l_lo).abs().sqrt(),
+                            value: r.rec.value,
+                            error: if r.rec.grid_error.is_nan() {
                                 0.0
                             } else {
-                                r.grid_error
+                                r.rec.grid_error
                             }
-                            .hypot(r.fit_error),
-                            flagged: r.flag.is_some(),
+                            .hypot(if r.rec.fit_error.is_nan() {
+                                0.0
+                            } else {
+                                r.rec.fit_error
+                            }),
+                            flagged: !r.flag.is_empty(),
                         })
                         .collect();
-                    (!points.is_empty()).then_some(RunningCurve { model: m, points })
+                    (!points.is_empty()).then_some(RunningCurve {
+                        model: m,
+                        refined: method == Source::Refined,
+                        points,
+                    })
                 })
                 .collect();
             RunningPanel {
@@ -136,13 +217,18 @@ impl Scene for Running {
         "running"
     }
     fn doc(&self) -> &'static str {
-        "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors (table and figure)"
+        "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors, from the uniform ladders and (optional) the refined ones (table and figure)"
     }
     fn code_version(&self) -> u64 {
-        2
+        3
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
-        vec![InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model")]
+        vec![
+            InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model"),
+            InputSpec::many("refined", &["refined_ladder"])
+                .optional()
+                .doc("one `refined_ladder` stage per model (optional): its running ζ, υ, χ as `refined` rows"),
+        ]
     }
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
         vec![
@@ -157,11 +243,23 @@ impl Scene for Running {
         inputs: &Inputs,
         _out: &mut ArtefactWriter,
     ) -> Result<Outputs> {
-        let mut rows = Vec::new();
+        let mut rows: Vec<Row> = Vec::new();
         let mut notes = Vec::new();
         for r in inputs.all("ladder") {
             let d = LadderData::read(r)?;
-            rows.extend(records(&d, &mut notes)?);
+            rows.extend(records(&d, &mut notes)?.into_iter().map(Row::from));
+        }
+        let mut refined_models: Vec<Lattice> = Vec::new();
+        for r in inputs.all("refined") {
+            let d = RefinedData::read(r)?;
+            if refined_models.contains(&d.lattice) {
+                anyhow::bail!(
+                    "two `refined` inputs for the {} model; give one per model",
+                    d.lattice.name()
+                );
+            }
+            refined_models.push(d.lattice);
+            rows.extend(refined_rows(&d));
         }
         for n in notes {
             ctx.warn(n);

@@ -146,3 +146,94 @@ params = { ns = [4], ls = [-0.01] }
         "{failed:?}"
     );
 }
+
+/// The refined ladder feeds the results: its running ζ, υ, χ pairs become `refined` rows of
+/// `running_exponents.csv` (the same values as `refined_running.csv`), the uniform rows are
+/// those of a run without it, and `exponents.csv` says which ladder each asymptotic estimate
+/// used and keeps the uniform-only one.
+#[test]
+fn the_refined_ladder_feeds_the_running_table_and_the_exponents() {
+    let refined = r#"
+[stages.ref]
+kind = "refined_ladder"
+params = { lattice = "square", base = 5, levels = [1, 2], window = 8, margin = 5, margin_check = 7, ls = [-0.02, -0.01, -0.005, 0.01, 0.02], tol_gap = 1e-10 }
+
+[stages.refined]
+kind = "refined"
+inputs = { refined = ["ref"] }
+"#;
+    let chain = CHAIN
+        .replace(
+            "inputs = { ladder = [\"lad\"] }\n\n[stages.fig5]",
+            "inputs = { ladder = [\"lad\"], refined = [\"ref\"] }\n\n[stages.fig5]",
+        )
+        .replace(
+            "kind = \"running\"\ninputs = { ladder = [\"lad\"] }",
+            "kind = \"running\"\ninputs = { ladder = [\"lad\"], refined = [\"ref\"] }",
+        );
+    assert_ne!(chain, CHAIN);
+    let dir = tempfile::tempdir().unwrap();
+    run(dir.path(), &(chain + refined));
+    let plain = tempfile::tempdir().unwrap();
+    run(plain.path(), CHAIN);
+    let read = |d: &std::path::Path, f: &str| {
+        tables::read_csv(&d.join("results/tables").join(f), &[]).unwrap()
+    };
+    let t = read(dir.path(), "running_exponents.csv");
+    let p = read(plain.path(), "running_exponents.csv");
+    let method = t.str("method").unwrap();
+    let n_uniform = method.iter().filter(|m| *m == "uniform").count();
+    assert_eq!(n_uniform, p.n_rows());
+    assert!(p.str("method").unwrap().iter().all(|m| m == "uniform"));
+    for c in ["value", "grid_error", "fit_error", "resolution"] {
+        let (a, b) = (t.f64(c).unwrap(), p.f64(c).unwrap());
+        for k in 0..n_uniform {
+            assert!(
+                a[k] == b[k] || (a[k].is_nan() && b[k].is_nan()),
+                "{c} row {k}"
+            );
+        }
+    }
+    // the refined rows are refined_running.csv's, in order, ζ, υ and χ
+    let r = read(dir.path(), "refined_running.csv");
+    assert_eq!(method.len() - n_uniform, r.n_rows());
+    assert!(r.n_rows() >= 3);
+    let (ex, rex) = (t.str("exponent").unwrap(), r.str("exponent").unwrap());
+    let (v, rv) = (t.f64("value").unwrap(), r.f64("value").unwrap());
+    let (fl, rfl) = (t.str("flag").unwrap(), r.str("flag").unwrap());
+    for k in 0..r.n_rows() {
+        assert_eq!(method[n_uniform + k], "refined");
+        assert_eq!(ex[n_uniform + k], rex[k]);
+        assert_eq!(v[n_uniform + k], rv[k]);
+        assert_eq!(fl[n_uniform + k], rfl[k]);
+    }
+    for e in ["zeta", "upsilon", "chi"] {
+        assert!(rex.iter().any(|x| x == e), "no refined {e} pair: {rex:?}");
+    }
+    // exponents.csv: the same columns with or without the refined ladder, ending with the
+    // method and the uniform-only estimate; with these grids no ladder has a grid-converged
+    // window (no estimate either way), so the two estimates agree (both NaN)
+    let e = read(dir.path(), "exponents.csv");
+    let pe = read(plain.path(), "exponents.csv");
+    let names =
+        |t: &tables::Table| -> Vec<String> { t.columns().iter().map(|c| c.name.clone()).collect() };
+    assert_eq!(names(&e), names(&pe));
+    let n = names(&e);
+    let tail: Vec<&str> = n[n.len() - 4..].iter().map(|s| s.as_str()).collect();
+    assert_eq!(
+        tail,
+        [
+            "asymptotic_method",
+            "uniform_asymptotic_value",
+            "uniform_asymptotic_error",
+            "uniform_asymptotic_l_min"
+        ]
+    );
+    let (a, u) = (
+        e.f64("asymptotic_value").unwrap(),
+        e.f64("uniform_asymptotic_value").unwrap(),
+    );
+    for k in 0..e.n_rows() {
+        assert!(a[k] == u[k] || (a[k].is_nan() && u[k].is_nan()), "row {k}");
+    }
+}

@@ -1,7 +1,8 @@
 //! The running-exponent figure: one panel per exponent (ζ, υ, χ, β in a 2 × 2 grid), the local
 //! slope between neighbouring ladder rungs against |l| (log axis, the pair's geometric mean),
-//! one colour and marker per model, error bars grid error ⊕ fit error, flagged pairs (grid
-//! error above the bound or unknown) drawn hollow, the paper's value as a grey band (its error;
+//! one colour and marker per model (the refined ladder's pairs: diamonds in the model's colour,
+//! joined by a dashed line), error bars grid error ⊕ fit error, flagged pairs (grid error above
+//! the bound or unknown) drawn hollow, the paper's value as a grey band (its error;
 //! a dashed line when it gives none) and the conjecture as a dotted black line.
 
 use std::path::{Path, PathBuf};
@@ -12,7 +13,8 @@ use crate::axes::Axis;
 use crate::canvas::Rect;
 use crate::figure::Figure;
 use crate::style::{
-    BLACK, COLUMN_WIDTH, GREY, LIGHT_GREY, MarkerStyle, Model, Stroke, model_color, model_marker,
+    BLACK, COLUMN_WIDTH, GREY, LIGHT_GREY, Marker, MarkerStyle, Model, Stroke, model_color,
+    model_marker,
 };
 use crate::xy::{Annotation, LegendPos, Series, XyPanel};
 
@@ -29,11 +31,13 @@ pub struct RunningPoint {
     pub flagged: bool,
 }
 
-/// One model's running exponents of one panel.
+/// One model's running exponents of one panel (from one ladder: uniform or refined).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunningCurve {
     /// The model.
     pub model: Model,
+    /// From the refined ladder: diamonds and a dashed line instead of the model's marker.
+    pub refined: bool,
     /// Its pairs (any order; drawn by ascending |l|).
     pub points: Vec<RunningPoint>,
 }
@@ -100,12 +104,21 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
         let mut pts = c.points.clone();
         pts.sort_by(|a, b| a.l_mid.total_cmp(&b.l_mid));
         let col = model_color(c.model);
-        let m = model_marker(c.model);
+        let m = if c.refined {
+            Marker::Diamond
+        } else {
+            model_marker(c.model)
+        };
         let (x, y): (Vec<f64>, Vec<f64>) = pts.iter().map(|p| (p.l_mid, p.value)).unzip();
+        let line_col = crate::style::mix(col, LIGHT_GREY, 0.4);
         p.series.push(Series::line(
             x,
             y,
-            Stroke::solid(crate::style::mix(col, LIGHT_GREY, 0.4)).width(0.8),
+            if c.refined {
+                Stroke::dashed(line_col).width(0.8)
+            } else {
+                Stroke::solid(line_col).width(0.8)
+            },
         ));
         for flagged in [false, true] {
             let sel: Vec<&RunningPoint> = pts.iter().filter(|p| p.flagged == flagged).collect();
@@ -121,7 +134,11 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
             )
             .y_err(sel.iter().map(|p| p.error).collect());
             if !flagged {
-                s = s.label(c.model.title());
+                s = s.label(&if c.refined {
+                    format!("{} (refined)", c.model.title())
+                } else {
+                    c.model.title().to_string()
+                });
             }
             p.series.push(s);
         }
@@ -199,10 +216,18 @@ mod tests {
                     label: "$ζ$_eff".into(),
                     paper: (1.2, 0.01),
                     conjecture: Some((1.2, "6/5".into())),
-                    curves: vec![RunningCurve {
-                        model: Model::Square,
-                        points: vec![pt(0.03, 1.22, false), pt(1e-3, 1.18, true)],
-                    }],
+                    curves: vec![
+                        RunningCurve {
+                            model: Model::Square,
+                            refined: false,
+                            points: vec![pt(0.03, 1.22, false), pt(1e-3, 1.18, true)],
+                        },
+                        RunningCurve {
+                            model: Model::Square,
+                            refined: true,
+                            points: vec![pt(2e-4, 1.165, false), pt(1.4e-5, 1.155, true)],
+                        },
+                    ],
                 },
                 RunningPanel {
                     label: "$β$_eff".into(),

@@ -14,6 +14,20 @@
 //! identity: 3ζ + υ − χ of the asymptotic ζ, υ, χ, errors in quadrature (correlations ignored:
 //! [`analysis::verdict`]).
 //!
+//! # The combined ladder ([`estimate_combined`])
+//! With a `refined_ladder` of the same model (ζ, υ, χ; β has no refined flux yet), the fit
+//! takes, pair by pair, the best grid-converged value available
+//! (`critical::refined::combined_ladder`): the uniform finest grid's rungs from the largest |l|
+//! down to the first flagged pair (grid error, unknown grid error or anisotropy, as above),
+//! then, from that rung on, the refined ladder's finest discretisation down to its first
+//! flagged pair (grid error = max(level, margin change) above [`GRID_BOUND`] or unknown, a
+//! window too small, a frozen contact set), its values rescaled at the junction so that the
+//! ladder is continuous (the local slopes are the refined ones). Without a refined ladder, or
+//! when it has no usable pair at the junction, this is the uniform estimate exactly. The
+//! uniform-only estimate is kept beside it (`uniform_asymptotic_*` in `exponents.csv`) so that
+//! the change is traceable; `asymptotic_method` says which ladder the estimate used and where
+//! the refined one took over.
+//!
 //! # Verdict ([`verdict`])
 //! The deviation of the asymptotic estimate from the conjecture (6/5, 9/20, 3/5, 69/20) in σ of
 //! its error. The rule:
@@ -26,10 +40,15 @@
 //! The text states the σ either way so that the reader can judge.
 
 use crate::ladder::{LadderData, LadderLevel};
-use analysis::{AsymptoticOptions, Estimate, ScalingPoint};
+use crate::refined_ladder::RefinedData;
+use analysis::{AsymptoticEstimate, AsymptoticOptions, Estimate, ScalingPoint};
 use critical::ladder::Rung;
-use critical::running::{Exponent as Which, MeasureOptions, Resolution, asymptotic, measure};
+use critical::refined::{LadderPair, Measured, Source, combined_ladder};
+use critical::running::{
+    Exponent as Which, MeasureOptions, Resolution, asymptotic, measure, running_records,
+};
 use store::{ArtefactReader, ArtefactWriter};
+use surface::Lattice;
 
 /// Grid-error bound of a running exponent (the 0.005); pairs above it are flagged.
 pub const GRID_BOUND: f64 = 0.005;
@@ -198,9 +217,93 @@ impl Asymptotic {
 pub fn estimate(levels: &[Resolution]) -> Result<Asymptotic, String> {
     let e =
         asymptotic(levels, GRID_BOUND, &AsymptoticOptions::default()).map_err(|e| e.to_string())?;
+    Ok(from_estimate(&e))
+}
+
+/// The refined quantity of an exponent (None: β, which the refined ladder does not measure).
+pub fn refined_measure(e: Which) -> Option<Measured> {
+    match e {
+        Which::Zeta => Some(Measured::SaddleGap),
+        Which::Upsilon => Some(Measured::OpenHalfWidth),
+        Which::Chi => Some(Measured::BlockedHalfLength),
+        Which::Beta => None,
+    }
+}
+
+/// What [`estimate_combined`] used.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Combined {
+    /// `uniform`, `uniform+refined below |l| = <junction>`, or `refined from |l| = <first>`
+    /// (no usable uniform pair).
+    pub method: String,
+    /// Why the refined ladder did not extend the uniform one, if given and it did not.
+    pub note: Option<String>,
+    /// Rungs of the combined ladder (uniform, refined).
+    pub rungs: (usize, usize),
+}
+
+/// The asymptotic estimate of exponent `e` of `model` from the combined ladder (module docs):
+/// the uniform levels and, if given, the model's refined ladder. The estimate or why none, and
+/// what was used.
+pub fn estimate_combined(
+    model: Lattice,
+    e: Which,
+    levels: &[Resolution],
+    refined: Option<&RefinedData>,
+) -> (Result<Asymptotic, String>, Combined) {
+    let mut order: Vec<&Resolution> = levels.iter().collect();
+    order.sort_by(|a, b| a.spacing.total_cmp(&b.spacing));
+    let (upoints, upairs) = match order.first() {
+        Some(fine) => match running_records(model, e, levels, GRID_BOUND) {
+            Ok(recs) => (
+                fine.points.clone(),
+                recs.iter()
+                    .map(|r| LadderPair {
+                        l_hi: r.l_hi,
+                        l_lo: r.l_lo,
+                        usable: r.flag.is_none(),
+                    })
+                    .collect(),
+            ),
+            Err(err) => {
+                let c = Combined {
+                    method: "uniform".into(),
+                    note: None,
+                    rungs: (0, 0),
+                };
+                return (Err(err.to_string()), c);
+            }
+        },
+        None => (Vec::new(), Vec::new()),
+    };
+    let (rpoints, rpairs): (Vec<ScalingPoint>, Vec<LadderPair>) =
+        match (refined, refined_measure(e)) {
+            (Some(d), Some(m)) => (d.points(m), d.pairs(m)),
+            _ => (Vec::new(), Vec::new()),
+        };
+    let c = combined_ladder(&upoints, &upairs, &rpoints, &rpairs);
+    let nref = c.sources.iter().filter(|s| **s == Source::Refined).count();
+    let method = match c.junction {
+        Some(j) if nref == c.sources.len() => format!("refined from |l| = {:e}", j.abs()),
+        Some(j) => format!("uniform+refined below |l| = {:e}", j.abs()),
+        None => "uniform".into(),
+    };
+    let info = Combined {
+        method,
+        note: (!rpoints.is_empty()).then_some(c.note.clone()).flatten(),
+        rungs: (c.points.len() - nref, nref),
+    };
+    let est = analysis::asymptotic_estimate(&c.points, &AsymptoticOptions::default())
+        .map(|a| from_estimate(&a))
+        .map_err(|e| e.to_string());
+    (est, info)
+}
+
+/// The stored fields of an [`AsymptoticEstimate`].
+fn from_estimate(e: &AsymptoticEstimate) -> Asymptotic {
     let f = e.reference_fit();
     let fixed = e.omega_fixed;
-    Ok(Asymptotic {
+    Asymptotic {
         value: e.value,
         error: e.error,
         stat_error: e.stat_error,
@@ -209,7 +312,7 @@ pub fn estimate(levels: &[Resolution]) -> Result<Asymptotic, String> {
         omega: if f.omega_free { f.omega } else { fixed },
         points: f.points as f64,
         l_min: f.l_range.0,
-    })
+    }
 }
 
 /// 3ζ + υ − χ of asymptotic estimates (NaN if any is missing).
@@ -300,6 +403,107 @@ mod tests {
         assert!(a.stat_error < 1e-8 && a.range_spread < 1e-6, "{a:?}");
         // a single grid: every pair is unknown-flagged, nothing grid-converged to fit
         assert!(estimate(&[level(1.0 / 2048.0, 0.0)]).is_err());
+    }
+
+    /// The combined ladder through the kind's glue: uniform levels converged down to 1e-3 (the
+    /// coarse grid drifts below), a refined ladder of the same law (prefactor +0.3 %, another
+    /// discretisation) from 2e-3 to 1e-5: ζ from 5e-2 to 1e-5, recovered exactly; the uniform
+    /// estimate alone stops at 1e-3; a flagged refined pair (5e-5 → 2e-5) ends the fit at 5e-5.
+    #[test]
+    fn combined_estimate_uses_the_refined_ladder_below_the_uniform_one() {
+        use crate::refined_ladder::{RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow};
+        let ls = [
+            5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
+        ];
+        let g = |a: f64| 0.3 * a.powf(1.2) * (1.0 + 0.8 * a.sqrt());
+        let level = |spacing: f64, drift: f64| Resolution {
+            spacing,
+            points: ls
+                .iter()
+                .enumerate()
+                .map(|(k, &a)| {
+                    let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
+                    ScalingPoint::new(-a, g(a) * d, 0.0)
+                })
+                .collect(),
+            across: Vec::new(),
+        };
+        let levels = [level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)];
+        let rls = &ls[4..];
+        let rung = |&a: &f64| {
+            (
+                RefinedRungRow {
+                    l: -a,
+                    load: 1.0 - a,
+                    saddle_gap: 1.003 * g(a),
+                    contact_area: 0.4,
+                    iterations: 1,
+                    wall_s: 0.0,
+                    neck_nodes: 20,
+                    flagged: false,
+                    half_width: f64::NAN,
+                    half_width_error: f64::NAN,
+                    half_length: f64::NAN,
+                    half_length_error: f64::NAN,
+                },
+                String::new(),
+            )
+        };
+        let refined = |flagged: usize| RefinedData {
+            lattice: Lattice::Square,
+            p_fc: 1.0,
+            window: 16,
+            spacing: 1.0 / 8192.0,
+            tol_gap: 0.0,
+            levels: vec![RefinedLevel {
+                levels: 5,
+                margin: 12,
+                p_c: 1.0,
+                spacing: 1.0 / 8192.0,
+                rungs: rls.iter().map(rung).collect(),
+            }],
+            running: rls
+                .windows(2)
+                .enumerate()
+                .map(|(k, w)| RefinedPair {
+                    exponent: Measured::SaddleGap,
+                    row: RefinedPairRow {
+                        l_hi: -w[0],
+                        l_lo: -w[1],
+                        value: 1.2,
+                        error_levels: 0.0,
+                        error_margin: 0.0,
+                        grid_error: 0.0,
+                        fit_error: 0.0,
+                    },
+                    flag: if k == flagged {
+                        "grid error 9e-3 > 5e-3".into()
+                    } else {
+                        String::new()
+                    },
+                })
+                .collect(),
+        };
+        let uniform = estimate(&levels).unwrap();
+        assert_eq!(uniform.l_min, 1e-3);
+        let (est, how) =
+            estimate_combined(Lattice::Square, Which::Zeta, &levels, Some(&refined(99)));
+        let a = est.unwrap();
+        // exact data, rescaled at the junction: the direct fit's tolerance (1e-8) and rounding
+        assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
+        assert_eq!(a.l_min, 1e-5);
+        assert_eq!(how.method, "uniform+refined below |l| = 1e-3");
+        assert_eq!(how.rungs, (6, 6));
+        let (est, how) =
+            estimate_combined(Lattice::Square, Which::Zeta, &levels, Some(&refined(5)));
+        assert_eq!(est.unwrap().l_min, 5e-5);
+        assert_eq!(how.rungs, (6, 4));
+        // without a refined ladder (or for β): the uniform estimate, exactly
+        let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, None);
+        assert_eq!(est.unwrap(), uniform);
+        assert_eq!(how.method, "uniform");
+        let (est, _) = estimate_combined(Lattice::Square, Which::Beta, &levels, Some(&refined(99)));
+        assert_eq!(est.unwrap(), uniform);
     }
 
     #[test]

@@ -255,12 +255,19 @@ pub fn read(r: &ArtefactReader) -> Result<Vec<ModelExponents>> {
         }
         levels.sort_by_key(|l| l.n);
         let mut asymptotic = [Asymptotic::NONE; 4];
+        let mut uniform_asymptotic = [Asymptotic::NONE; 4];
+        let mut asymptotic_method: [String; 4] = Default::default();
         for (k, nm) in NAMES.iter().enumerate() {
             asymptotic[k] = Asymptotic::read(r, &at, nm)?;
+            uniform_asymptotic[k] = Asymptotic::read(r, &at, &format!("{nm}_uniform"))?;
+            asymptotic_method[k] = r.attr_str_at(&at, &format!("{nm}_asymptotic_method"))?;
         }
         out.push(ModelExponents {
             exponents: exps,
             asymptotic,
+            uniform_asymptotic,
+            asymptotic_method,
+            beta_identity_uniform: Asymptotic::read(r, &at, "beta_identity_uniform")?,
             beta_identity_asymptotic: Asymptotic::read(r, &at, "beta_identity")?,
             zeta_lc_free: (a("zeta_lc_free")?, a("zeta_lc_free_error")?),
             beta_identity: (a("beta_identity")?, a("beta_identity_error")?),

@@ -2,7 +2,8 @@
 //! (crates/critical/src/scaling.rs): the window fit over the paper's 0.002 ≤ |l| ≤ 0.02
 //! ([`WINDOW`]), each with an error bar from the fit and from the spread across the ladder's
 //! grid resolutions; the asymptotic estimate (l → 0) with corrections to scaling from the finest
-//! grid's grid-converged rungs ([`asymptotic`]); and the identity β = 3ζ + υ − χ checked both
+//! grid's grid-converged rungs, extended below by the model's refined ladder where one is given
+//! and grid-converged ([`asymptotic`], "The combined ladder"); and the identity β = 3ζ + υ − χ checked both
 //! ways. The table `exponents.csv` is built by [`table`]; the artefact is read by [`read`].
 //!
 //! # Per grid
@@ -31,7 +32,9 @@
 //! `<e>_fit_error`, `<e>_grid_spread`, `<e>_error`, `<e>_n`, `<e>_points`, `<e>_prefactor`
 //! for e in zeta, upsilon, chi, beta (NaN when no grid gave a fit), the asymptotic estimates
 //! `<e>_asymptotic_<field>` for e in zeta, upsilon, chi, beta, beta_identity (fields
-//! [`asymptotic::Asymptotic::FIELDS`]; NaN without an estimate), `zeta_lc_free`,
+//! [`asymptotic::Asymptotic::FIELDS`]; NaN without an estimate; from the combined ladder), the
+//! uniform-only ones `<e>_uniform_asymptotic_<field>` (e also `beta_identity`), the string
+//! `<e>_asymptotic_method` (e in zeta, upsilon, chi, beta), `zeta_lc_free`,
 //! `zeta_lc_free_error`, `l_c_fit`, `beta_identity`, `beta_identity_error`, `eta`; per grid
 //! `model/<lattice>/level/<n>`: the same fit attributes and datasets ([`OpenRow`]) `l_open`,
 //! `load_open`, `saddle_gap`, `half_width`, `half_width_error`, `flux` and ([`BlockedRow`])
@@ -54,6 +57,7 @@ use io::group_notes;
 pub use io::{BlockedRow, FluxCurve, FluxPoint, OpenRow, read, read_flux_curve, read_pooled_beta};
 
 use crate::ladder::{LadderData, LadderLevel};
+use crate::refined_ladder::RefinedData;
 use anyhow::{Result, bail};
 use asymptotic::Asymptotic;
 use critical::scaling::{
@@ -68,7 +72,7 @@ use store::ArtefactWriter;
 pub struct ExponentsKind;
 
 /// Bump when the artefact's content changes for the same inputs.
-pub const CODE_VERSION: u64 = 4;
+pub const CODE_VERSION: u64 = 5;
 
 /// The paper's fitting window of |l| (inclusive; a relative 1e-9 of slack for rounding).
 pub const WINDOW: (f64, f64) = (0.002, 0.02);
@@ -320,8 +324,15 @@ pub struct ModelExponents {
     pub lattice: String,
     /// The window fits, in [`NAMES`] order.
     pub exponents: [Exponent; 4],
-    /// The asymptotic estimates, in [`NAMES`] order (β from the flux).
+    /// The asymptotic estimates from the combined (uniform + refined) ladder, in [`NAMES`]
+    /// order (β from the flux; [`asymptotic::estimate_combined`]).
     pub asymptotic: [Asymptotic; 4],
+    /// The same from the uniform ladder alone (the estimate before the refined ladder fed it).
+    pub uniform_asymptotic: [Asymptotic; 4],
+    /// Which ladder each asymptotic estimate used (`uniform`, `uniform+refined below …`).
+    pub asymptotic_method: [String; 4],
+    /// 3ζ + υ − χ of the uniform-only asymptotic estimates.
+    pub beta_identity_uniform: Asymptotic,
     /// 3ζ + υ − χ of the asymptotic estimates.
     pub beta_identity_asymptotic: Asymptotic,
     /// ζ with L_c free (finest grid) and its fit error.
@@ -394,7 +405,12 @@ impl TypedKind for ExponentsKind {
         ]
     }
     fn inputs(&self, _params: &ExponentsParams) -> Vec<InputSpec> {
-        vec![InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model")]
+        vec![
+            InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model"),
+            InputSpec::many("refined", &["refined_ladder"])
+                .optional()
+                .doc("at most one `refined_ladder` stage per model (optional): extends the asymptotic fits of ζ, υ, χ below the uniform grids' reach"),
+        ]
     }
     fn cost(&self, _params: &ExponentsParams) -> f64 {
         0.05
@@ -414,6 +430,17 @@ impl TypedKind for ExponentsKind {
         let mut flux_points = Vec::new();
         let mut heads = Vec::new();
         let mut summary = serde_json::Map::new();
+        let mut refined: Vec<RefinedData> = Vec::new();
+        for r in inputs.all("refined") {
+            let d = RefinedData::read(r)?;
+            if refined.iter().any(|x| x.lattice == d.lattice) {
+                bail!(
+                    "two `refined` inputs for the {} model; give at most one per model",
+                    d.lattice.name()
+                );
+            }
+            refined.push(d);
+        }
         for r in inputs.all("ladder") {
             let d = LadderData::read(r)?;
             let name = d.lattice.name();
@@ -421,7 +448,8 @@ impl TypedKind for ExponentsKind {
                 bail!("two `ladder` inputs for the {name} model; give one per model");
             }
             models.push(name);
-            let stats = model::run_model(ctx, out, &d, &opts, &mut heads, &mut flux_points)?;
+            let rd = refined.iter().find(|x| x.lattice == d.lattice);
+            let stats = model::run_model(ctx, out, &d, rd, &opts, &mut heads, &mut flux_points)?;
             summary.insert(name.to_string(), stats);
         }
         if models.is_empty() {

@@ -1,6 +1,6 @@
-//! One `ladder` input of the `exponents` stage: the per-grid fits, the flux curve, the
-//! combined and asymptotic exponents, their attributes under `model/<name>` and the report's
-//! statistics (split from the stage's `run`).
+//! One `ladder` input of the `exponents` stage (and its model's optional `refined_ladder`): the
+//! per-grid fits, the flux curve, the combined and asymptotic exponents, their attributes under
+//! `model/<name>` and the report's statistics (split from the stage's `run`).
 
 use super::asymptotic::{self, Asymptotic};
 use super::io::{FluxPoint, write_fit, write_measure};
@@ -10,6 +10,7 @@ use super::{
 };
 use crate::headline::Headline;
 use crate::ladder::LadderData;
+use crate::refined_ladder::RefinedData;
 use anyhow::Result;
 use critical::scaling::{EdgeOptions, ExponentFit};
 use orchestrator::StageContext;
@@ -19,12 +20,14 @@ use store::ArtefactWriter;
 /// Per exponent, the (grid, fit) of every level.
 type PerLevel = [Vec<(u32, Option<ExponentFit>)>; 4];
 
-/// Fits, writes and reports one model's ladder; appends its headlines and its finest grid's
-/// normalised flux curve; returns its report statistics.
+/// Fits, writes and reports one model's ladder (the asymptotic estimates with its refined
+/// ladder, if given); appends its headlines and its finest grid's normalised flux curve;
+/// returns its report statistics.
 pub(super) fn run_model(
     ctx: &mut StageContext,
     out: &mut ArtefactWriter,
     d: &LadderData,
+    refined: Option<&RefinedData>,
     opts: &EdgeOptions,
     heads: &mut Vec<Headline>,
     flux_points: &mut Vec<(Vec<f64>, Vec<f64>)>,
@@ -40,9 +43,10 @@ pub(super) fn run_model(
         let (pv, pe) = PAPER[k];
         heads.push(Headline::new(format!("{} {name}", NAMES[k]), e.value, e.error).paper(pv, pe));
     }
-    let asy = asymptotics(out, &at, d, &mut notes)?;
+    let (asy, uni) = asymptotics(out, &at, d, refined, &mut notes)?;
     let asy_identity = asymptotic::identity(&asy[0], &asy[1], &asy[2]);
     asy_identity.write(out, &at, "beta_identity")?;
+    asymptotic::identity(&uni[0], &uni[1], &uni[2]).write(out, &at, "beta_identity_uniform")?;
     let (bi, be) = identity(&ex[0], &ex[1], &ex[2]);
     out.set_attr_at(&at, "beta_identity", bi)?;
     out.set_attr_at(&at, "beta_identity_error", be)?;
@@ -66,6 +70,11 @@ pub(super) fn run_model(
             "chi": [asy[2].value, asy[2].error],
             "beta": [asy[3].value, asy[3].error],
             "beta_identity": [asy_identity.value, asy_identity.error],
+        },
+        "uniform_asymptotic": {
+            "zeta": [uni[0].value, uni[0].error],
+            "upsilon": [uni[1].value, uni[1].error],
+            "chi": [uni[2].value, uni[2].error],
         },
     }))
 }
@@ -153,21 +162,42 @@ fn write_exponents(out: &mut ArtefactWriter, at: &str, ex: &[Exponent]) -> Resul
     Ok(())
 }
 
-/// The asymptotic estimates (written under `at`); a failed one is NONE with a note.
+/// The asymptotic estimates from the combined ladder and from the uniform one alone (written
+/// under `at` as `<e>_asymptotic_*`, `<e>_uniform_asymptotic_*` and `<e>_asymptotic_method`);
+/// a failed one is NONE with a note.
 fn asymptotics(
     out: &mut ArtefactWriter,
     at: &str,
     d: &LadderData,
+    refined: Option<&RefinedData>,
     notes: &mut Vec<String>,
-) -> Result<[Asymptotic; 4]> {
+) -> Result<([Asymptotic; 4], [Asymptotic; 4])> {
     let mut asy = [Asymptotic::NONE; 4];
-    for (k, a) in asy.iter_mut().enumerate() {
-        let levels = asymptotic::resolutions(d, asymptotic::which(k), notes);
-        match asymptotic::estimate(&levels) {
-            Ok(v) => *a = v,
-            Err(why) => notes.push(format!("no asymptotic {}: {why}", symbol(NAMES[k]))),
+    let mut uni = [Asymptotic::NONE; 4];
+    for k in 0..4 {
+        let e = asymptotic::which(k);
+        let levels = asymptotic::resolutions(d, e, notes);
+        let uniform = asymptotic::estimate(&levels);
+        let (est, how) = asymptotic::estimate_combined(d.lattice, e, &levels, refined);
+        match (&est, &uniform) {
+            (Err(why), _) => notes.push(format!("no asymptotic {}: {why}", symbol(NAMES[k]))),
+            (Ok(_), Err(why)) if how.rungs.1 > 0 => notes.push(format!(
+                "no uniform-only asymptotic {} (the refined ladder gives one): {why}",
+                symbol(NAMES[k])
+            )),
+            _ => {}
         }
-        a.write(out, at, NAMES[k])?;
+        asy[k] = est.unwrap_or(Asymptotic::NONE);
+        uni[k] = uniform.unwrap_or(Asymptotic::NONE);
+        if let Some(n) = &how.note {
+            notes.push(format!(
+                "{}: refined ladder not used: {n}",
+                symbol(NAMES[k])
+            ));
+        }
+        asy[k].write(out, at, NAMES[k])?;
+        uni[k].write(out, at, &format!("{}_uniform", NAMES[k]))?;
+        out.set_attr_at(at, &format!("{}_asymptotic_method", NAMES[k]), how.method)?;
     }
-    Ok(asy)
+    Ok((asy, uni))
 }

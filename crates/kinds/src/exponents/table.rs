@@ -11,7 +11,11 @@
 //! the conjecture `conjectured`, `conjectured_value`; the asymptotic estimate
 //! ([`super::asymptotic`]): `asymptotic_<field>` for each of [`Asymptotic::FIELDS`];
 //! `asymptotic_sigma` ((asymptotic − conjecture)/asymptotic error) and `verdict` (the rule in
-//! [`super::asymptotic`]).
+//! [`super::asymptotic`]); then (appended, issue 13's refined ladder) `asymptotic_method`
+//! (which ladder the asymptotic estimate used: `uniform`, or `uniform+refined below |l| = …`
+//! where the model's refined ladder took over, [`super::asymptotic::estimate_combined`]) and
+//! the uniform-only estimate as it was before the refined ladder fed the fit:
+//! `uniform_asymptotic_value`, `uniform_asymptotic_error`, `uniform_asymptotic_l_min`.
 
 use super::asymptotic::{Asymptotic, verdict};
 use super::{CONJECTURED, Exponent, ModelExponents, NAMES, PAPER};
@@ -30,8 +34,12 @@ pub struct Row {
     pub paper: (f64, f64),
     /// Index of the conjecture and verdict rule ([`NAMES`] order), if any.
     pub conjecture: Option<usize>,
-    /// The asymptotic estimate.
+    /// The asymptotic estimate (combined ladder).
     pub asymptotic: Asymptotic,
+    /// The uniform-only asymptotic estimate.
+    pub uniform: Asymptotic,
+    /// Which ladder `asymptotic` used (empty for rows without an estimate of their own).
+    pub method: String,
 }
 
 /// A column's cells of one row.
@@ -86,6 +94,14 @@ pub const TAIL: [(&str, Cell); 4] = [
     ("verdict", Cell::S(|r| judged(r).0)),
 ];
 
+/// The columns appended last (module docs): the method and the uniform-only estimate.
+pub const APPENDED: [(&str, Cell); 4] = [
+    ("asymptotic_method", Cell::S(|r| r.method.clone())),
+    ("uniform_asymptotic_value", Cell::F(|r| r.uniform.value)),
+    ("uniform_asymptotic_error", Cell::F(|r| r.uniform.error)),
+    ("uniform_asymptotic_l_min", Cell::F(|r| r.uniform.l_min)),
+];
+
 /// The rows of one model (module docs).
 pub fn rows(e: &ModelExponents) -> Vec<Row> {
     let row = |name: &str, window: Exponent, k: Option<usize>, a: Asymptotic| Row {
@@ -95,11 +111,17 @@ pub fn rows(e: &ModelExponents) -> Vec<Row> {
         paper: k.map_or((f64::NAN, f64::NAN), |k| PAPER[k]),
         conjecture: k,
         asymptotic: a,
+        uniform: Asymptotic::NONE,
+        method: String::new(),
     };
     let mut out: Vec<Row> = NAMES
         .iter()
         .enumerate()
-        .map(|(k, nm)| row(nm, e.exponents[k], Some(k), e.asymptotic[k]))
+        .map(|(k, nm)| Row {
+            uniform: e.uniform_asymptotic[k],
+            method: e.asymptotic_method[k].clone(),
+            ..row(nm, e.exponents[k], Some(k), e.asymptotic[k])
+        })
         .collect();
     let z = e.get("zeta");
     out.push(row(
@@ -114,18 +136,30 @@ pub fn rows(e: &ModelExponents) -> Vec<Row> {
         Some(0),
         Asymptotic::NONE,
     ));
-    out.push(row(
-        "beta_identity",
-        Exponent {
-            value: e.beta_identity.0,
-            fit_error: f64::NAN,
-            grid_spread: f64::NAN,
-            error: e.beta_identity.1,
-            ..z
+    let methods: Vec<&str> = e.asymptotic_method[..3]
+        .iter()
+        .map(String::as_str)
+        .collect();
+    out.push(Row {
+        uniform: e.beta_identity_uniform,
+        method: if methods.iter().all(|m| *m == "uniform") {
+            "uniform".into()
+        } else {
+            format!("3ζ + υ − χ: {}", methods.join("; "))
         },
-        Some(3),
-        e.beta_identity_asymptotic,
-    ));
+        ..row(
+            "beta_identity",
+            Exponent {
+                value: e.beta_identity.0,
+                fit_error: f64::NAN,
+                grid_spread: f64::NAN,
+                error: e.beta_identity.1,
+                ..z
+            },
+            Some(3),
+            e.beta_identity_asymptotic,
+        )
+    });
     let b = e.get("beta");
     let (ab, ai) = (e.asymptotic[3], e.beta_identity_asymptotic);
     let mut diff = row(
@@ -152,7 +186,7 @@ pub fn column_names() -> Vec<String> {
         .iter()
         .map(|f| format!("asymptotic_{}", f.0));
     head.chain(mid)
-        .chain(TAIL.iter().map(|c| c.0.into()))
+        .chain(TAIL.iter().chain(&APPENDED).map(|c| c.0.into()))
         .collect()
 }
 
@@ -172,7 +206,7 @@ pub fn table(ex: &[ModelExponents]) -> anyhow::Result<Table> {
         let v = rows.iter().map(|r| get(&r.asymptotic)).collect();
         t.push(format!("asymptotic_{name}"), ColumnData::F64(v))?;
     }
-    for (name, c) in &TAIL {
+    for (name, c) in TAIL.iter().chain(&APPENDED) {
         t.push(*name, cell(c))?;
     }
     Ok(t)
