@@ -237,6 +237,8 @@ struct Law {
     /// Gap beyond which γ, γ', γ'' are below e⁻⁴⁰ ≈ 4e-18 of their scale (γ0, γ0/ρ, γ0/ρ²
     /// times at most (g/ρ)² ≤ 100): treated as zero.
     cut: f64,
+    /// γ, γ', γ'' at contact (g = 0), evaluated once: nodes on the wall need no exponential.
+    at_zero: (f64, f64, f64),
 }
 
 impl Law {
@@ -247,15 +249,29 @@ impl Law {
             // exp(−g²/2ρ²) < e⁻⁴⁰ for g > √80 ρ ≈ 8.9ρ
             Interaction::Repulsion { rho, .. } => 10.0 * rho,
         };
-        Law { interaction, cut }
+        let mut law = Law {
+            interaction,
+            cut,
+            at_zero: (0.0, 0.0, 0.0),
+        };
+        law.at_zero = law.formula(0.0);
+        law
     }
 
-    /// γ(x), γ'(x), γ''(x) with one exponential.
+    /// γ(x), γ'(x), γ''(x) with one exponential (none at contact or beyond the cutoff).
     #[inline]
     fn eval(&self, x: f64) -> (f64, f64, f64) {
         if x >= self.cut {
-            return (0.0, 0.0, 0.0);
+            (0.0, 0.0, 0.0)
+        } else if x <= 0.0 {
+            self.at_zero
+        } else {
+            self.formula(x)
         }
+    }
+
+    #[inline]
+    fn formula(&self, x: f64) -> (f64, f64, f64) {
         match self.interaction {
             Interaction::HardWall => (0.0, 0.0, 0.0),
             Interaction::Adhesion { gamma0, rho } => {
@@ -302,6 +318,55 @@ fn gradient(
     (res, contact, min_gap)
 }
 
+/// [`gradient`] and the energy per area with its rounding slack (as [`crate::fire::energy`],
+/// the interaction taken from the same exponential as the gradient, zero beyond the cutoff where
+/// it is below e⁻⁴⁰ γ0) in one pass; `mean_u` is the mean of `u`.
+#[allow(clippy::too_many_arguments)]
+fn evaluate(
+    u: &[f64],
+    h: &[f64],
+    sigma: &[f64],
+    law: Law,
+    pressure: f64,
+    mean_u: f64,
+    r: &mut [f64],
+    local: &mut [(f64, f64)],
+) -> ((f64, usize, f64), (f64, f64)) {
+    let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
+    // compensated (Kahan) sum, as crate::fire::energy
+    let (mut e_sum, mut c, mut abs) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..u.len() {
+        let g = u[i] - h[i];
+        let (e, d1, d2) = law.eval(g.max(0.0));
+        local[i] = (e, d2);
+        let ri = sigma[i] + pressure + d1;
+        if g <= 0.0 {
+            contact += 1;
+            res = res.max(-ri);
+            r[i] = ri.min(0.0);
+        } else {
+            res = res.max(ri.abs());
+            r[i] = ri;
+            min_gap = min_gap.min(g);
+        }
+        let el = 0.5 * (u[i] - mean_u) * sigma[i];
+        let y = el + e - c;
+        let t = e_sum + y;
+        c = (t - e_sum) - y;
+        e_sum = t;
+        abs += el.abs() + e.abs();
+    }
+    let n = u.len() as f64;
+    let load = pressure * mean_u;
+    (
+        (res, contact, min_gap),
+        (
+            e_sum / n + load,
+            64.0 * f64::EPSILON * (abs / n + load.abs()),
+        ),
+    )
+}
+
 /// Work buffers and the conjugacy memory of one solve.
 struct Work {
     sigma: Vec<f64>,
@@ -326,6 +391,9 @@ struct Work {
     hits: Vec<f64>,
     /// γ(g) and γ''(g) per node at the current state.
     local: Vec<(f64, f64)>,
+    /// Residual, contact count and smallest open gap of the current state when the step
+    /// evaluated them already (with `r` and `local`), fused with its energy pass.
+    evaluated: Option<(f64, usize, f64)>,
 }
 
 /// The L-BFGS direction d = −H r (two-loop recursion, H0 = M⁻¹ on the free nodes); returns
@@ -469,15 +537,20 @@ fn step(
     // the largest useful step: every node moving down has reached the wall
     let mut wall_cap = 0.0f64;
     // Branch safeguard: a node within the interaction's range moves by at most one range per
-    // step, so the ray cannot carry it over a barrier of the interaction.
+    // step, so the ray cannot carry it over a barrier of the interaction. min(range/|d|) over
+    // those nodes is range / max|d| (division is monotone, also in floating point).
     let range = law.interaction.range();
-    let mut range_cap = f64::MAX;
+    let near = IN_RANGE * range;
+    let mut d_near = 0.0f64;
     let mut contact = 0usize;
     let (mut s1, mut s2) = (0.0, 0.0);
-    w.hits.clear();
+    let mut n_hits = 0;
+    w.u_prev.copy_from_slice(u);
+    // The line search needs only the nodes the interaction reaches for α ≤ alpha_cap: those
+    // within the cutoff or moving down (a node that stays beyond the cutoff adds exact zeros).
+    w.nodes.clear();
     for i in 0..n {
         let (g, d) = (u[i] - h[i], w.d[i]);
-        w.u_prev[i] = u[i];
         a += d * (w.sigma[i] + pressure);
         b += d * w.kd[i];
         s1 += d * w.r[i];
@@ -486,25 +559,17 @@ fn step(
             contact += 1;
         }
         if d < 0.0 {
-            wall_cap = wall_cap.max(-g / d);
+            let hit = -g / d;
+            wall_cap = wall_cap.max(hit);
             if g > 0.0 {
-                w.hits.push(-g / d);
+                w.hits[n_hits] = hit;
+                n_hits += 1;
             }
         }
-        if d != 0.0 && g < IN_RANGE * range {
-            range_cap = range_cap.min(range / d.abs());
+        if g < near {
+            d_near = d_near.max(d.abs());
         }
-    }
-    if wall_cap == 0.0 {
-        wall_cap = f64::MAX;
-    }
-    let growth_cap = contact_growth_cap(&mut w.hits, contact, n);
-    let alpha_cap = wall_cap.min(range_cap).min(growth_cap);
-    // the line search needs only the nodes the interaction reaches for α ≤ alpha_cap
-    w.nodes.clear();
-    for i in 0..n {
-        let (g, d) = (u[i] - h[i], w.d[i]);
-        if d != 0.0 && (g < law.cut || g + alpha_cap * d < law.cut) {
+        if d != 0.0 && (g < law.cut || d < 0.0) {
             w.nodes.push(Node {
                 g,
                 d,
@@ -512,6 +577,16 @@ fn step(
             });
         }
     }
+    if wall_cap == 0.0 {
+        wall_cap = f64::MAX;
+    }
+    let range_cap = if d_near > 0.0 {
+        range / d_near
+    } else {
+        f64::MAX
+    };
+    let growth_cap = contact_growth_cap(&mut w.hits[..n_hits], contact, n);
+    let alpha_cap = wall_cap.min(range_cap).min(growth_cap);
     let ray = Ray {
         nodes: &w.nodes,
         a,
@@ -538,9 +613,23 @@ fn step(
             kernel.stress(u, &mut w.sigma);
             w.stale = 0;
             moved = None;
-            crate::fire::energy(u, &w.sigma, h, law.interaction, pressure)
+            // the next iteration's gradient comes with the energy, from one pass
+            let mean_u = u.iter().sum::<f64>() / n as f64;
+            let (grad, e) = evaluate(
+                u,
+                h,
+                &w.sigma,
+                law,
+                pressure,
+                mean_u,
+                &mut w.r,
+                &mut w.local,
+            );
+            w.evaluated = Some(grad);
+            e
         } else {
             // exact along the ray without clipping: no full pass needed
+            w.evaluated = None;
             (e0 + phi / n as f64, slack0)
         };
         if e_new.0 <= e0 + slack0 {
@@ -552,6 +641,7 @@ fn step(
         phi = ray.slope(alpha).2;
     }
     u.copy_from_slice(&w.u_prev);
+    w.evaluated = None;
     match moved {
         Some(m) => w.sigma.iter_mut().zip(&w.kd).for_each(|(s, k)| *s -= m * k),
         None => kernel.stress(u, &mut w.sigma),
@@ -604,8 +694,9 @@ impl Minimizer for NonlinearCg {
             energy: (0.0, 0.0),
             history: std::collections::VecDeque::new(),
             clipped: false,
-            hits: Vec::new(),
+            hits: vec![0.0; n],
             local: vec![(0.0, 0.0); n],
+            evaluated: None,
         };
         // σ = K u is p − p̄ by the contract of every minimiser's final state (and of the
         // uniform cold start): no transform. It is recomputed before convergence is accepted
@@ -628,8 +719,10 @@ impl Minimizer for NonlinearCg {
         };
         let mut monitor = StopMonitor::new(STAGNATION, 1e12);
         loop {
-            let (mut res, contact, min_gap) =
-                gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local);
+            let (mut res, contact, min_gap) = match w.evaluated.take() {
+                Some(grad) => grad,
+                None => gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local),
+            };
             if res <= opts.tol_force && w.stale > 0 {
                 // accept only on a σ computed from scratch
                 kernel.stress(u, &mut w.sigma);
