@@ -239,6 +239,9 @@ struct Law {
     cut: f64,
     /// γ, γ', γ'' at contact (g = 0), evaluated once: nodes on the wall need no exponential.
     at_zero: (f64, f64, f64),
+    /// 1/ρ and 1/ρ² (multiplications instead of three divisions per node; the values differ
+    /// from divided ones by rounding only).
+    inv: (f64, f64),
 }
 
 impl Law {
@@ -249,10 +252,17 @@ impl Law {
             // exp(−g²/2ρ²) < e⁻⁴⁰ for g > √80 ρ ≈ 8.9ρ
             Interaction::Repulsion { rho, .. } => 10.0 * rho,
         };
+        let rho = interaction.range();
+        let inv = if rho > 0.0 {
+            (1.0 / rho, 1.0 / (rho * rho))
+        } else {
+            (0.0, 0.0)
+        };
         let mut law = Law {
             interaction,
             cut,
             at_zero: (0.0, 0.0, 0.0),
+            inv,
         };
         law.at_zero = law.formula(0.0);
         law
@@ -274,14 +284,16 @@ impl Law {
     fn formula(&self, x: f64) -> (f64, f64, f64) {
         match self.interaction {
             Interaction::HardWall => (0.0, 0.0, 0.0),
-            Interaction::Adhesion { gamma0, rho } => {
-                let e = -gamma0 * (-x / rho).exp();
-                (e, -e / rho, e / (rho * rho))
+            Interaction::Adhesion { gamma0, .. } => {
+                let (inv, inv2) = self.inv;
+                let e = -gamma0 * (-x * inv).exp();
+                (e, -e * inv, e * inv2)
             }
-            Interaction::Repulsion { gamma_r, rho } => {
-                let r2 = rho * rho;
-                let e = gamma_r * (-0.5 * x * x / r2).exp();
-                (e, -e * x / r2, e / r2 * (x * x / r2 - 1.0))
+            Interaction::Repulsion { gamma_r, .. } => {
+                let inv2 = self.inv.1;
+                let a = x * x * inv2;
+                let e = gamma_r * (-0.5 * a).exp();
+                (e, -e * x * inv2, e * inv2 * (a - 1.0))
             }
         }
     }
@@ -298,8 +310,11 @@ fn gradient(
     r: &mut [f64],
     local: &mut [(f64, f64)],
 ) -> (f64, usize, f64) {
+    let n = u.len();
+    // equal lengths up front: no bounds checks in the loop
+    let (h, sigma, r, local) = (&h[..n], &sigma[..n], &mut r[..n], &mut local[..n]);
     let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
-    for i in 0..u.len() {
+    for i in 0..n {
         let g = u[i] - h[i];
         let (e, d1, d2) = law.eval(g.max(0.0));
         local[i] = (e, d2);
@@ -332,10 +347,13 @@ fn evaluate(
     r: &mut [f64],
     local: &mut [(f64, f64)],
 ) -> ((f64, usize, f64), (f64, f64)) {
+    let n = u.len();
+    // equal lengths up front: no bounds checks in the loop
+    let (h, sigma, r, local) = (&h[..n], &sigma[..n], &mut r[..n], &mut local[..n]);
     let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
     // compensated (Kahan) sum, as crate::fire::energy
     let (mut e_sum, mut c, mut abs) = (0.0f64, 0.0f64, 0.0f64);
-    for i in 0..u.len() {
+    for i in 0..n {
         let g = u[i] - h[i];
         let (e, d1, d2) = law.eval(g.max(0.0));
         local[i] = (e, d2);
@@ -356,7 +374,7 @@ fn evaluate(
         e_sum = t;
         abs += el.abs() + e.abs();
     }
-    let n = u.len() as f64;
+    let n = n as f64;
     let load = pressure * mean_u;
     (
         (res, contact, min_gap),
@@ -471,13 +489,21 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 impl NonlinearCg {
     /// d = −z + β d_old on the free nodes; returns ⟨d, r⟩ (< 0 for a descent direction).
     fn direction(&self, w: &mut Work, u: &[f64], h: &[f64]) -> f64 {
+        let n = u.len();
+        let (r, z, r_old, d, h) = (
+            &w.r[..n],
+            &mut w.z[..n],
+            &mut w.r_old[..n],
+            &mut w.d[..n],
+            &h[..n],
+        );
         let (mut rz, mut rz_cross) = (0.0, 0.0);
-        for i in 0..u.len() {
-            if w.r[i] == 0.0 && u[i] <= h[i] {
-                w.z[i] = 0.0; // held by the wall
+        for i in 0..n {
+            if r[i] == 0.0 && u[i] <= h[i] {
+                z[i] = 0.0; // held by the wall
             }
-            rz += w.r[i] * w.z[i];
-            rz_cross += w.r_old[i] * w.z[i];
+            rz += r[i] * z[i];
+            rz_cross += r_old[i] * z[i];
         }
         let beta = if w.rz_old <= 0.0 {
             0.0
@@ -489,19 +515,19 @@ impl NonlinearCg {
             }
         };
         let mut slope = 0.0;
-        for i in 0..u.len() {
-            w.d[i] = beta * w.d[i] - w.z[i];
-            if w.z[i] == 0.0 && w.r[i] == 0.0 {
-                w.d[i] = 0.0;
+        for i in 0..n {
+            d[i] = beta * d[i] - z[i];
+            if z[i] == 0.0 && r[i] == 0.0 {
+                d[i] = 0.0;
             }
-            slope += w.d[i] * w.r[i];
-            w.r_old[i] = w.r[i];
+            slope += d[i] * r[i];
+            r_old[i] = r[i];
         }
         if slope >= 0.0 && beta != 0.0 {
             slope = 0.0;
-            for i in 0..u.len() {
-                w.d[i] = -w.z[i];
-                slope += w.d[i] * w.r[i];
+            for i in 0..n {
+                d[i] = -z[i];
+                slope += d[i] * r[i];
             }
         }
         w.rz_old = rz;
@@ -549,12 +575,21 @@ fn step(
     // The line search needs only the nodes the interaction reaches for α ≤ alpha_cap: those
     // within the cutoff or moving down (a node that stays beyond the cutoff adds exact zeros).
     w.nodes.clear();
+    let (hh, dir, sigma, kd, r, local, hits) = (
+        &h[..n],
+        &w.d[..n],
+        &w.sigma[..n],
+        &w.kd[..n],
+        &w.r[..n],
+        &w.local[..n],
+        &mut w.hits[..n],
+    );
     for i in 0..n {
-        let (g, d) = (u[i] - h[i], w.d[i]);
-        a += d * (w.sigma[i] + pressure);
-        b += d * w.kd[i];
-        s1 += d * w.r[i];
-        s2 += d * d * w.local[i].1;
+        let (g, d) = (u[i] - hh[i], dir[i]);
+        a += d * (sigma[i] + pressure);
+        b += d * kd[i];
+        s1 += d * r[i];
+        s2 += d * d * local[i].1;
         if g <= 0.0 {
             contact += 1;
         }
@@ -562,7 +597,7 @@ fn step(
             let hit = -g / d;
             wall_cap = wall_cap.max(hit);
             if g > 0.0 {
-                w.hits[n_hits] = hit;
+                hits[n_hits] = hit;
                 n_hits += 1;
             }
         }
@@ -573,7 +608,7 @@ fn step(
             w.nodes.push(Node {
                 g,
                 d,
-                e: w.local[i].0,
+                e: local[i].0,
             });
         }
     }
@@ -601,11 +636,18 @@ fn step(
     for _ in 0..=MAX_HALVINGS {
         let mut clipped = false;
         let shift = moved.map_or(0.0, |m| alpha - m);
+        let (u_prev, d, kd, sigma, hh) = (
+            &w.u_prev[..n],
+            &w.d[..n],
+            &w.kd[..n],
+            &mut w.sigma[..n],
+            &h[..n],
+        );
         for i in 0..n {
-            let x = w.u_prev[i] + alpha * w.d[i];
-            clipped |= x < h[i];
-            u[i] = x.max(h[i]);
-            w.sigma[i] += shift * w.kd[i];
+            let x = u_prev[i] + alpha * d[i];
+            clipped |= x < hh[i];
+            u[i] = x.max(hh[i]);
+            sigma[i] += shift * kd[i];
         }
         moved = moved.map(|_| alpha);
         w.stale += 1;
