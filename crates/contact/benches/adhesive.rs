@@ -20,6 +20,7 @@
 //! - `ADHESIVE_PATH` grid exponents: instead of the solves above, the draft preset's Figure 2
 //!   and Figure 3 paths, warm-started point by point, by the methods of `ADHESIVE_PATH_METHODS`
 //!   (default `auto,fire`): iterations per warm step, CPU time, points where they differ;
+//!   with `ADHESIVE_PATH_POINTS` set, every point (area, mean gap);
 //! - `ADHESIVE_DUMP=DIR` writes per n the heights and our displacement of the cold solve (raw
 //!   little-endian f64, row-major (n, n), first index x) as `DIR/heights_n{N}.f64` and
 //!   `DIR/ours_u_n{N}.f64`, for `bench/peers/adhesive_peers.py`.
@@ -250,6 +251,16 @@ fn paths(ns: &[usize]) {
                     pts[0].iterations,
                     it as f64 / (pts.len() - 1).max(1) as f64
                 );
+            }
+            if std::env::var("ADHESIVE_PATH_POINTS").is_ok() {
+                for (name, pts) in &runs {
+                    for p in pts {
+                        println!(
+                            "POINT case={label:?} method={name} x={:.6} area={:.9} mean_gap={:.12}",
+                            p.x, p.area, p.mean_gap
+                        );
+                    }
+                }
             }
             let (a, b) = (&runs[0].1, &runs[runs.len() - 1].1);
             if a.len() != b.len() {

@@ -35,6 +35,13 @@
 //! barriers: on a 32² square-model load path (γ0 = 0.2, ρ = 0.04) the cold start already
 //! landed in a state with 8 more contact nodes than FIRE's, and loading stayed ahead of FIRE;
 //! with it the two agree on all but a few lattice-trapped points (tests/nonlinear_cg.rs).
+//! A cold start (the uniform surface of `Model::solve`) has no branch to keep yet and runs
+//! without it: there the cap bound every step of the approach (square model 256², p̄ = 1.47:
+//! 53 of 74 iterations, the contact area growing by 1 % of the nodes per step), and without it
+//! the cold solves of the adhesive bench take 51, 40, 39, 55 iterations instead of 74, 79, 55, 44
+//! at p̄ = 1.47, 0.84, 0.53, 0, reaching the same states (mean gap within 3e-13); the draft
+//! preset's Figure 2/3 paths on 128² (`ADHESIVE_PATH=7 ADHESIVE_PATH_POINTS=1`, their first
+//! point cold) keep every contact area and their mean gaps within 1e-10.
 //!
 //! Cold starts where two states coexist may end in another state than FIRE's: square model
 //! 256², p̄ = 0.8408 (tamaas's load at mean gap 0.5, where patches coalesce): FIRE and tamaas
@@ -405,6 +412,9 @@ struct Work {
     history: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)>,
     /// The last step clipped nodes onto the wall (the active set changed).
     clipped: bool,
+    /// The branch safeguard (one range per step near the wall) is on: off only for a cold
+    /// start, which has no branch to keep.
+    guard_range: bool,
     /// Steps at which free nodes moving down would reach the wall.
     hits: Vec<f64>,
     /// γ(g) and γ''(g) per node at the current state.
@@ -615,7 +625,7 @@ fn step(
     if wall_cap == 0.0 {
         wall_cap = f64::MAX;
     }
-    let range_cap = if d_near > 0.0 {
+    let range_cap = if d_near > 0.0 && w.guard_range {
         range / d_near
     } else {
         f64::MAX
@@ -722,6 +732,8 @@ impl Minimizer for NonlinearCg {
         for (ui, hi) in u.iter_mut().zip(h.iter()) {
             *ui = ui.max(*hi);
         }
+        // a uniform surface is the cold start of Model::solve (no branch to follow yet)
+        let cold = u.iter().all(|&x| x == u[0]);
         let mut w = Work {
             sigma: vec![0.0; n],
             r: vec![0.0; n],
@@ -736,6 +748,7 @@ impl Minimizer for NonlinearCg {
             energy: (0.0, 0.0),
             history: std::collections::VecDeque::new(),
             clipped: false,
+            guard_range: !cold,
             hits: vec![0.0; n],
             local: vec![(0.0, 0.0); n],
             evaluated: None,
