@@ -9,6 +9,7 @@
 #
 #   bench/peers/adhesive.sh                 # n = 2^8, 2^9
 #   ADHESIVE_PEER_NS=8 ADHESIVE_PEER_GAPS=0.5 bench/peers/adhesive.sh
+#   ADHESIVE_PEER_NS=10 ADHESIVE_PEER_FIRE= bench/peers/adhesive.sh   # without FIRE
 #
 # At mean gap 0.5 (p = 0.84, where patches coalesce) a cold start has two minima; our nonlinear
 # CG may reach the other one (see crates/contact/src/nonlinear_cg.rs), the metric lines show it.
@@ -32,7 +33,7 @@ for e in "${ns[@]}"; do
   echo "== n = $size: tamaas at mean gap $gap"
   read -r p res < <(cd bench/peers && "$py" adhesive_peers.py tamaas "$out" "$size" "$gap")
   echo "== n = $size: contact crate at p = $p, to residual 1e-10 and to $res (tamaas's, common metric)"
-  ADHESIVE_NS="$e" ADHESIVE_FIRE="$e" ADHESIVE_PRESSURE="$p" ADHESIVE_DUMP="$out" ADHESIVE_TOL="1e-10,$res" \
+  ADHESIVE_NS="$e" ADHESIVE_FIRE="${ADHESIVE_PEER_FIRE-$e}" ADHESIVE_PRESSURE="$p" ADHESIVE_DUMP="$out" ADHESIVE_TOL="1e-10,$res" \
     cargo bench -q -p contact --bench adhesive | tee "$out/ours_n$size.txt" | grep -v '^RESULT'
   echo "== n = $size: one metric from each gap field (ours = the cold nonlinear-CG solve), CPU ratios"
   (cd bench/peers && "$py" adhesive_peers.py metric "$out" "$size" "$out/ours_n$size.txt")
