@@ -41,8 +41,8 @@
 //! barriers: on a 32² square-model load path (γ0 = 0.2, ρ = 0.04) the cold start already
 //! landed in a state with 8 more contact nodes than FIRE's, and loading stayed ahead of FIRE;
 //! with it the two agree on all but a few lattice-trapped points (tests/nonlinear_cg.rs).
-//! A cold start (the uniform surface of `Model::solve`) has no branch to keep yet and runs
-//! without it: there the cap bound every step of the approach (square model 256², p̄ = 1.47:
+//! A cold start under adhesion (the uniform surface of `Model::solve`) has no branch to keep
+//! yet and runs without it (under repulsion it saves iterations there too, and stays): there the cap bound every step of the approach (square model 256², p̄ = 1.47:
 //! 53 of 74 iterations, the contact area growing by 1 % of the nodes per step), and without it
 //! the cold solves of the adhesive bench take 51, 40, 39, 55 iterations instead of 74, 79, 55, 44
 //! at p̄ = 1.47, 0.84, 0.53, 0, reaching the same states (mean gap within 3e-13); the draft
@@ -410,7 +410,7 @@ struct Work {
     /// The last step clipped nodes onto the wall (the active set changed).
     clipped: bool,
     /// The branch safeguard (one range per step near the wall) is on: off only for a cold
-    /// start, which has no branch to keep.
+    /// start under adhesion, which has no branch to keep.
     guard_range: bool,
     /// Steps at which free nodes moving down would reach the wall.
     hits: Vec<f64>,
@@ -729,7 +729,9 @@ impl Minimizer for NonlinearCg {
         for (ui, hi) in u.iter_mut().zip(h.iter()) {
             *ui = ui.max(*hi);
         }
-        // a uniform surface is the cold start of Model::solve (no branch to follow yet)
+        // a uniform surface is the cold start of Model::solve (no branch to follow yet); under
+        // repulsion the safeguard saves iterations there too (128², p̄ = 0.1, 0.3 p_fc: 95, 138
+        // with it, 135, 222 without), so only adhesion drops it
         let cold = u.iter().all(|&x| x == u[0]);
         let mut w = Work {
             sigma: vec![0.0; n],
@@ -745,7 +747,7 @@ impl Minimizer for NonlinearCg {
             energy: (0.0, 0.0),
             history: std::collections::VecDeque::new(),
             clipped: false,
-            guard_range: !cold,
+            guard_range: !(cold && matches!(interaction, Interaction::Adhesion { .. })),
             hits: vec![0.0; n],
             local: vec![(0.0, 0.0); n],
             evaluated: None,
