@@ -14,9 +14,13 @@
 //! - `ADHESIVE_CANDIDATES` grid exponents where the other candidates of
 //!   `contact::nonlinear_cg` run too (Fletcher–Reeves, steepest descent, L-BFGS), default none;
 //! - `ADHESIVE_PRESSURE` mean pressure (E* h0/λ), default 0;
+//! - `ADHESIVE_TOL` force residuals to solve to, default `1e-10` (several: every case at each,
+//!   the dumped displacement is the first's; `bench/peers/adhesive.sh` adds the residual tamaas
+//!   reached, for a comparison at equal accuracy);
 //! - `ADHESIVE_PATH` grid exponents: instead of the solves above, the draft preset's Figure 2
 //!   and Figure 3 paths, warm-started point by point, by the methods of `ADHESIVE_PATH_METHODS`
 //!   (default `auto,fire`): iterations per warm step, CPU time, points where they differ;
+//!   with `ADHESIVE_PATH_POINTS` set, every point (area, mean gap);
 //! - `ADHESIVE_DUMP=DIR` writes per n the heights and our displacement of the cold solve (raw
 //!   little-endian f64, row-major (n, n), first index x) as `DIR/heights_n{N}.f64` and
 //!   `DIR/ours_u_n{N}.f64`, for `bench/peers/adhesive_peers.py`.
@@ -54,9 +58,10 @@ fn run(
     warm: Option<&Solution>,
     n: usize,
     case: &str,
+    tol: f64,
 ) -> Solution {
     let opts = SolverOptions {
-        tol_force: 1e-10,
+        tol_force: tol,
         ..SolverOptions::default()
     };
     let (c0, t0) = (cpu_seconds(), Instant::now());
@@ -66,11 +71,11 @@ fn run(
     let (cpu, wall) = (cpu_seconds() - c0, t0.elapsed().as_secs_f64());
     let s = &sol.stats;
     println!(
-        "n = {n:5}  {case:4}  {:13} {:6} it  cpu {cpu:8.3} s  wall {wall:8.3} s  mean gap {:.12}  area {:.6}  residual {:.1e}  converged {}",
+        "n = {n:5}  {case:4}  tol {tol:.1e}  {:13} {:6} it  cpu {cpu:8.3} s  wall {wall:8.3} s  mean gap {:.12}  area {:.6}  residual {:.1e}  converged {}",
         s.method, s.iterations, sol.mean_gap, sol.contact_area, s.force_residual, s.converged
     );
     println!(
-        "RESULT n={n} case={case} method={} iterations={} cpu={cpu:.6} wall={wall:.6} mean_gap={:.15e} area={:.9} residual={:.3e} converged={}",
+        "RESULT n={n} case={case} tol={tol:e} method={} iterations={} cpu={cpu:.6} wall={wall:.6} mean_gap={:.15e} area={:.9} residual={:.3e} converged={}",
         s.method, s.iterations, sol.mean_gap, sol.contact_area, s.force_residual, s.converged
     );
     sol
@@ -247,6 +252,16 @@ fn paths(ns: &[usize]) {
                     it as f64 / (pts.len() - 1).max(1) as f64
                 );
             }
+            if std::env::var("ADHESIVE_PATH_POINTS").is_ok() {
+                for (name, pts) in &runs {
+                    for p in pts {
+                        println!(
+                            "POINT case={label:?} method={name} x={:.6} area={:.9} mean_gap={:.12}",
+                            p.x, p.area, p.mean_gap
+                        );
+                    }
+                }
+            }
             let (a, b) = (&runs[0].1, &runs[runs.len() - 1].1);
             if a.len() != b.len() {
                 println!(
@@ -282,9 +297,10 @@ fn main() {
         .ok()
         .map(|s| s.parse().expect("ADHESIVE_PRESSURE: a number"))
         .unwrap_or(0.0);
+    let tols = env_list::<f64>("ADHESIVE_TOL", "1e-10");
     let dump = std::env::var("ADHESIVE_DUMP").ok();
     println!(
-        "adhesive solve, square model, γ0 = 0.2, ρ = 0.04, p̄ = {pressure}, residual ≤ 1e-10; threads: {}",
+        "adhesive solve, square model, γ0 = 0.2, ρ = 0.04, p̄ = {pressure}, residual ≤ {tols:?}; threads: {}",
         rayon::current_num_threads()
     );
     for &e in &ns {
@@ -302,26 +318,30 @@ fn main() {
             }
         }
         for (k, m) in methods.iter().enumerate() {
-            let cold = run(&mut model, m.as_ref(), pressure, None, n, "cold");
-            run(
-                &mut model,
-                m.as_ref(),
-                pressure + step,
-                Some(&cold),
-                n,
-                "warm",
-            );
-            if k == 0
-                && let Some(dir) = &dump
-            {
-                write_f64(
-                    &format!("{dir}/heights_n{n}.f64"),
-                    s.heights.iter().copied(),
+            for (t, &tol) in tols.iter().enumerate() {
+                let cold = run(&mut model, m.as_ref(), pressure, None, n, "cold", tol);
+                run(
+                    &mut model,
+                    m.as_ref(),
+                    pressure + step,
+                    Some(&cold),
+                    n,
+                    "warm",
+                    tol,
                 );
-                write_f64(
-                    &format!("{dir}/ours_u_n{n}.f64"),
-                    cold.displacement.iter().copied(),
-                );
+                if k == 0
+                    && t == 0
+                    && let Some(dir) = &dump
+                {
+                    write_f64(
+                        &format!("{dir}/heights_n{n}.f64"),
+                        s.heights.iter().copied(),
+                    );
+                    write_f64(
+                        &format!("{dir}/ours_u_n{n}.f64"),
+                        cold.displacement.iter().copied(),
+                    );
+                }
             }
         }
     }

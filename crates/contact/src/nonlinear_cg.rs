@@ -22,7 +22,13 @@
 //!
 //! Cost: two transform pairs per iteration (M⁻¹ r and K d), three when nodes are clipped, plus a
 //! few local passes for the line search. σ is recomputed from scratch every [`REFRESH`]
-//! iterations and before convergence is accepted, so rounding cannot accumulate.
+//! iterations and before convergence is accepted, so rounding cannot accumulate. When σ is
+//! recomputed, the energy check and the next iteration's gradient share one pass (one
+//! exponential per node); nodes on the wall need none. Where the time went (perf, 256² cold,
+//! p̄ = 1.47, single thread, before that fusion): the exponentials and divisions of the law
+//! ≈ 25 %, the transforms ≈ 30 % (a pair costs about as much as one pass of exponentials on
+//! 256²), the rest streaming passes; clipping happened in 57 of 74 iterations (hundreds of
+//! nodes each, so a sparse correction of σ would not pay).
 //!
 //! Convergence: the force residual of FIRE (largest unbalanced pressure off the wall, largest
 //! pull at the wall) at most `tol_force`, on a freshly computed σ.
@@ -35,6 +41,13 @@
 //! barriers: on a 32² square-model load path (γ0 = 0.2, ρ = 0.04) the cold start already
 //! landed in a state with 8 more contact nodes than FIRE's, and loading stayed ahead of FIRE;
 //! with it the two agree on all but a few lattice-trapped points (tests/nonlinear_cg.rs).
+//! A cold start under adhesion (the uniform surface of `Model::solve`) has no branch to keep
+//! yet and runs without it (under repulsion it saves iterations there too, and stays): there the cap bound every step of the approach (square model 256², p̄ = 1.47:
+//! 53 of 74 iterations, the contact area growing by 1 % of the nodes per step), and without it
+//! the cold solves of the adhesive bench take 51, 40, 39, 55 iterations instead of 74, 79, 55, 44
+//! at p̄ = 1.47, 0.84, 0.53, 0, reaching the same states (mean gap within 3e-13); the draft
+//! preset's Figure 2/3 paths on 128² (`ADHESIVE_PATH=7 ADHESIVE_PATH_POINTS=1`, their first
+//! point cold) keep every contact area and their mean gaps within 1e-10.
 //!
 //! Cold starts where two states coexist may end in another state than FIRE's: square model
 //! 256², p̄ = 0.8408 (tamaas's load at mean gap 0.5, where patches coalesce): FIRE and tamaas
@@ -237,6 +250,8 @@ struct Law {
     /// Gap beyond which γ, γ', γ'' are below e⁻⁴⁰ ≈ 4e-18 of their scale (γ0, γ0/ρ, γ0/ρ²
     /// times at most (g/ρ)² ≤ 100): treated as zero.
     cut: f64,
+    /// γ, γ', γ'' at contact (g = 0), evaluated once: nodes on the wall need no exponential.
+    at_zero: (f64, f64, f64),
 }
 
 impl Law {
@@ -247,17 +262,34 @@ impl Law {
             // exp(−g²/2ρ²) < e⁻⁴⁰ for g > √80 ρ ≈ 8.9ρ
             Interaction::Repulsion { rho, .. } => 10.0 * rho,
         };
-        Law { interaction, cut }
+        let mut law = Law {
+            interaction,
+            cut,
+            at_zero: (0.0, 0.0, 0.0),
+        };
+        law.at_zero = law.formula(0.0);
+        law
     }
 
-    /// γ(x), γ'(x), γ''(x) with one exponential.
+    /// γ(x), γ'(x), γ''(x) with one exponential (none at contact or beyond the cutoff).
     #[inline]
     fn eval(&self, x: f64) -> (f64, f64, f64) {
         if x >= self.cut {
-            return (0.0, 0.0, 0.0);
+            (0.0, 0.0, 0.0)
+        } else if x <= 0.0 {
+            self.at_zero
+        } else {
+            self.formula(x)
         }
+    }
+
+    #[inline]
+    fn formula(&self, x: f64) -> (f64, f64, f64) {
         match self.interaction {
             Interaction::HardWall => (0.0, 0.0, 0.0),
+            // Divisions, not multiplications by 1/ρ: the latter (5 % faster) differ by rounding,
+            // which moved the smoke preset's Figure 3 square path on 32² (a rounding-sensitive
+            // jump: full contact at γ0 = 50 instead of area 0.94).
             Interaction::Adhesion { gamma0, rho } => {
                 let e = -gamma0 * (-x / rho).exp();
                 (e, -e / rho, e / (rho * rho))
@@ -282,8 +314,11 @@ fn gradient(
     r: &mut [f64],
     local: &mut [(f64, f64)],
 ) -> (f64, usize, f64) {
+    let n = u.len();
+    // equal lengths up front: no bounds checks in the loop
+    let (h, sigma, r, local) = (&h[..n], &sigma[..n], &mut r[..n], &mut local[..n]);
     let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
-    for i in 0..u.len() {
+    for i in 0..n {
         let g = u[i] - h[i];
         let (e, d1, d2) = law.eval(g.max(0.0));
         local[i] = (e, d2);
@@ -300,6 +335,58 @@ fn gradient(
         }
     }
     (res, contact, min_gap)
+}
+
+/// [`gradient`] and the energy per area with its rounding slack (as [`crate::fire::energy`],
+/// the interaction taken from the same exponential as the gradient, zero beyond the cutoff where
+/// it is below e⁻⁴⁰ γ0) in one pass; `mean_u` is the mean of `u`.
+#[allow(clippy::too_many_arguments)]
+fn evaluate(
+    u: &[f64],
+    h: &[f64],
+    sigma: &[f64],
+    law: Law,
+    pressure: f64,
+    mean_u: f64,
+    r: &mut [f64],
+    local: &mut [(f64, f64)],
+) -> ((f64, usize, f64), (f64, f64)) {
+    let n = u.len();
+    // equal lengths up front: no bounds checks in the loop
+    let (h, sigma, r, local) = (&h[..n], &sigma[..n], &mut r[..n], &mut local[..n]);
+    let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
+    // compensated (Kahan) sum, as crate::fire::energy
+    let (mut e_sum, mut c, mut abs) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..n {
+        let g = u[i] - h[i];
+        let (e, d1, d2) = law.eval(g.max(0.0));
+        local[i] = (e, d2);
+        let ri = sigma[i] + pressure + d1;
+        if g <= 0.0 {
+            contact += 1;
+            res = res.max(-ri);
+            r[i] = ri.min(0.0);
+        } else {
+            res = res.max(ri.abs());
+            r[i] = ri;
+            min_gap = min_gap.min(g);
+        }
+        let el = 0.5 * (u[i] - mean_u) * sigma[i];
+        let y = el + e - c;
+        let t = e_sum + y;
+        c = (t - e_sum) - y;
+        e_sum = t;
+        abs += el.abs() + e.abs();
+    }
+    let n = n as f64;
+    let load = pressure * mean_u;
+    (
+        (res, contact, min_gap),
+        (
+            e_sum / n + load,
+            64.0 * f64::EPSILON * (abs / n + load.abs()),
+        ),
+    )
 }
 
 /// Work buffers and the conjugacy memory of one solve.
@@ -322,10 +409,16 @@ struct Work {
     history: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)>,
     /// The last step clipped nodes onto the wall (the active set changed).
     clipped: bool,
+    /// The branch safeguard (one range per step near the wall) is on: off only for a cold
+    /// start under adhesion, which has no branch to keep.
+    guard_range: bool,
     /// Steps at which free nodes moving down would reach the wall.
     hits: Vec<f64>,
     /// γ(g) and γ''(g) per node at the current state.
     local: Vec<(f64, f64)>,
+    /// Residual, contact count and smallest open gap of the current state when the step
+    /// evaluated them already (with `r` and `local`), fused with its energy pass.
+    evaluated: Option<(f64, usize, f64)>,
 }
 
 /// The L-BFGS direction d = −H r (two-loop recursion, H0 = M⁻¹ on the free nodes); returns
@@ -403,13 +496,21 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 impl NonlinearCg {
     /// d = −z + β d_old on the free nodes; returns ⟨d, r⟩ (< 0 for a descent direction).
     fn direction(&self, w: &mut Work, u: &[f64], h: &[f64]) -> f64 {
+        let n = u.len();
+        let (r, z, r_old, d, h) = (
+            &w.r[..n],
+            &mut w.z[..n],
+            &mut w.r_old[..n],
+            &mut w.d[..n],
+            &h[..n],
+        );
         let (mut rz, mut rz_cross) = (0.0, 0.0);
-        for i in 0..u.len() {
-            if w.r[i] == 0.0 && u[i] <= h[i] {
-                w.z[i] = 0.0; // held by the wall
+        for i in 0..n {
+            if r[i] == 0.0 && u[i] <= h[i] {
+                z[i] = 0.0; // held by the wall
             }
-            rz += w.r[i] * w.z[i];
-            rz_cross += w.r_old[i] * w.z[i];
+            rz += r[i] * z[i];
+            rz_cross += r_old[i] * z[i];
         }
         let beta = if w.rz_old <= 0.0 {
             0.0
@@ -421,19 +522,19 @@ impl NonlinearCg {
             }
         };
         let mut slope = 0.0;
-        for i in 0..u.len() {
-            w.d[i] = beta * w.d[i] - w.z[i];
-            if w.z[i] == 0.0 && w.r[i] == 0.0 {
-                w.d[i] = 0.0;
+        for i in 0..n {
+            d[i] = beta * d[i] - z[i];
+            if z[i] == 0.0 && r[i] == 0.0 {
+                d[i] = 0.0;
             }
-            slope += w.d[i] * w.r[i];
-            w.r_old[i] = w.r[i];
+            slope += d[i] * r[i];
+            r_old[i] = r[i];
         }
         if slope >= 0.0 && beta != 0.0 {
             slope = 0.0;
-            for i in 0..u.len() {
-                w.d[i] = -w.z[i];
-                slope += w.d[i] * w.r[i];
+            for i in 0..n {
+                d[i] = -z[i];
+                slope += d[i] * r[i];
             }
         }
         w.rz_old = rz;
@@ -469,49 +570,65 @@ fn step(
     // the largest useful step: every node moving down has reached the wall
     let mut wall_cap = 0.0f64;
     // Branch safeguard: a node within the interaction's range moves by at most one range per
-    // step, so the ray cannot carry it over a barrier of the interaction.
+    // step, so the ray cannot carry it over a barrier of the interaction. min(range/|d|) over
+    // those nodes is range / max|d| (division is monotone, also in floating point).
     let range = law.interaction.range();
-    let mut range_cap = f64::MAX;
+    let near = IN_RANGE * range;
+    let mut d_near = 0.0f64;
     let mut contact = 0usize;
     let (mut s1, mut s2) = (0.0, 0.0);
-    w.hits.clear();
+    let mut n_hits = 0;
+    w.u_prev.copy_from_slice(u);
+    // The line search needs only the nodes the interaction reaches for α ≤ alpha_cap: those
+    // within the cutoff or moving down (a node that stays beyond the cutoff adds exact zeros).
+    w.nodes.clear();
+    let (hh, dir, sigma, kd, r, local, hits) = (
+        &h[..n],
+        &w.d[..n],
+        &w.sigma[..n],
+        &w.kd[..n],
+        &w.r[..n],
+        &w.local[..n],
+        &mut w.hits[..n],
+    );
     for i in 0..n {
-        let (g, d) = (u[i] - h[i], w.d[i]);
-        w.u_prev[i] = u[i];
-        a += d * (w.sigma[i] + pressure);
-        b += d * w.kd[i];
-        s1 += d * w.r[i];
-        s2 += d * d * w.local[i].1;
+        let (g, d) = (u[i] - hh[i], dir[i]);
+        a += d * (sigma[i] + pressure);
+        b += d * kd[i];
+        s1 += d * r[i];
+        s2 += d * d * local[i].1;
         if g <= 0.0 {
             contact += 1;
         }
         if d < 0.0 {
-            wall_cap = wall_cap.max(-g / d);
+            let hit = -g / d;
+            wall_cap = wall_cap.max(hit);
             if g > 0.0 {
-                w.hits.push(-g / d);
+                hits[n_hits] = hit;
+                n_hits += 1;
             }
         }
-        if d != 0.0 && g < IN_RANGE * range {
-            range_cap = range_cap.min(range / d.abs());
+        if g < near {
+            d_near = d_near.max(d.abs());
+        }
+        if d != 0.0 && (g < law.cut || d < 0.0) {
+            w.nodes.push(Node {
+                g,
+                d,
+                e: local[i].0,
+            });
         }
     }
     if wall_cap == 0.0 {
         wall_cap = f64::MAX;
     }
-    let growth_cap = contact_growth_cap(&mut w.hits, contact, n);
+    let range_cap = if d_near > 0.0 && w.guard_range {
+        range / d_near
+    } else {
+        f64::MAX
+    };
+    let growth_cap = contact_growth_cap(&mut w.hits[..n_hits], contact, n);
     let alpha_cap = wall_cap.min(range_cap).min(growth_cap);
-    // the line search needs only the nodes the interaction reaches for α ≤ alpha_cap
-    w.nodes.clear();
-    for i in 0..n {
-        let (g, d) = (u[i] - h[i], w.d[i]);
-        if d != 0.0 && (g < law.cut || g + alpha_cap * d < law.cut) {
-            w.nodes.push(Node {
-                g,
-                d,
-                e: w.local[i].0,
-            });
-        }
-    }
     let ray = Ray {
         nodes: &w.nodes,
         a,
@@ -526,11 +643,18 @@ fn step(
     for _ in 0..=MAX_HALVINGS {
         let mut clipped = false;
         let shift = moved.map_or(0.0, |m| alpha - m);
+        let (u_prev, d, kd, sigma, hh) = (
+            &w.u_prev[..n],
+            &w.d[..n],
+            &w.kd[..n],
+            &mut w.sigma[..n],
+            &h[..n],
+        );
         for i in 0..n {
-            let x = w.u_prev[i] + alpha * w.d[i];
-            clipped |= x < h[i];
-            u[i] = x.max(h[i]);
-            w.sigma[i] += shift * w.kd[i];
+            let x = u_prev[i] + alpha * d[i];
+            clipped |= x < hh[i];
+            u[i] = x.max(hh[i]);
+            sigma[i] += shift * kd[i];
         }
         moved = moved.map(|_| alpha);
         w.stale += 1;
@@ -538,9 +662,23 @@ fn step(
             kernel.stress(u, &mut w.sigma);
             w.stale = 0;
             moved = None;
-            crate::fire::energy(u, &w.sigma, h, law.interaction, pressure)
+            // the next iteration's gradient comes with the energy, from one pass
+            let mean_u = u.iter().sum::<f64>() / n as f64;
+            let (grad, e) = evaluate(
+                u,
+                h,
+                &w.sigma,
+                law,
+                pressure,
+                mean_u,
+                &mut w.r,
+                &mut w.local,
+            );
+            w.evaluated = Some(grad);
+            e
         } else {
             // exact along the ray without clipping: no full pass needed
+            w.evaluated = None;
             (e0 + phi / n as f64, slack0)
         };
         if e_new.0 <= e0 + slack0 {
@@ -552,6 +690,7 @@ fn step(
         phi = ray.slope(alpha).2;
     }
     u.copy_from_slice(&w.u_prev);
+    w.evaluated = None;
     match moved {
         Some(m) => w.sigma.iter_mut().zip(&w.kd).for_each(|(s, k)| *s -= m * k),
         None => kernel.stress(u, &mut w.sigma),
@@ -590,6 +729,10 @@ impl Minimizer for NonlinearCg {
         for (ui, hi) in u.iter_mut().zip(h.iter()) {
             *ui = ui.max(*hi);
         }
+        // a uniform surface is the cold start of Model::solve (no branch to follow yet); under
+        // repulsion the safeguard saves iterations there too (128², p̄ = 0.1, 0.3 p_fc: 95, 138
+        // with it, 135, 222 without), so only adhesion drops it
+        let cold = u.iter().all(|&x| x == u[0]);
         let mut w = Work {
             sigma: vec![0.0; n],
             r: vec![0.0; n],
@@ -604,8 +747,10 @@ impl Minimizer for NonlinearCg {
             energy: (0.0, 0.0),
             history: std::collections::VecDeque::new(),
             clipped: false,
-            hits: Vec::new(),
+            guard_range: !(cold && matches!(interaction, Interaction::Adhesion { .. })),
+            hits: vec![0.0; n],
             local: vec![(0.0, 0.0); n],
+            evaluated: None,
         };
         // σ = K u is p − p̄ by the contract of every minimiser's final state (and of the
         // uniform cold start): no transform. It is recomputed before convergence is accepted
@@ -628,8 +773,10 @@ impl Minimizer for NonlinearCg {
         };
         let mut monitor = StopMonitor::new(STAGNATION, 1e12);
         loop {
-            let (mut res, contact, min_gap) =
-                gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local);
+            let (mut res, contact, min_gap) = match w.evaluated.take() {
+                Some(grad) => grad,
+                None => gradient(u, h, &w.sigma, law, pressure, &mut w.r, &mut w.local),
+            };
             if res <= opts.tol_force && w.stale > 0 {
                 // accept only on a σ computed from scratch
                 kernel.stress(u, &mut w.sigma);
