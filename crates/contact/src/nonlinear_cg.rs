@@ -317,24 +317,50 @@ fn gradient(
     let n = u.len();
     // equal lengths up front: no bounds checks in the loop
     let (h, sigma, r, local) = (&h[..n], &sigma[..n], &mut r[..n], &mut local[..n]);
-    let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
+    let mut t = Tally::START;
     for i in 0..n {
         let g = u[i] - h[i];
         let (e, d1, d2) = law.eval(g.max(0.0));
         local[i] = (e, d2);
-        let ri = sigma[i] + pressure + d1;
+        r[i] = t.node(g, sigma[i] + pressure + d1);
+    }
+    t.into()
+}
+
+/// Residual, contact count and smallest open gap of a pass over the nodes.
+struct Tally {
+    res: f64,
+    contact: usize,
+    min_gap: f64,
+}
+
+impl Tally {
+    const START: Tally = Tally {
+        res: 0.0,
+        contact: 0,
+        min_gap: f64::INFINITY,
+    };
+
+    /// Counts a node of gap `g` whose unbalanced pressure is `ri` and returns its gradient: on
+    /// the wall the push (r ≥ 0) is held (0), a pull (r < 0) is unbalanced.
+    #[inline(always)]
+    fn node(&mut self, g: f64, ri: f64) -> f64 {
         if g <= 0.0 {
-            contact += 1;
-            // the wall pushes (r ≥ 0: held); a pull (r < 0) is unbalanced
-            res = res.max(-ri);
-            r[i] = ri.min(0.0);
+            self.contact += 1;
+            self.res = self.res.max(-ri);
+            ri.min(0.0)
         } else {
-            res = res.max(ri.abs());
-            r[i] = ri;
-            min_gap = min_gap.min(g);
+            self.res = self.res.max(ri.abs());
+            self.min_gap = self.min_gap.min(g);
+            ri
         }
     }
-    (res, contact, min_gap)
+}
+
+impl From<Tally> for (f64, usize, f64) {
+    fn from(t: Tally) -> Self {
+        (t.res, t.contact, t.min_gap)
+    }
 }
 
 /// [`gradient`] and the energy per area with its rounding slack (as [`crate::fire::energy`],
@@ -354,23 +380,14 @@ fn evaluate(
     let n = u.len();
     // equal lengths up front: no bounds checks in the loop
     let (h, sigma, r, local) = (&h[..n], &sigma[..n], &mut r[..n], &mut local[..n]);
-    let (mut res, mut contact, mut min_gap) = (0.0f64, 0usize, f64::INFINITY);
+    let mut t = Tally::START;
     // compensated (Kahan) sum, as crate::fire::energy
     let (mut e_sum, mut c, mut abs) = (0.0f64, 0.0f64, 0.0f64);
     for i in 0..n {
         let g = u[i] - h[i];
         let (e, d1, d2) = law.eval(g.max(0.0));
         local[i] = (e, d2);
-        let ri = sigma[i] + pressure + d1;
-        if g <= 0.0 {
-            contact += 1;
-            res = res.max(-ri);
-            r[i] = ri.min(0.0);
-        } else {
-            res = res.max(ri.abs());
-            r[i] = ri;
-            min_gap = min_gap.min(g);
-        }
+        r[i] = t.node(g, sigma[i] + pressure + d1);
         let el = 0.5 * (u[i] - mean_u) * sigma[i];
         let y = el + e - c;
         let t = e_sum + y;
@@ -381,7 +398,7 @@ fn evaluate(
     let n = n as f64;
     let load = pressure * mean_u;
     (
-        (res, contact, min_gap),
+        t.into(),
         (
             e_sum / n + load,
             64.0 * f64::EPSILON * (abs / n + load.abs()),

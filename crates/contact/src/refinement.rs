@@ -1672,6 +1672,32 @@ mod tests {
         }
     }
 
+    /// Applies `full` and `cheap` (same unknowns) to two fixed vectors a, b: the largest
+    /// |full a − cheap a|, the largest |full a|, and ⟨a, cheap b⟩, ⟨b, cheap a⟩ (equal if cheap
+    /// is symmetric).
+    fn compare_operators(
+        full: &mut Composite,
+        cheap: &mut Composite,
+        stiffness: bool,
+    ) -> (f64, f64, f64, f64) {
+        let m = full.rows * full.cols;
+        let a: Vec<f64> = (0..m).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
+        let b: Vec<f64> = (0..m).map(|i| ((i * 104729) % 11) as f64 * 0.3).collect();
+        let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
+        full.apply(stiffness, &a);
+        let fa = full.out.clone();
+        cheap.apply(stiffness, &a);
+        let ca = cheap.out.clone();
+        cheap.apply(stiffness, &b);
+        let cb = cheap.out.clone();
+        let scale = fa.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        let diff = fa
+            .iter()
+            .zip(&ca)
+            .fold(0.0f64, |s, (x, y)| s.max((x - y).abs()));
+        (diff, scale, dot(&a, &cb), dot(&b, &ca))
+    }
+
     /// The blockwise operator is the full composite operator up to the interpolated far field:
     /// compliance and stiffness applied to the same vectors agree (relative to the result's
     /// largest entry) within the bound asserted below, and both are symmetric.
@@ -1697,23 +1723,8 @@ mod tests {
                 Preconditioner::Galerkin,
             );
             assert_eq!(full.weight, cheap.weight);
-            let m = full.rows * full.cols;
-            let a: Vec<f64> = (0..m).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
-            let b: Vec<f64> = (0..m).map(|i| ((i * 104729) % 11) as f64 * 0.3).collect();
-            let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
             for stiffness in [false, true] {
-                full.apply(stiffness, &a);
-                let fa = full.out.clone();
-                cheap.apply(stiffness, &a);
-                let ca = cheap.out.clone();
-                cheap.apply(stiffness, &b);
-                let cb = cheap.out.clone();
-                let scale = fa.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-                let diff = fa
-                    .iter()
-                    .zip(&ca)
-                    .fold(0.0f64, |s, (x, y)| s.max((x - y).abs()));
-                let (x, y) = (dot(&a, &cb), dot(&b, &ca));
+                let (diff, scale, x, y) = compare_operators(&mut full, &mut cheap, stiffness);
                 eprintln!(
                     "f {f} margin {margin} stiffness {stiffness}: max diff {:.3e} of {scale:.3e}, asym {:.3e}",
                     diff,
@@ -1733,7 +1744,6 @@ mod tests {
     /// of the single window's order at the same margin, and symmetric.
     #[test]
     fn the_blockwise_operator_of_several_windows_is_the_composite_one() {
-        let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
         let err = |ws: &[Window], f: usize, margin: usize| -> (f64, f64) {
             let nb = ws.iter().map(|w| w.i0 + w.wx).max().unwrap().max(32) + 16;
             let nb = if nb > 32 { 64 } else { 32 };
@@ -1749,21 +1759,7 @@ mod tests {
                 Preconditioner::Galerkin,
             );
             assert_eq!(full.weight, cheap.weight);
-            let m = full.rows * full.cols;
-            let a: Vec<f64> = (0..m).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
-            let b: Vec<f64> = (0..m).map(|i| ((i * 104729) % 11) as f64 * 0.3).collect();
-            full.apply(false, &a);
-            let fa = full.out.clone();
-            cheap.apply(false, &a);
-            let ca = cheap.out.clone();
-            cheap.apply(false, &b);
-            let cb = cheap.out.clone();
-            let scale = fa.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-            let diff = fa
-                .iter()
-                .zip(&ca)
-                .fold(0.0f64, |s, (x, y)| s.max((x - y).abs()));
-            let (x, y) = (dot(&a, &cb), dot(&b, &ca));
+            let (diff, scale, x, y) = compare_operators(&mut full, &mut cheap, false);
             (diff / scale, (x - y).abs() / x.abs())
         };
         let one = Window {

@@ -798,13 +798,21 @@ impl Refinement {
             .expect("the window is centred on the saddle")
     }
 
-    /// Open fine nodes across the channel through the saddle ([`RefinedRung::neck_nodes`]).
-    pub fn neck_nodes(&self, r: &Refined) -> usize {
+    /// The saddle's indices in the fine region's arrays ([`Refined::window_gap`]); outside the
+    /// region's shape if the region does not contain it.
+    fn saddle_in_region(&self, r: &Refined) -> (usize, usize) {
         let f = 1usize << self.disc.levels;
         let (fnx, fny) = r.lattice;
         let (i, j) = self.frame.node;
-        let a = (f * i + fnx - r.origin.0) % fnx;
-        let b = (f * j + fny - r.origin.1) % fny;
+        (
+            (f * i + fnx - r.origin.0) % fnx,
+            (f * j + fny - r.origin.1) % fny,
+        )
+    }
+
+    /// Open fine nodes across the channel through the saddle ([`RefinedRung::neck_nodes`]).
+    pub fn neck_nodes(&self, r: &Refined) -> usize {
+        let (a, b) = self.saddle_in_region(r);
         let (rx, ry) = r.window_gap.dim();
         let open = |a: usize, b: usize| r.window_gap[[a, b]] > 0.0;
         if a >= rx || b >= ry || !open(a, b) {
@@ -829,11 +837,7 @@ impl Refinement {
     /// what [`open_half_width`] and [`blocked_half_length`] measure, as on a uniform grid's
     /// window ([`crate::ladder::extract_window`]).
     pub fn saddle_window(&self, r: &Refined) -> SaddleWindow {
-        let f = 1usize << self.disc.levels;
-        let (fnx, fny) = r.lattice;
-        let (i, j) = self.frame.node;
-        let a = (f * i + fnx - r.origin.0) % fnx;
-        let b = (f * j + fny - r.origin.1) % fny;
+        let (a, b) = self.saddle_in_region(r);
         let (rx, ry) = r.window_gap.dim();
         let kx = a.min(rx.saturating_sub(a + 1)).saturating_sub(1);
         let ky = b.min(ry.saturating_sub(b + 1)).saturating_sub(1);

@@ -372,6 +372,33 @@ mod tests {
         assert!(t.starts_with("consistent with 69/20"), "{t}");
     }
 
+    /// The ladder |l| = 5e-2 … 1e-5.
+    const LS: [f64; 12] = [
+        5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
+    ];
+
+    /// g = 0.3|l|^1.2 (1 + 0.8|l|^0.5).
+    fn corrected(a: f64) -> f64 {
+        0.3 * a.powf(1.2) * (1.0 + 0.8 * a.sqrt())
+    }
+
+    /// [`corrected`] on [`LS`] (l < 0) at `spacing`, drifting by the factor 1 + `drift` per rung
+    /// below 1e-3 (an unresolved grid).
+    fn level(spacing: f64, drift: f64) -> Resolution {
+        Resolution {
+            spacing,
+            points: LS
+                .iter()
+                .enumerate()
+                .map(|(k, &a)| {
+                    let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
+                    ScalingPoint::new(-a, corrected(a) * d, 0.0)
+                })
+                .collect(),
+            across: Vec::new(),
+        }
+    }
+
     #[test]
     fn estimate_recovers_a_corrected_power_law_and_stops_at_unresolved_rungs() {
         // g = 0.3|l|^1.2 (1 + 0.8|l|^0.5) on the ladder; the coarse grid drifts by 3 %
@@ -380,22 +407,6 @@ mod tests {
         // convergence tolerance (1e-8, analysis::corrections); the running form is exact to
         // first order in B only, and with B|l|^ω up to 0.18 its remainder moves x by ~3e-3: the
         // form spread, which the error must include (bound 5e-3).
-        let ls = [
-            5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
-        ];
-        let g = |a: f64| 0.3 * a.powf(1.2) * (1.0 + 0.8 * a.sqrt());
-        let level = |spacing: f64, drift: f64| Resolution {
-            spacing,
-            points: ls
-                .iter()
-                .enumerate()
-                .map(|(k, &a)| {
-                    let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
-                    ScalingPoint::new(-a, g(a) * d, 0.0)
-                })
-                .collect(),
-            across: Vec::new(),
-        };
         let a = estimate(&[level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)]).unwrap();
         assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
         assert_eq!(a.l_min, 1e-3);
@@ -412,22 +423,7 @@ mod tests {
     #[test]
     fn combined_estimate_uses_the_refined_ladder_below_the_uniform_one() {
         use crate::refined_ladder::{RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow};
-        let ls = [
-            5e-2, 2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5,
-        ];
-        let g = |a: f64| 0.3 * a.powf(1.2) * (1.0 + 0.8 * a.sqrt());
-        let level = |spacing: f64, drift: f64| Resolution {
-            spacing,
-            points: ls
-                .iter()
-                .enumerate()
-                .map(|(k, &a)| {
-                    let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
-                    ScalingPoint::new(-a, g(a) * d, 0.0)
-                })
-                .collect(),
-            across: Vec::new(),
-        };
+        let (ls, g) = (LS, corrected);
         let levels = [level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)];
         let rls = &ls[4..];
         let rung = |&a: &f64| {
