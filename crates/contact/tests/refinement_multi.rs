@@ -22,9 +22,10 @@ struct Run {
     gaps: Vec<Vec<f64>>,
 }
 
-fn bisect(lo: f64, hi: f64, gaps: &mut dyn FnMut(f64) -> Vec<f64>) -> f64 {
+/// The load in (lo, hi) at which the smallest of `gaps` closes, to `rel` relative.
+fn bisect(lo: f64, hi: f64, rel: f64, gaps: &mut dyn FnMut(f64) -> Vec<f64>) -> f64 {
     let (mut lo, mut hi) = (lo, hi);
-    while hi / lo - 1.0 > 1e-8 {
+    while hi / lo - 1.0 > rel {
         let mid = 0.5 * (lo + hi);
         if gaps(mid).iter().cloned().fold(f64::INFINITY, f64::min) > 0.0 {
             lo = mid
@@ -69,7 +70,7 @@ fn refining_every_saddle_beats_one_window() {
             warm = Some(s);
             g
         };
-        let pc = bisect(0.7 * pfc, 0.72 * pfc, &mut gaps);
+        let pc = bisect(0.7 * pfc, 0.72 * pfc, 1e-8, &mut gaps);
         Run {
             pc,
             gaps: ls.iter().map(|l| gaps(pc * (1.0 + l))).collect(),
@@ -100,7 +101,7 @@ fn refining_every_saddle_beats_one_window() {
             warm = Some(r);
             g
         };
-        let pc = bisect(0.7 * pfc, 0.72 * pfc, &mut gaps);
+        let pc = bisect(0.7 * pfc, 0.72 * pfc, 1e-8, &mut gaps);
         Run {
             pc,
             gaps: ls.iter().map(|l| gaps(pc * (1.0 + l))).collect(),
@@ -115,7 +116,7 @@ fn refining_every_saddle_beats_one_window() {
             assert!(s.stats.converged);
             nodes.iter().map(|&(i, j)| s.gap[[i, j]]).collect()
         };
-        let pc = bisect(0.7 * pfc, 0.72 * pfc, &mut gaps);
+        let pc = bisect(0.7 * pfc, 0.72 * pfc, 1e-8, &mut gaps);
         Run {
             pc,
             gaps: ls.iter().map(|l| gaps(pc * (1.0 + l))).collect(),
@@ -191,35 +192,14 @@ fn explore() {
             })
             .collect()
     };
-    let (mut lo, mut hi) = (0.3 * pfc, 0.9 * pfc);
-    while hi / lo - 1.0 > 1e-7 {
-        let mid = 0.5 * (lo + hi);
-        let g = ugaps(&mut um, mid);
-        if g.iter().cloned().fold(f64::INFINITY, f64::min) > 0.0 {
-            lo = mid
-        } else {
-            hi = mid
-        }
-    }
-    let pc = 0.5 * (lo + hi);
+    let pc = bisect(0.3 * pfc, 0.9 * pfc, 1e-7, &mut |p| ugaps(&mut um, p));
     eprintln!("{lat}: uniform 2^{} p_c/p_fc {:.8}", n + k, pc / pfc);
     let all: Vec<Window> = saddles.iter().map(|s| s.window(&base.grid, w, w)).collect();
     let axis = saddles
         .iter()
         .position(|s| s.channel_axis().is_some())
         .unwrap();
-    let bisect = |gaps: &mut dyn FnMut(f64) -> Vec<f64>| {
-        let (mut lo, mut hi) = (0.69 * pfc, 0.74 * pfc);
-        while hi / lo - 1.0 > 1e-8 {
-            let mid = 0.5 * (lo + hi);
-            if gaps(mid).iter().cloned().fold(f64::INFINITY, f64::min) > 0.0 {
-                lo = mid
-            } else {
-                hi = mid
-            }
-        }
-        0.5 * (lo + hi)
-    };
+    let bisect = |gaps: &mut dyn FnMut(f64) -> Vec<f64>| bisect(0.69 * pfc, 0.74 * pfc, 1e-8, gaps);
     let ls = [-2e-2, -1e-2, -5e-3, -2e-3];
     let show = |name: &str, pcx: f64, g: &[Vec<f64>], gu: &[Vec<f64>]| {
         eprintln!("{name}: p_c rel {:+.3e}", pcx / pc - 1.0);

@@ -21,6 +21,8 @@ use reynolds::{FlowAxis, FlowOptions};
 use std::time::Instant;
 use surface::{Lattice, Surface};
 
+mod common;
+
 fn bisect(lo: f64, hi: f64, rel: f64, closed: &mut dyn FnMut(f64) -> bool) -> f64 {
     let (mut lo, mut hi) = (lo, hi);
     assert!(!closed(lo), "bracket: closed at its low end {lo}");
@@ -38,33 +40,22 @@ fn main() {
     let (mut one, mut trim_along, mut trim_across, mut uniform) = (false, 2usize, 1usize, true);
     let (mut tol_gap, mut rel_width, mut bracket) = (1e-13, 1e-9, 1e-3);
     let mut ls = vec![-1e-3, -5e-4, -2e-4, -1e-4];
-    for arg in std::env::args().skip(1) {
-        let (key, value) = arg
-            .split_once('=')
-            .unwrap_or_else(|| panic!("argument {arg:?}: expected key=value"));
-        let bad = |e: &dyn std::fmt::Display| -> ! { panic!("{key} = {value:?}: {e}") };
-        match key {
-            "lattice" => lattice = value.parse::<Lattice>().unwrap_or_else(|e| bad(&e)),
-            "n" => n = value.parse().unwrap_or_else(|e| bad(&e)),
-            "k" => k = value.parse().unwrap_or_else(|e| bad(&e)),
-            "region" => region = value.parse().unwrap_or_else(|e| bad(&e)),
-            "margin" => {
-                margin = (value != "none").then(|| value.parse().unwrap_or_else(|e| bad(&e)))
-            }
-            "one" => one = value == "1",
-            "trim_along" => trim_along = value.parse().unwrap_or_else(|e| bad(&e)),
-            "trim_across" => trim_across = value.parse().unwrap_or_else(|e| bad(&e)),
-            "loads" => {
-                ls = value
-                    .split(',')
-                    .map(|v| v.trim().parse().unwrap_or_else(|e| bad(&e)))
-                    .collect()
-            }
-            "uniform" => uniform = value == "1",
-            "tol_gap" => tol_gap = value.parse().unwrap_or_else(|e| bad(&e)),
-            "rel_width" => rel_width = value.parse().unwrap_or_else(|e| bad(&e)),
-            "bracket" => bracket = value.parse().unwrap_or_else(|e| bad(&e)),
-            _ => panic!("unknown key {key:?}"),
+    for kv in common::KeyValue::from_env() {
+        match kv.key.as_str() {
+            "lattice" => lattice = kv.parse(),
+            "n" => n = kv.parse(),
+            "k" => k = kv.parse(),
+            "region" => region = kv.parse(),
+            "margin" => margin = kv.optional(),
+            "one" => one = kv.value == "1",
+            "trim_along" => trim_along = kv.parse(),
+            "trim_across" => trim_across = kv.parse(),
+            "loads" => ls = kv.list(),
+            "uniform" => uniform = kv.value == "1",
+            "tol_gap" => tol_gap = kv.parse(),
+            "rel_width" => rel_width = kv.parse(),
+            "bracket" => bracket = kv.parse(),
+            other => panic!("unknown key {other:?}"),
         }
     }
     let solver = SolverOptions {

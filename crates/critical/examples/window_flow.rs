@@ -11,43 +11,28 @@
 //! -1e-2,-5e-3,-2e-3,-1e-3,-5e-4), `uniform` (1: also the uniform 2^(n+k) reference),
 //! `tol_gap` (1e-13), `rel_width` (1e-9), `bracket` (p_c bracket as fractions of p_fc, 0.2,0.25).
 use critical::window_flow::{CompareOptions, compare, running};
-use surface::Lattice;
+
+mod common;
 
 fn main() {
     let mut o = CompareOptions::default();
-    for arg in std::env::args().skip(1) {
-        let (key, value) = arg
-            .split_once('=')
-            .unwrap_or_else(|| panic!("argument {arg:?}: expected key=value"));
-        let bad = |e: &dyn std::fmt::Display| -> ! { panic!("{key} = {value:?}: {e}") };
-        match key {
-            "lattice" => o.lattice = value.parse::<Lattice>().unwrap_or_else(|e| bad(&e)),
-            "n" => o.base_n = value.parse().unwrap_or_else(|e| bad(&e)),
-            "k" => o.levels = value.parse().unwrap_or_else(|e| bad(&e)),
-            "region" => o.region = value.parse().unwrap_or_else(|e| bad(&e)),
-            "margin" => {
-                o.margin = (value != "none").then(|| value.parse().unwrap_or_else(|e| bad(&e)))
-            }
-            "trim_along" => o.trim_along = value.parse().unwrap_or_else(|e| bad(&e)),
-            "trim_across" => o.trim_across = value.parse().unwrap_or_else(|e| bad(&e)),
-            "loads" => {
-                o.loads = value
-                    .split(',')
-                    .map(|v| v.trim().parse().unwrap_or_else(|e| bad(&e)))
-                    .collect()
-            }
-            "uniform" => o.uniform = value == "1",
-            "tol_gap" => o.tol_gap = value.parse().unwrap_or_else(|e| bad(&e)),
-            "rel_width" => o.rel_width = value.parse().unwrap_or_else(|e| bad(&e)),
-            "bracket" => {
-                let (a, b) = value
-                    .split_once(',')
-                    .unwrap_or_else(|| bad(&"expected lo,hi (fractions of p_fc)"));
-                o.bracket = (
-                    a.parse().unwrap_or_else(|e| bad(&e)),
-                    b.parse().unwrap_or_else(|e| bad(&e)),
-                );
-            }
+    for kv in common::KeyValue::from_env() {
+        match kv.key.as_str() {
+            "lattice" => o.lattice = kv.parse(),
+            "n" => o.base_n = kv.parse(),
+            "k" => o.levels = kv.parse(),
+            "region" => o.region = kv.parse(),
+            "margin" => o.margin = kv.optional(),
+            "trim_along" => o.trim_along = kv.parse(),
+            "trim_across" => o.trim_across = kv.parse(),
+            "loads" => o.loads = kv.list(),
+            "uniform" => o.uniform = kv.value == "1",
+            "tol_gap" => o.tol_gap = kv.parse(),
+            "rel_width" => o.rel_width = kv.parse(),
+            "bracket" => match kv.list::<f64>()[..] {
+                [a, b] => o.bracket = (a, b),
+                _ => kv.bad(&"expected lo,hi (fractions of p_fc)"),
+            },
             other => panic!(
                 "unknown key {other:?}: lattice, n, k, region, margin, trim_along, trim_across, loads, uniform, tol_gap, rel_width, bracket"
             ),

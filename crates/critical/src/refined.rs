@@ -1038,12 +1038,12 @@ impl std::fmt::Display for PairFlag {
 
 /// A running exponent (ζ, υ or χ) between two neighbouring rungs.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RunningZeta {
+pub struct RunningPair {
     /// The rung farther from p_c (signed).
     pub l_hi: f64,
     /// The rung nearer p_c (signed).
     pub l_lo: f64,
-    /// Δ ln g_s / Δ ln |l| on the finest D.
+    /// Δ ln y / Δ ln |l| on the finest D (y = g_s, r_c or a).
     pub value: f64,
     /// |value − value on D with k − 1| (NaN if not measured).
     pub error_levels: f64,
@@ -1051,7 +1051,8 @@ pub struct RunningZeta {
     pub error_margin: f64,
     /// The grid error: the larger of the two (NaN if either is unknown).
     pub grid_error: f64,
-    /// 1σ from the solver tolerance on both gaps.
+    /// 1σ of the measurements: ζ from the solver tolerance on both gaps, υ and χ from the
+    /// edge fits.
     pub fit_error: f64,
     /// Why it must not be used silently, if so.
     pub flag: Option<PairFlag>,
@@ -1147,7 +1148,7 @@ pub fn running_zeta(
     margin: Option<&[RefinedRung]>,
     bound: f64,
     sigma: f64,
-) -> Vec<RunningZeta> {
+) -> Vec<RunningPair> {
     running_exponent(Measured::SaddleGap, fine, coarser, margin, bound, sigma)
 }
 
@@ -1163,7 +1164,7 @@ pub fn running_exponent(
     margin: Option<&[RefinedRung]>,
     bound: f64,
     sigma_gap: f64,
-) -> Vec<RunningZeta> {
+) -> Vec<RunningPair> {
     let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
     let other = |set: Option<&[RefinedRung]>, hi: f64, lo: f64| {
         set.and_then(|s| {
@@ -1194,7 +1195,7 @@ pub fn running_exponent(
             } else {
                 None
             });
-            RunningZeta {
+            RunningPair {
                 l_hi: hi,
                 l_lo: lo,
                 value: v,

@@ -701,19 +701,7 @@ mod tests {
     /// two (exact up to rounding).
     #[test]
     fn the_alias_sums_are_the_sampled_fine_kernel() {
-        let g = Geometry {
-            nx: 16,
-            ny: 12,
-            lx: 1.0,
-            ly: 0.8,
-            f: 2,
-            i0: 0,
-            j0: 0,
-            wx: 1,
-            wy: 1,
-            margin: 0,
-            order: 8,
-        };
+        let g = kernel_geometry(16, 12, 0.8);
         let (fx, fy) = (g.nx * g.f, g.ny * g.f);
         let t = table(&g, Kernel::Compliance, fx - 1, fy - 1);
         let tk = |i: isize, j: isize| {
@@ -768,6 +756,25 @@ mod tests {
     }
 }
 
+/// A geometry for tests of the kernels alone: nx × ny base cells of a 1 × `ly` cell, f = 2, a
+/// one-cell window at the origin.
+#[cfg(test)]
+fn kernel_geometry(nx: usize, ny: usize, ly: f64) -> Geometry {
+    Geometry {
+        nx,
+        ny,
+        lx: 1.0,
+        ly,
+        f: 2,
+        i0: 0,
+        j0: 0,
+        wx: 1,
+        wy: 1,
+        margin: 0,
+        order: 8,
+    }
+}
+
 #[cfg(test)]
 mod ringing {
     use super::*;
@@ -777,19 +784,7 @@ mod ringing {
     #[test]
     #[ignore]
     fn fine_kernel_has_a_grid_scale_component() {
-        let g = Geometry {
-            nx: 64,
-            ny: 32,
-            lx: 1.0,
-            ly: 1.3,
-            f: 2,
-            i0: 0,
-            j0: 0,
-            wx: 1,
-            wy: 1,
-            margin: 0,
-            order: 8,
-        };
+        let g = kernel_geometry(64, 32, 1.3);
         let (fx, fy) = (g.nx * g.f, g.ny * g.f);
         let t = table(&g, Kernel::Compliance, fx - 1, fy - 1);
         for j in [0usize, 1, 2] {

@@ -1,12 +1,73 @@
-//! What the random-surface examples (`selfaffine_ap`, `random_constrictions`) share: their
-//! positional arguments `N SEED_FIRST SEED_LAST [...]`, the ensemble's surface (isotropic
-//! self-affine, q_r = 2, rms slope 1, periodic, optionally sampled on a coarser grid) and the
-//! ensemble statistics. Not an example itself (a directory without `main.rs`).
+//! What the examples share: the random-surface examples' (`selfaffine_ap`,
+//! `random_constrictions`) positional arguments `N SEED_FIRST SEED_LAST [...]`, the ensemble's
+//! surface (isotropic self-affine, q_r = 2, rms slope 1, periodic, optionally sampled on a
+//! coarser grid) and the ensemble statistics; the refinement examples' (`window_flow`,
+//! `multi_window`) `key=value` arguments. Not an example itself (a directory without
+//! `main.rs`).
 
 #![allow(dead_code)] // each example uses part of it
 
+use std::fmt::Display;
 use std::str::FromStr;
 use surface::{Amplitudes, HeightField, Normalisation, SelfAffine};
+
+/// One `key=value` command-line argument.
+pub struct KeyValue {
+    /// Before the first `=`.
+    pub key: String,
+    /// After it.
+    pub value: String,
+}
+
+impl KeyValue {
+    /// The process's arguments; one without `=` panics naming it.
+    pub fn from_env() -> Vec<KeyValue> {
+        std::env::args()
+            .skip(1)
+            .map(|arg| {
+                let (key, value) = arg
+                    .split_once('=')
+                    .unwrap_or_else(|| panic!("argument {arg:?}: expected key=value"));
+                KeyValue {
+                    key: key.to_string(),
+                    value: value.to_string(),
+                }
+            })
+            .collect()
+    }
+
+    /// Panics naming the argument and `why`.
+    pub fn bad(&self, why: &dyn Display) -> ! {
+        panic!("{} = {:?}: {why}", self.key, self.value)
+    }
+
+    /// The value parsed as `T`; a bad one panics naming the argument.
+    pub fn parse<T: FromStr>(&self) -> T
+    where
+        T::Err: Display,
+    {
+        self.value.parse().unwrap_or_else(|e| self.bad(&e))
+    }
+
+    /// The value as a comma-separated list of `T`.
+    pub fn list<T: FromStr>(&self) -> Vec<T>
+    where
+        T::Err: Display,
+    {
+        self.value
+            .split(',')
+            .map(|v| v.trim().parse().unwrap_or_else(|e| self.bad(&e)))
+            .collect()
+    }
+
+    /// `none` as None, else the value parsed as `T`.
+    pub fn optional<T: FromStr>(&self) -> Option<T>
+    where
+        T::Err: Display,
+    {
+        (self.value != "none").then(|| self.parse())
+    }
+}
 
 /// Positional command-line arguments; a missing one takes its default.
 pub struct Positional(Vec<String>);
