@@ -270,6 +270,7 @@ fn read_rungs(path: &str, levels: u32, margin: usize) -> (f64, Vec<RefinedRung>)
                 half_width: (f64::NAN, f64::NAN),
                 half_length: (f64::NAN, f64::NAN),
                 edge_note: None,
+                flux: (f64::NAN, f64::NAN),
             });
         }
     }

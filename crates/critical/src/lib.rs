@@ -51,6 +51,7 @@ pub mod constriction;
 pub mod ladder;
 pub mod leakage;
 pub mod refined;
+pub mod refined_flow;
 pub mod running;
 pub mod saddle;
 pub mod scaling;

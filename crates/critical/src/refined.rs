@@ -670,6 +670,10 @@ pub struct RefinedRung {
     pub half_length: (f64, f64),
     /// Why the edge measurement of this rung failed, if it did.
     pub edge_note: Option<String>,
+    /// l < 0: the conductance along the channel through the composite gap and its 1σ
+    /// ([`crate::refined_flow`], filled by [`crate::refined_flow::ladder_with_flux`]); NaN if
+    /// not measured.
+    pub flux: (f64, f64),
 }
 
 /// The default reduced loads below p_c: −{5e-2, 2e-2, 1e-2, …, 2e-5, 1e-5}.
@@ -995,6 +999,7 @@ impl Refinement {
                 half_width,
                 half_length,
                 edge_note,
+                flux: (f64::NAN, f64::NAN),
             };
             on_rung(&rung, &r);
             rungs.push(rung);
@@ -1067,14 +1072,18 @@ pub enum Measured {
     OpenHalfWidth,
     /// χ: the blocked half-length a (l > 0); 1σ its fit's.
     BlockedHalfLength,
+    /// β: the conductance along the channel (l < 0, [`crate::refined_flow`]); 1σ the solver
+    /// tolerance propagated.
+    Flux,
 }
 
 impl Measured {
-    /// All three, in table order (ζ, υ, χ).
-    pub const ALL: [Measured; 3] = [
+    /// All four, in table order (ζ, υ, χ, β).
+    pub const ALL: [Measured; 4] = [
         Measured::SaddleGap,
         Measured::OpenHalfWidth,
         Measured::BlockedHalfLength,
+        Measured::Flux,
     ];
 
     /// The exponent's table name.
@@ -1083,6 +1092,7 @@ impl Measured {
             Measured::SaddleGap => "zeta",
             Measured::OpenHalfWidth => "upsilon",
             Measured::BlockedHalfLength => "chi",
+            Measured::Flux => "beta",
         }
     }
 
@@ -1099,6 +1109,7 @@ impl Measured {
             Measured::SaddleGap if r.l < 0.0 => (r.saddle_gap, sigma_gap),
             Measured::OpenHalfWidth if r.l < 0.0 => r.half_width,
             Measured::BlockedHalfLength if r.l > 0.0 => r.half_length,
+            Measured::Flux if r.l < 0.0 => r.flux,
             _ => return None,
         };
         if self != Measured::SaddleGap && !(y.is_finite() && y > 0.0) {
