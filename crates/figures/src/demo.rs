@@ -95,7 +95,9 @@ use ndarray::Array2;
 use crate::scenes::convergence::{ConvergenceData, ConvergenceSeries};
 use crate::scenes::fig3::{Fig3Data, GammaBranch, ModelGammaPath};
 use crate::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
-use crate::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit};
+use crate::scenes::fig6::{
+    CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit, SlopeLine,
+};
 use crate::scenes::maps::{ModelMap, ThreeMaps};
 use crate::scenes::tradeoff::{TradeoffCurve, TradeoffData};
 use crate::style::Model;
@@ -441,6 +443,18 @@ pub fn fig6(n: usize) -> Fig6Data {
             exponent_err: Some(0.05),
             prefactor: 0.6,
         }),
+        refined: vec![NormalisedFlux {
+            model: Model::Square,
+            distance: vec![1e-5, 1e-4, 1e-3],
+            flux: vec![1e-5f64.powf(3.4), 1e-4f64.powf(3.4), 1e-3f64.powf(3.45)],
+            flux_err: None,
+        }],
+        slopes: vec![SlopeLine {
+            model: Model::Square,
+            exponent: 3.4,
+            exponent_err: 0.02,
+            through: (1e-5, 1e-5f64.powf(3.4)),
+        }],
         current: Some(CurrentMap {
             jx,
             jy,

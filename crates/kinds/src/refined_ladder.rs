@@ -1,8 +1,8 @@
-//! `refined_ladder`: the saddle gap, the open channel's half-width and the blocked channel's
-//! half-length of one model at reduced loads down to |l| = 1e-5 on locally refined
+//! `refined_ladder`: the saddle gap, the open channel's half-width, the blocked channel's
+//! half-length and the flux of one model at reduced loads down to |l| = 1e-5 on locally refined
 //! discretisations (`critical::refined`: a window of `window` base cells around the axis saddle
 //! refined 2^k times, the rest of the periodic cell on the base grid), and their running
-//! exponents ζ_eff, υ_eff (l < 0) and χ_eff (l > 0) with grid errors. This is where the
+//! exponents ζ_eff, υ_eff, β_eff (l < 0) and χ_eff (l > 0) with grid errors. This is where the
 //! near-critical ladder goes below the uniform grids' reach (README "Near-critical exponents").
 //!
 //! # What is computed
@@ -14,13 +14,20 @@
 //! far-field interpolation error, which at |l| ~ 1e-5 is the largest one). On every rung the
 //! saddle gap (ζ, l < 0) and, on the fine window around the saddle
 //! (`Refinement::saddle_window`), the open half-width r_c (υ, l < 0, square-root onset) or the
-//! blocked half-length a (χ, l > 0, Hertz fit), as on the uniform ladders' windows. The running
+//! blocked half-length a (χ, l > 0, Hertz fit), as on the uniform ladders' windows; and below
+//! p_c(D) the flux (β, `critical::refined_flow`): for the square model the cell's conductivity
+//! K along the channel by the single-window series replacement, for the triangular and
+//! hexagonal models the refined saddle's own two-terminal conductance (its flow window between
+//! isobaric end lines; a single refined window makes the cell's coarse saddles close early, so
+//! the cell's K is wrong there, while the critical neck's conductance has the exponent β). The
+//! running
 //! exponents (`critical::refined::running_exponent`): between neighbouring rungs of the finest D
 //! that measure the quantity, the grid error the larger of the change from the next coarser D
 //! and from the margin check, flagged above 0.005, when unknown, when a rung's window is too
 //! small or its solve did not converge, or when the window's contact set did not change between
 //! the two rungs. Fit errors: ζ from the solver tolerance (`tol_gap`, the 1σ of a node value,
-//! relative to g_s); υ, χ from the edge fits' 1σ (0 for a fit without a degree of freedom).
+//! relative to g_s); υ, χ from the edge fits' 1σ (0 for a fit without a degree of freedom); β
+//! from the solver tolerance propagated to the flux (σ_K/K = 3 tol_gap/g_s, K ∝ g_s^(β/ζ)).
 //!
 //! # Parameters
 //! `lattice`, `base` (base grid exponent), `levels` (ascending k, 1..=6; two or more give the
@@ -30,13 +37,15 @@
 //!
 //! # Artefact
 //! Root attributes `lattice`, `base`, `window`, `spacing` (finest fine spacing, λ), `p_fc`
-//! (the base grid's p_fc), `tol_gap`; per discretisation `d/<i>` (coarse to fine, then the margin check)
+//! (the base grid's p_fc), `tol_gap`, `flux_method` (`series` or `saddle_window`); per discretisation `d/<i>` (coarse to fine, then the margin check)
 //! attributes `levels`, `margin`, `p_c`, `p_c_lo`, `p_c_hi`, `probes`, `spacing`, `wall_s`,
 //! `iterations` and datasets ([`RefinedRungRow`]) `l`, `load`, `saddle_gap`, `contact_area`,
 //! `iterations`, `wall_s`, `neck_nodes`, `flagged`, `half_width`, `half_width_error`,
-//! `half_length`, `half_length_error` (NaN where not measured) plus `flag` (strings, empty if
-//! none) and `edge_note` (why an edge fit failed, empty if none); the running exponents
-//! `running/*` (ζ), `running_upsilon/*` and `running_chi/*` ([`RefinedPairRow`]: `l_hi`,
+//! `half_length`, `half_length_error`, `conductance`, `conductance_error` (NaN where not
+//! measured) plus `flag` (strings, empty if none), `edge_note` (why an edge fit failed, empty if
+//! none) and `flux_note` (why the flux was not measured, empty if it was); the running exponents
+//! `running/*` (ζ), `running_upsilon/*`, `running_chi/*` and `running_beta/*`
+//! ([`RefinedPairRow`]: `l_hi`,
 //! `l_lo`, `value`, `error_levels`, `error_margin`, `grid_error`, `fit_error`) and their
 //! `flag`s.
 
@@ -47,6 +56,7 @@ use critical::refined::{
     ClosingLoad, Discretisation, LadderPair, Measured, RefinedOptions, RefinedRung, Refinement,
     base_guess, running_exponent,
 };
+use critical::refined_flow::{FluxMethod, ladder_with_flux};
 use formats::records::{Record, read_in};
 use orchestrator::{
     InputSpec, Inputs, ParamIssue, ParamSpec, ParamType, StageContext, StageReport, TypedKind,
@@ -60,7 +70,7 @@ use surface::Lattice;
 pub struct RefinedLadderKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 3;
+pub const CODE_VERSION: u64 = 4;
 
 /// The running exponents' grid-error bound (as the uniform ladders', issue 13).
 pub const GRID_BOUND: f64 = 0.005;
@@ -122,7 +132,7 @@ impl TypedKind for RefinedLadderKind {
         CODE_VERSION
     }
     fn doc(&self) -> &str {
-        "the saddle gap at reduced loads down to 1e-5 on locally refined discretisations (one window around the axis saddle refined 2^k times), each from its own p_c, and the running ζ with level and margin errors"
+        "the saddle gap, channel width and length and flux at reduced loads down to 1e-5 on locally refined discretisations (one window around the axis saddle refined 2^k times), each from its own p_c, and the running ζ, υ, χ, β with level and margin errors"
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
@@ -246,6 +256,7 @@ impl TypedKind for RefinedLadderKind {
             plan.push(finest.with_margin(params.margin_check as usize));
         }
         let (mut guess, mut width) = (base.p_c(), 2e-4);
+        let method = FluxMethod::of(params.lattice);
         let mut runs = Vec::new();
         for (i, &disc) in plan.iter().enumerate() {
             ctx.progress(
@@ -255,9 +266,15 @@ impl TypedKind for RefinedLadderKind {
             let t = std::time::Instant::now();
             let mut r = Refinement::new(disc, &opts)?;
             let c = r.critical_load(Some(guess), width)?;
-            let rungs = r.ladder(c.p_c(), &params.ls, &mut |_, _| {})?;
+            let (rungs, fluxes) =
+                ladder_with_flux(&mut r, c.p_c(), &params.ls, method, &mut |_, _| {})?;
             let wall = t.elapsed().as_secs_f64();
             write_discretisation(out, &format!("d/{i}"), disc, &c, &rungs, wall, r.iterations)?;
+            let notes: Vec<String> = fluxes
+                .iter()
+                .map(|f| f.as_ref().err().cloned().unwrap_or_default())
+                .collect();
+            out.write_strings(&format!("d/{i}/flux_note"), &notes)?;
             // the next discretisation's p_c lies within ~1e-6 of this one's (critical::refined)
             (guess, width) = (c.p_c(), 2e-5);
             runs.push((disc, c, rungs));
@@ -299,6 +316,7 @@ impl TypedKind for RefinedLadderKind {
         out.set_attr("spacing", finest.spacing())?;
         out.set_attr("p_fc", p_fc)?;
         out.set_attr("tol_gap", params.tol_gap)?;
+        out.set_attr("flux_method", method.name())?;
         ctx.progress(1.0, "written");
         Ok(StageReport::with_stats(json!({
             "p_c_over_p_fc": runs.iter().map(|r| r.1.p_c() / p_fc).collect::<Vec<_>>(),
@@ -308,13 +326,14 @@ impl TypedKind for RefinedLadderKind {
     }
 }
 
-/// The artefact group of a measured quantity's running exponents (`running` for ζ, as before υ
-/// and χ were measured).
+/// The artefact group of a measured quantity's running exponents (`running` for ζ, as before υ,
+/// χ and β were measured).
 pub fn running_group(m: Measured) -> &'static str {
     match m {
         Measured::SaddleGap => "running",
         Measured::OpenHalfWidth => "running_upsilon",
         Measured::BlockedHalfLength => "running_chi",
+        Measured::Flux => "running_beta",
     }
 }
 
@@ -343,6 +362,8 @@ fn write_discretisation(
             half_width_error: r.half_width.1,
             half_length: r.half_length.0,
             half_length_error: r.half_length.1,
+            conductance: r.flux.0,
+            conductance_error: r.flux.1,
         })
         .collect();
     RefinedRungRow::write(&rows, out, at)?;
@@ -396,6 +417,10 @@ formats::record! {
         pub half_length: f64,
         /// Its fit's 1σ.
         pub half_length_error: f64,
+        /// l < 0: the flux's conductance (`critical::refined_flow`), NaN if not measured.
+        pub conductance: f64,
+        /// Its 1σ (the solver tolerance propagated).
+        pub conductance_error: f64,
     }
 }
 
@@ -408,7 +433,7 @@ formats::record! {
         pub l_hi: f64,
         /// The rung nearer p_c (signed).
         pub l_lo: f64,
-        /// ζ_eff, υ_eff or χ_eff.
+        /// ζ_eff, υ_eff, χ_eff or β_eff.
         pub value: f64,
         /// |change from the next coarser level| (NaN if unknown).
         pub error_levels: f64,
@@ -416,7 +441,7 @@ formats::record! {
         pub error_margin: f64,
         /// The larger of the two (NaN if either is unknown).
         pub grid_error: f64,
-        /// ζ: from the solver tolerance; υ, χ: from the edge fits.
+        /// ζ, β: from the solver tolerance; υ, χ: from the edge fits.
         pub fit_error: f64,
     }
 }
@@ -451,14 +476,16 @@ pub struct RefinedData {
     pub tol_gap: f64,
     /// Discretisations, as computed (coarse to fine, then the margin check).
     pub levels: Vec<RefinedLevel>,
-    /// Running exponents of the finest discretisation (ζ, then υ, then χ) with their flags.
+    /// What the flux measures (`series` or `saddle_window`, `critical::refined_flow`).
+    pub flux_method: String,
+    /// Running exponents of the finest discretisation (ζ, υ, χ, then β) with their flags.
     pub running: Vec<RefinedPair>,
 }
 
 /// One running-exponent pair as read back.
 #[derive(Clone, Debug)]
 pub struct RefinedPair {
-    /// What it measures (ζ, υ, χ).
+    /// What it measures (ζ, υ, χ, β).
     pub exponent: Measured,
     /// The pair.
     pub row: RefinedPairRow,
@@ -518,6 +545,7 @@ impl RefinedData {
             window: r.attr_i64("window")? as u32,
             spacing: r.attr_f64("spacing")?,
             tol_gap: r.attr_f64("tol_gap")?,
+            flux_method: r.attr_str("flux_method")?,
             levels,
             running,
         })
@@ -531,7 +559,7 @@ impl RefinedData {
     }
 
     /// The finest discretisation's measurements of `m` as scaling points (ζ: saddle gap, 1σ
-    /// `tol_gap`; υ, χ: the edge fits, 1σ theirs, 0 if NaN; rungs without a measurement left
+    /// `tol_gap`; υ, χ: the edge fits, 1σ theirs, 0 if NaN; β: the conductance, 1σ its own; rungs without a measurement left
     /// out, as `critical::refined::Measured::point`).
     pub fn points(&self, m: Measured) -> Vec<ScalingPoint> {
         let Some(f) = self.finest() else {
@@ -546,6 +574,7 @@ impl RefinedData {
                     Measured::BlockedHalfLength if r.l > 0.0 => {
                         (r.half_length, r.half_length_error)
                     }
+                    Measured::Flux if r.l < 0.0 => (r.conductance, r.conductance_error),
                     _ => return None,
                 };
                 (y.is_finite() && y > 0.0)

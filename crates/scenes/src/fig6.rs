@@ -18,11 +18,19 @@
 //!   `ladder/<lattice>/flux_err` (1σ); optional root attributes `beta`, `beta_err`,
 //!   `beta_prefactor` (the fit Q/Q_0 = prefactor · distance^β drawn over the data). Several
 //!   `ladder` artefacts may each hold some of the models; the fit is taken from the first one
-//!   that carries `beta` and `beta_prefactor`.
+//!   that carries `beta` and `beta_prefactor`. Optional, from a run with refined ladders
+//!   ([`exponents::read_refined_flux_curve`], [`exponents::read_asymptotic_slope`]): per model
+//!   `ladder/<lattice>/refined/{distance, flux}` (the refined ladder's flux in the same
+//!   normalisation, drawn as filled diamonds) and the attributes `beta_asymptotic`,
+//!   `beta_asymptotic_error`, `beta_asymptotic_distance`, `beta_asymptotic_flux` on
+//!   `ladder/<lattice>` (the asymptotic β drawn as a dashed line in the model's colour through
+//!   that point, from its distance to the largest drawn).
 
 use crate::scene::{OutputSpec, Outputs, Scene, scene_params};
 use anyhow::{Result, bail};
-use figures::scenes::fig6::{CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit};
+use figures::scenes::fig6::{
+    CurrentMap, Fig6Data, FlowCurve, NormalisedFlux, PowerLawFit, SlopeLine,
+};
 use figures::style::Model;
 use kinds::exponents;
 use kinds::flow::FlowData;
@@ -51,14 +59,53 @@ pub fn inputs() -> Vec<InputSpec> {
     ]
 }
 
-/// The bottom-left panel's data from the `ladder` inputs (contract in the module docs): the
-/// normalised-flux points per model and the power-law fit, if any.
-pub fn read_ladder(inputs: &Inputs) -> Result<(Vec<NormalisedFlux>, Option<PowerLawFit>)> {
+/// The bottom-left panel's data from the `ladder` inputs (contract in the module docs).
+#[derive(Clone, Debug, Default)]
+pub struct LadderPanel {
+    /// The normalised-flux points per model (uniform ladders).
+    pub points: Vec<NormalisedFlux>,
+    /// The pooled power-law fit, if any.
+    pub fit: Option<PowerLawFit>,
+    /// The refined ladders' flux per model, same normalisation.
+    pub refined: Vec<NormalisedFlux>,
+    /// The models' asymptotic slopes.
+    pub slopes: Vec<SlopeLine>,
+}
+
+/// The bottom-left panel's data from the `ladder` inputs (contract in the module docs).
+pub fn read_ladder(inputs: &Inputs) -> Result<LadderPanel> {
     let mut points = Vec::new();
     let mut fit = None;
+    let mut refined = Vec::new();
+    let mut slopes = Vec::new();
     for r in inputs.all("ladder") {
         let file = r.path().display();
         for m in Model::ALL {
+            if let Some(c) = exponents::read_refined_flux_curve(r, m.name())? {
+                if let Some(p) = c.iter().find(|p| !(p.distance > 0.0 && p.flux > 0.0)) {
+                    bail!(
+                        "`{file}`: ladder/{}/refined has distance {} and flux {}; both must be > 0 \
+                         (log–log panel)",
+                        m.name(),
+                        p.distance,
+                        p.flux
+                    );
+                }
+                refined.push(NormalisedFlux {
+                    model: m,
+                    distance: c.iter().map(|p| p.distance).collect(),
+                    flux: c.iter().map(|p| p.flux).collect(),
+                    flux_err: None,
+                });
+            }
+            if let Some(s) = exponents::read_asymptotic_slope(r, m.name())? {
+                slopes.push(SlopeLine {
+                    model: m,
+                    exponent: s.beta,
+                    exponent_err: s.error,
+                    through: s.through,
+                });
+            }
             let Some(curve) = exponents::read_flux_curve(r, m.name())? else {
                 continue;
             };
@@ -90,7 +137,12 @@ pub fn read_ladder(inputs: &Inputs) -> Result<(Vec<NormalisedFlux>, Option<Power
             });
         }
     }
-    Ok((points, fit))
+    Ok(LadderPanel {
+        points,
+        fit,
+        refined,
+        slopes,
+    })
 }
 
 /// The model of a lattice name.
@@ -233,7 +285,7 @@ pub fn data(
         [r] => Some(current_map(r, params)?),
         _ => None,
     };
-    let (normalised, fit) = read_ladder(inputs)?;
+    let panel = read_ladder(inputs)?;
     let data = Fig6Data {
         flow: curves,
         load_label: if unit == "p_fc" {
@@ -243,9 +295,11 @@ pub fn data(
         },
         flux_label: "conductivity $K$ / $h$_0^3".into(),
         flux_log: params.flux_log,
-        normalised,
+        normalised: panel.points,
         distance_label: "($L$_c − $L$)/$L$_c".into(),
-        fit,
+        fit: panel.fit,
+        refined: panel.refined,
+        slopes: panel.slopes,
         current,
     };
     Ok((data, json!({ "curves": stats })))
@@ -316,7 +370,7 @@ impl Scene for Fig6 {
         "Figure 6: flux against load, near-critical current density and flux ladder (figure, points and stops tables)"
     }
     fn code_version(&self) -> u64 {
-        1
+        2
     }
     fn fields_read(&self) -> u64 {
         3
@@ -407,6 +461,8 @@ mod tests {
             normalised: Vec::new(),
             distance_label: String::new(),
             fit: None,
+            refined: Vec::new(),
+            slopes: Vec::new(),
             current: None,
         };
         let png = figures::scenes::fig6::figure(&d)
@@ -443,8 +499,38 @@ mod tests {
             w.set_attr("beta", 3.45).unwrap();
             w.set_attr("beta_err", 0.05).unwrap();
             w.set_attr("beta_prefactor", 0.7).unwrap();
+            w.write_f64_1d("ladder/square/refined/distance", &[1e-4, 1e-3])
+                .unwrap();
+            w.write_f64_1d("ladder/square/refined/flux", &[1e-12, 3e-9])
+                .unwrap();
+            for (k, v) in [
+                ("beta_asymptotic", 3.4),
+                ("beta_asymptotic_error", 0.02),
+                ("beta_asymptotic_distance", 1e-4),
+                ("beta_asymptotic_flux", 1e-12),
+            ] {
+                w.set_attr_at("ladder/square", k, v).unwrap();
+            }
         });
-        let (points, fit) = read_ladder(&inputs).unwrap();
+        let LadderPanel {
+            points,
+            fit,
+            refined,
+            slopes,
+        } = read_ladder(&inputs).unwrap();
+        assert_eq!(refined.len(), 1);
+        assert_eq!(refined[0].model, Model::Square);
+        assert_eq!(refined[0].distance, [1e-4, 1e-3]);
+        assert_eq!(refined[0].flux, [1e-12, 3e-9]);
+        assert_eq!(
+            slopes,
+            [SlopeLine {
+                model: Model::Square,
+                exponent: 3.4,
+                exponent_err: 0.02,
+                through: (1e-4, 1e-12)
+            }]
+        );
         assert_eq!(points.len(), 2);
         assert_eq!(points[0].model, Model::Square);
         assert_eq!(points[0].distance, [0.002, 0.01]);
@@ -478,8 +564,9 @@ mod tests {
         );
 
         let none = Inputs::new(Default::default());
-        let (points, fit) = read_ladder(&none).unwrap();
-        assert!(points.is_empty() && fit.is_none());
+        let p = read_ladder(&none).unwrap();
+        assert!(p.points.is_empty() && p.fit.is_none());
+        assert!(p.refined.is_empty() && p.slopes.is_empty());
     }
 
     #[test]

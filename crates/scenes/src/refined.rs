@@ -1,11 +1,12 @@
 //! The refined ladder (scene `refined`): the running exponents ζ_eff (saddle gap), υ_eff (open
-//! half-width) and χ_eff (blocked half-length, l > 0) below the uniform grids' reach, from one
+//! half-width), χ_eff (blocked half-length, l > 0) and β_eff (flux, `critical::refined_flow`)
+//! below the uniform grids' reach, from one
 //! `refined_ladder` stage per model (`kinds::refined_ladder`, `critical::refined`). The same
 //! pairs enter `running_exponents.csv` (scene `running`, `method` = `refined`).
 //!
 //! Outputs (`results/tables/`):
 //! - `refined_running.csv`: per model and neighbouring pair of rungs of the finest
-//!   discretisation: `model`, `exponent` ("zeta", "upsilon", "chi"), `l_hi`, `l_lo` (signed; from that
+//!   discretisation: `model`, `exponent` ("zeta", "upsilon", "chi", "beta"), `l_hi`, `l_lo` (signed; from that
 //!   discretisation's own p_c), `value`, `grid_error` (the larger of `error_levels`, the change
 //!   from the next coarser level, and `error_margin`, the change from the margin check; NaN if
 //!   either is unknown), `fit_error`, `resolution` (finest fine spacing, λ), `error_levels`,
@@ -19,7 +20,10 @@
 //!   through the saddle), `iterations`, `flag` (the wall times stay in the stages' artefacts:
 //!   a table is the same on every recomputation), then `half_width`, `half_width_error` (l < 0:
 //!   the open channel's r_c and its fit's 1σ, λ) and `half_length`, `half_length_error` (l > 0:
-//!   the blocked channel's a), NaN where not measured.
+//!   the blocked channel's a), `conductance`, `conductance_error` (l < 0: the flux of
+//!   `critical::refined_flow`, square: the cell's conductivity along the channel, triangular and
+//!   hexagonal: the refined saddle's two-terminal window conductance; its 1σ from the solver
+//!   tolerance), NaN where not measured.
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
@@ -86,6 +90,8 @@ pub fn rungs_table(data: &[RefinedData]) -> Table {
         .with_f64("half_width_error", f(&|(_, _, r)| r.0.half_width_error))
         .with_f64("half_length", f(&|(_, _, r)| r.0.half_length))
         .with_f64("half_length_error", f(&|(_, _, r)| r.0.half_length_error))
+        .with_f64("conductance", f(&|(_, _, r)| r.0.conductance))
+        .with_f64("conductance_error", f(&|(_, _, r)| r.0.conductance_error))
 }
 
 impl Scene for Refined {
@@ -93,10 +99,10 @@ impl Scene for Refined {
         "refined"
     }
     fn doc(&self) -> &'static str {
-        "the running ζ, υ, χ below the uniform grids' reach from locally refined ladders (tables refined_running.csv and refined_rungs.csv)"
+        "the running ζ, υ, χ, β below the uniform grids' reach from locally refined ladders (tables refined_running.csv and refined_rungs.csv)"
     }
     fn code_version(&self) -> u64 {
-        2
+        3
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![

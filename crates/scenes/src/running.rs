@@ -8,7 +8,7 @@
 //! Inputs `ladder`: one `ladder` stage per model (two or more levels each give grid errors; one
 //! level flags every pair as "grid error unknown"); optional `refined`: `refined_ladder` stages
 //! (`kinds::refined_ladder`, one per model; a preset without them gives the uniform rows only),
-//! whose running ζ, υ, χ pairs are added as rows of their own.
+//! whose running ζ, υ, χ and β pairs are added as rows of their own.
 //!
 //! Output `running_exponents.csv`, one row per model, exponent, neighbouring pair of rungs and
 //! method (uniform rows first, then the refined ones):
@@ -24,10 +24,15 @@
 //! finest fine spacing, λ; `grid_error` the larger of the change from the discretisation with
 //! one level fewer and from the margin check, NaN if either is unknown; `fit_error` for ζ the
 //! solver tolerance `tol_gap` as the 1σ of each saddle gap (a node value: no fit), relative to
-//! g_s and propagated to the slope, for υ and χ the edge fits' 1σ propagated likewise; `flag` as
+//! g_s and propagated to the slope, for υ and χ the edge fits' 1σ propagated likewise, for β
+//! the solver tolerance propagated to the flux (σ_K/K = 3 tol_gap/g_s); `flag` as
 //! the refined kind gives it: grid error above 0.005 or unknown, a rung whose window is too
 //! small or whose solve did not converge, a pair over which the window's contact set did not
-//! change). The refined pairs' l are measured from the refined discretisation's own p_c.
+//! change). The refined pairs' l are measured from the refined discretisation's own p_c. The
+//! refined β is the slope of the refined ladder's flux (`critical::refined_flow`): the square
+//! cell's conductivity along the channel, the triangular and hexagonal refined saddle's own
+//! two-terminal conductance (one refined window cannot give their cell's K; the neck's
+//! conductance has the same exponent).
 //!
 //! Output figure `running_exponents` (PNG, SVG; `figures::scenes::running`): one panel per
 //! exponent, the local slope against the pair's geometric-mean |l| (log axis), the three models,
@@ -110,6 +115,7 @@ pub fn refined_rows(d: &RefinedData) -> Vec<Row> {
                     Measured::SaddleGap => Exponent::Zeta,
                     Measured::OpenHalfWidth => Exponent::Upsilon,
                     Measured::BlockedHalfLength => Exponent::Chi,
+                    Measured::Flux => Exponent::Beta,
                 },
                 l_hi: p.row.l_hi,
                 l_lo: p.row.l_lo,
@@ -220,14 +226,14 @@ impl Scene for Running {
         "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors, from the uniform ladders and (optional) the refined ones (table and figure)"
     }
     fn code_version(&self) -> u64 {
-        3
+        4
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
             InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model"),
             InputSpec::many("refined", &["refined_ladder"])
                 .optional()
-                .doc("one `refined_ladder` stage per model (optional): its running ζ, υ, χ as `refined` rows"),
+                .doc("one `refined_ladder` stage per model (optional): its running ζ, υ, χ, β as `refined` rows"),
         ]
     }
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {

@@ -87,9 +87,12 @@ fn the_ladder_sits_at_its_reduced_loads_around_the_critical_stage() {
     assert!(dir.path().join("figures/fig5.png").exists());
     // Figure 6's bottom-left panel reads the exponents artefact as its `ladder` input
     let ex = reader(&plan, &ws, "ex");
-    let (points, _) =
+    let panel =
         stages::scenes::fig6::read_ladder(&Inputs::new([("ladder".to_string(), vec![ex])].into()))
             .unwrap();
+    let points = panel.points;
+    // no refined ladder in this chain: no refined points, and no asymptotic β on these grids
+    assert!(panel.refined.is_empty() && panel.slopes.is_empty());
     assert_eq!(points.len(), 1);
     let sq = d.levels.last().unwrap();
     let below: Vec<_> = sq.rungs.iter().filter(|r| r.l < 0.0).collect();
@@ -147,7 +150,7 @@ params = { ns = [4], ls = [-0.01] }
     );
 }
 
-/// The refined ladder feeds the results: its running ζ, υ, χ pairs become `refined` rows of
+/// The refined ladder feeds the results: its running ζ, υ, χ, β pairs become `refined` rows of
 /// `running_exponents.csv` (the same values as `refined_running.csv`), the uniform rows are
 /// those of a run without it, and `exponents.csv` says which ladder each asymptotic estimate
 /// used and keeps the uniform-only one.
@@ -194,7 +197,7 @@ inputs = { refined = ["ref"] }
             );
         }
     }
-    // the refined rows are refined_running.csv's, in order, ζ, υ and χ
+    // the refined rows are refined_running.csv's, in order, ζ, υ, χ and β
     let r = read(dir.path(), "refined_running.csv");
     assert_eq!(method.len() - n_uniform, r.n_rows());
     assert!(r.n_rows() >= 3);
@@ -207,8 +210,22 @@ inputs = { refined = ["ref"] }
         assert_eq!(v[n_uniform + k], rv[k]);
         assert_eq!(fl[n_uniform + k], rfl[k]);
     }
-    for e in ["zeta", "upsilon", "chi"] {
+    for e in ["zeta", "upsilon", "chi", "beta"] {
         assert!(rex.iter().any(|x| x == e), "no refined {e} pair: {rex:?}");
+    }
+    // every rung below p_c has a flux (square: the cell's K, positive and falling towards p_c),
+    // none above it
+    let rungs = read(dir.path(), "refined_rungs.csv");
+    let (l, k) = (rungs.f64("l").unwrap(), rungs.f64("conductance").unwrap());
+    for j in 0..rungs.n_rows() {
+        if l[j] < 0.0 {
+            assert!(k[j] > 0.0, "rung {j}: l = {}, K = {}", l[j], k[j]);
+        } else {
+            assert!(k[j].is_nan(), "rung {j}: l = {}, K = {}", l[j], k[j]);
+        }
+        if j > 0 && l[j] < 0.0 && l[j - 1] < l[j] {
+            assert!(k[j] < k[j - 1], "K does not fall towards p_c at rung {j}");
+        }
     }
     // exponents.csv: the same columns with or without the refined ladder, ending with the
     // method and the uniform-only estimate; with these grids no ladder has a grid-converged

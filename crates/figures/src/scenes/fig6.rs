@@ -1,6 +1,9 @@
 //! Figure 6. Top: flux through the interface against load for the three models, γ0 = 0 solid,
 //! γ0 > 0 dashed with the end point (where flow stops discontinuously) marked. Bottom left:
-//! normalised flux against L_c − L, log–log, with the fitted power law (slope β). Bottom
+//! normalised flux against L_c − L, log–log, with the fitted power law (slope β); the refined
+//! ladder's flux continuing the uniform points (filled diamonds in the model's colour) and each
+//! model's asymptotic β as a dashed line in its colour, from its estimate's smallest distance
+//! to the largest drawn. Bottom
 //! right: the Reynolds current density in the critical region (|j| colour-coded, contact
 //! white, arrows for the direction).
 
@@ -13,7 +16,9 @@ use crate::axes::Axis;
 use crate::canvas::{HAlign, Rect, VAlign};
 use crate::figure::Figure;
 use crate::heatmap::{ColorbarPos, Colormap, HeatmapPanel, Overlay};
-use crate::style::{DARK_GREY, MarkerStyle, Model, Stroke, WHITE, model_color, model_marker};
+use crate::style::{
+    DARK_GREY, Marker, MarkerStyle, Model, Stroke, WHITE, model_color, model_marker,
+};
 use crate::xy::{Annotation, LegendEntry, LegendPos, Series, XyPanel};
 
 /// Flux against load for one model and one surface energy.
@@ -42,6 +47,19 @@ pub struct NormalisedFlux {
     pub flux: Vec<f64>,
     /// Optional 1σ errors of the flux.
     pub flux_err: Option<Vec<f64>>,
+}
+
+/// A model's asymptotic slope: a dashed line through `through` with slope `exponent`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SlopeLine {
+    /// Model (colour).
+    pub model: Model,
+    /// Slope (β).
+    pub exponent: f64,
+    /// Its 1σ (NaN: not shown).
+    pub exponent_err: f64,
+    /// A point of the line (distance, normalised flux); the line starts there.
+    pub through: (f64, f64),
 }
 
 /// A fitted power law y = prefactor · x^exponent.
@@ -93,6 +111,10 @@ pub struct Fig6Data {
     pub distance_label: String,
     /// Fitted power law, drawn over the data's range with a slope label.
     pub fit: Option<PowerLawFit>,
+    /// Bottom-left: the refined ladders' flux (same normalisation as `normalised`).
+    pub refined: Vec<NormalisedFlux>,
+    /// Bottom-left: the models' asymptotic slopes.
+    pub slopes: Vec<SlopeLine>,
     /// Bottom-right map.
     pub current: Option<CurrentMap>,
 }
@@ -205,7 +227,56 @@ fn bottom_left(d: &Fig6Data) -> Result<XyPanel> {
             }
         }
     }
-    if d.normalised.is_empty() {
+    for n in &d.refined {
+        ensure!(
+            n.distance.len() == n.flux.len(),
+            "refined flux ({}): lengths differ",
+            n.model.name()
+        );
+        let col = model_color(n.model);
+        let mut s = Series::points(
+            n.distance.clone(),
+            n.flux.clone(),
+            MarkerStyle::filled(Marker::Diamond, col).size(4.5),
+        );
+        if let Some(e) = &n.flux_err {
+            s = s.y_err(e.clone());
+        }
+        p.series.push(s);
+        for &x in &n.distance {
+            if x > 0.0 {
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
+        }
+    }
+    for sl in &d.slopes {
+        if !(sl.through.0 > 0.0 && sl.through.1 > 0.0 && hi > sl.through.0) {
+            continue;
+        }
+        let label = if sl.exponent_err.is_finite() {
+            format!(
+                "{}: $β$_∞ = {} ± {}",
+                sl.model.name(),
+                crate::text::fmt_num(sl.exponent, 2),
+                crate::text::fmt_num(sl.exponent_err, 2)
+            )
+        } else {
+            format!(
+                "{}: $β$_∞ = {}",
+                sl.model.name(),
+                crate::text::fmt_num(sl.exponent, 2)
+            )
+        };
+        p.annotations.push(Annotation::PowerLaw {
+            x_range: (sl.through.0, hi),
+            through: sl.through,
+            exponent: sl.exponent,
+            stroke: Stroke::dashed(model_color(sl.model)).width(1.0),
+            label: Some(label),
+        });
+    }
+    if d.normalised.is_empty() && d.refined.is_empty() {
         // the near-critical study provides this panel; say so instead of leaving it blank
         p.x = p.x.clone().range(0.1, 10.0);
         p.y = p.y.clone().range(0.1, 10.0);

@@ -15,7 +15,7 @@
 //! [`analysis::verdict`]).
 //!
 //! # The combined ladder ([`estimate_combined`])
-//! With a `refined_ladder` of the same model (ζ, υ, χ; β has no refined flux yet), the fit
+//! With a `refined_ladder` of the same model (ζ, υ, χ, and β from its flux), the fit
 //! takes, pair by pair, the best grid-converged value available
 //! (`critical::refined::combined_ladder`): the uniform finest grid's rungs from the largest |l|
 //! down to the first flagged pair (grid error, unknown grid error or anisotropy, as above),
@@ -26,7 +26,14 @@
 //! when it has no usable pair at the junction, this is the uniform estimate exactly. The
 //! uniform-only estimate is kept beside it (`uniform_asymptotic_*` in `exponents.csv`) so that
 //! the change is traceable; `asymptotic_method` says which ladder the estimate used and where
-//! the refined one took over.
+//! the refined one took over. For β the uniform rungs give the cell's flux and the refined
+//! ones the refined ladder's conductance (`critical::refined_flow`): the square cell's K
+//! (the same quantity up to the cell's aspect ratio, which the rescaling absorbs), the
+//! triangular and hexagonal refined saddle's own two-terminal conductance (another quantity
+//! with the same exponent: its local slopes differ from the cell's by a term that falls like
+//! the rest of the cell's share of the resistance, ≤ 1.1e-2 at 0.02 → 0.002 on 256²,
+//! `critical::refined_flow`'s test). The identity 3ζ + υ − χ is taken from the combined
+//! estimates of ζ, υ and χ where all three exist (`beta_identity_asymptotic_*`).
 //!
 //! # Verdict ([`verdict`])
 //! The deviation of the asymptotic estimate from the conjecture (6/5, 9/20, 3/5, 69/20) in σ of
@@ -220,13 +227,13 @@ pub fn estimate(levels: &[Resolution]) -> Result<Asymptotic, String> {
     Ok(from_estimate(&e))
 }
 
-/// The refined quantity of an exponent (None: β, which the refined ladder does not measure).
+/// The refined quantity of an exponent (β: the refined ladder's flux).
 pub fn refined_measure(e: Which) -> Option<Measured> {
     match e {
         Which::Zeta => Some(Measured::SaddleGap),
         Which::Upsilon => Some(Measured::OpenHalfWidth),
         Which::Chi => Some(Measured::BlockedHalfLength),
-        Which::Beta => None,
+        Which::Beta => Some(Measured::Flux),
     }
 }
 
@@ -240,6 +247,8 @@ pub struct Combined {
     pub note: Option<String>,
     /// Rungs of the combined ladder (uniform, refined).
     pub rungs: (usize, usize),
+    /// Where the refined ladder took over (signed l), if it did.
+    pub junction: Option<f64>,
 }
 
 /// The asymptotic estimate of exponent `e` of `model` from the combined ladder (module docs):
@@ -270,6 +279,7 @@ pub fn estimate_combined(
                     method: "uniform".into(),
                     note: None,
                     rungs: (0, 0),
+                    junction: None,
                 };
                 return (Err(err.to_string()), c);
             }
@@ -292,6 +302,7 @@ pub fn estimate_combined(
         method,
         note: (!rpoints.is_empty()).then_some(c.note.clone()).flatten(),
         rungs: (c.points.len() - nref, nref),
+        junction: c.junction,
     };
     let est = analysis::asymptotic_estimate(&c.points, &AsymptoticOptions::default())
         .map(|a| from_estimate(&a))
@@ -382,20 +393,35 @@ mod tests {
         0.3 * a.powf(1.2) * (1.0 + 0.8 * a.sqrt())
     }
 
+    /// A flux 0.05|l|^3.45 (1 − 0.6|l|^0.4).
+    fn flux(a: f64) -> f64 {
+        0.05 * a.powf(3.45) * (1.0 - 0.6 * a.powf(0.4))
+    }
+
     /// [`corrected`] on [`LS`] (l < 0) at `spacing`, drifting by the factor 1 + `drift` per rung
     /// below 1e-3 (an unresolved grid).
     fn level(spacing: f64, drift: f64) -> Resolution {
         Resolution {
-            spacing,
-            points: LS
-                .iter()
-                .enumerate()
-                .map(|(k, &a)| {
-                    let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
-                    ScalingPoint::new(-a, corrected(a) * d, 0.0)
-                })
-                .collect(),
             across: Vec::new(),
+            ..level_of(corrected, spacing, drift)
+        }
+    }
+
+    /// `law` on [`LS`] as [`level`]; the same values across (an isotropic flux: β's pairs need
+    /// them, `critical::running`'s isotropy check).
+    fn level_of(law: fn(f64) -> f64, spacing: f64, drift: f64) -> Resolution {
+        let points: Vec<ScalingPoint> = LS
+            .iter()
+            .enumerate()
+            .map(|(k, &a)| {
+                let d = (1.0 + drift).powi(k.saturating_sub(5) as i32);
+                ScalingPoint::new(-a, law(a) * d, 0.0)
+            })
+            .collect();
+        Resolution {
+            spacing,
+            across: points.clone(),
+            points,
         }
     }
 
@@ -420,6 +446,9 @@ mod tests {
     /// coarse grid drifts below), a refined ladder of the same law (prefactor +0.3 %, another
     /// discretisation) from 2e-3 to 1e-5: ζ from 5e-2 to 1e-5, recovered exactly; the uniform
     /// estimate alone stops at 1e-3; a flagged refined pair (5e-5 → 2e-5) ends the fit at 5e-5.
+    /// β likewise from a flux 0.05|l|^3.45 (1 − 0.6|l|^0.4) whose refined conductance is 2.5×
+    /// the uniform flux (another quantity, the same law: the rescaling at the junction absorbs
+    /// the factor).
     #[test]
     fn combined_estimate_uses_the_refined_ladder_below_the_uniform_one() {
         use crate::refined_ladder::{RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow};
@@ -441,6 +470,8 @@ mod tests {
                     half_width_error: f64::NAN,
                     half_length: f64::NAN,
                     half_length_error: f64::NAN,
+                    conductance: 2.5 * flux(a),
+                    conductance_error: 0.0,
                 },
                 String::new(),
             )
@@ -451,6 +482,7 @@ mod tests {
             window: 16,
             spacing: 1.0 / 8192.0,
             tol_gap: 0.0,
+            flux_method: "series".into(),
             levels: vec![RefinedLevel {
                 levels: 5,
                 margin: 12,
@@ -458,14 +490,15 @@ mod tests {
                 spacing: 1.0 / 8192.0,
                 rungs: rls.iter().map(rung).collect(),
             }],
-            running: rls
-                .windows(2)
-                .enumerate()
-                .map(|(k, w)| RefinedPair {
-                    exponent: Measured::SaddleGap,
+            running: [Measured::SaddleGap, Measured::Flux]
+                .into_iter()
+                .flat_map(|m| rls.windows(2).enumerate().map(move |(k, w)| (m, k, w)))
+                .map(|(m, k, w)| RefinedPair {
+                    exponent: m,
                     row: RefinedPairRow {
                         l_hi: -w[0],
                         l_lo: -w[1],
+                        // the values are not what the fit reads (it reads the rungs)
                         value: 1.2,
                         error_levels: 0.0,
                         error_margin: 0.0,
@@ -494,12 +527,39 @@ mod tests {
             estimate_combined(Lattice::Square, Which::Zeta, &levels, Some(&refined(5)));
         assert_eq!(est.unwrap().l_min, 5e-5);
         assert_eq!(how.rungs, (6, 4));
-        // without a refined ladder (or for β): the uniform estimate, exactly
+        // without a refined ladder: the uniform estimate, exactly
         let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, None);
         assert_eq!(est.unwrap(), uniform);
         assert_eq!(how.method, "uniform");
-        let (est, _) = estimate_combined(Lattice::Square, Which::Beta, &levels, Some(&refined(99)));
-        assert_eq!(est.unwrap(), uniform);
+        // β: the uniform flux converged to 1e-3, the refined conductance below it
+        let flux_levels = [
+            level_of(flux, 1.0 / 2048.0, 0.0),
+            level_of(flux, 1.0 / 1024.0, 0.03),
+        ];
+        let uniform_beta = estimate(&flux_levels).unwrap();
+        assert_eq!(uniform_beta.l_min, 1e-3);
+        let (est, how) = estimate_combined(
+            Lattice::Square,
+            Which::Beta,
+            &flux_levels,
+            Some(&refined(99)),
+        );
+        let b = est.unwrap();
+        // exact data: the direct fit's tolerance, as for ζ
+        assert!((b.value - 3.45).abs() < 1e-6, "{b:?}");
+        assert_eq!(b.l_min, 1e-5);
+        assert_eq!(how.method, "uniform+refined below |l| = 1e-3");
+        assert_eq!(how.rungs, (6, 6));
+        let (est, how) = estimate_combined(
+            Lattice::Square,
+            Which::Beta,
+            &flux_levels,
+            Some(&refined(5)),
+        );
+        assert_eq!(est.unwrap().l_min, 5e-5);
+        assert_eq!(how.rungs, (6, 4));
+        let (est, _) = estimate_combined(Lattice::Square, Which::Beta, &flux_levels, None);
+        assert_eq!(est.unwrap(), uniform_beta);
     }
 
     #[test]

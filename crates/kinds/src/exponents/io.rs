@@ -212,6 +212,80 @@ pub fn read_flux_curve(r: &ArtefactReader, lattice: &str) -> Result<Option<FluxC
     Ok(Some(FluxCurve { points, flux_err }))
 }
 
+/// The group of a model's refined flux curve.
+fn refined_flux_group(lattice: &str) -> String {
+    format!("ladder/{lattice}/refined")
+}
+
+/// The refined ladder's flux of one model, normalised to continue its uniform curve
+/// (`ladder/<lattice>/refined/*`, module docs of [`super`]).
+pub(super) fn write_refined_flux_curve(
+    out: &mut ArtefactWriter,
+    lattice: &str,
+    points: &[FluxPoint],
+) -> Result<()> {
+    FluxPoint::write(points, out, &refined_flux_group(lattice))
+}
+
+/// The refined flux curve of model `lattice` (`None` if the artefact has none for it).
+pub fn read_refined_flux_curve(
+    r: &ArtefactReader,
+    lattice: &str,
+) -> Result<Option<Vec<FluxPoint>>> {
+    let g = refined_flux_group(lattice);
+    if !r.has_dataset(&format!("{g}/distance")) {
+        return Ok(None);
+    }
+    Ok(Some(read_in(r, &g)?))
+}
+
+/// A model's asymptotic β drawn in Figure 6: the slope, its 1σ and a point (distance,
+/// normalised flux) the line goes through (the smallest distance of the estimate's rungs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AsymptoticSlope {
+    /// β as l → 0.
+    pub beta: f64,
+    /// Its 1σ.
+    pub error: f64,
+    /// A point of the line (distance, normalised flux).
+    pub through: (f64, f64),
+}
+
+const SLOPE_ATTRS: [&str; 4] = [
+    "beta_asymptotic",
+    "beta_asymptotic_error",
+    "beta_asymptotic_distance",
+    "beta_asymptotic_flux",
+];
+
+pub(super) fn write_asymptotic_slope(
+    out: &mut ArtefactWriter,
+    lattice: &str,
+    s: &AsymptoticSlope,
+) -> Result<()> {
+    let g = flux_group(lattice);
+    let v = [s.beta, s.error, s.through.0, s.through.1];
+    for (name, v) in SLOPE_ATTRS.iter().zip(v) {
+        out.set_attr_at(&g, name, v)?;
+    }
+    Ok(())
+}
+
+/// The asymptotic β slope of model `lattice` (`None` if not written).
+pub fn read_asymptotic_slope(r: &ArtefactReader, lattice: &str) -> Result<Option<AsymptoticSlope>> {
+    let g = flux_group(lattice);
+    let names = r.attr_names(&g).unwrap_or_default();
+    if !names.iter().any(|n| n == SLOPE_ATTRS[0]) {
+        return Ok(None);
+    }
+    let a = |k: usize| r.attr_f64_at(&g, SLOPE_ATTRS[k]);
+    Ok(Some(AsymptoticSlope {
+        beta: a(0)?,
+        error: a(1)?,
+        through: (a(2)?, a(3)?),
+    }))
+}
+
 /// The pooled β fit of all models' flux curves: (β, its 1σ if written, prefactor); `None`
 /// when the artefact has none.
 pub fn read_pooled_beta(r: &ArtefactReader) -> Result<Option<(f64, Option<f64>, f64)>> {

@@ -47,6 +47,14 @@
 //! distance, [`normalised_flux`]); root attributes
 //! `beta`, `beta_err`, `beta_prefactor` of a power law fitted to all models' points in
 //! [`WINDOW`] together ([`pooled_beta`]; the per-model β are the `model/<lattice>` attributes).
+//! With the model's refined ladder: `ladder/<lattice>/refined/{distance, flux}` (its flux,
+//! `critical::refined_flow`, rungs below l = 0 with a flux, normalised to continue the uniform
+//! curve: multiplied so that it equals the uniform normalised flux at the combined ladder's
+//! junction, or, without one, at the largest distance both share; not written without a
+//! common rung), and per model with an asymptotic β the attributes `beta_asymptotic`,
+//! `beta_asymptotic_error`, `beta_asymptotic_distance`, `beta_asymptotic_flux` on
+//! `ladder/<lattice>` (the slope and the point of the drawn curves at the estimate's smallest
+//! distance, through which Figure 6 draws it).
 
 pub mod asymptotic;
 mod io;
@@ -54,7 +62,10 @@ mod model;
 pub mod table;
 
 use io::group_notes;
-pub use io::{BlockedRow, FluxCurve, FluxPoint, OpenRow, read, read_flux_curve, read_pooled_beta};
+pub use io::{
+    AsymptoticSlope, BlockedRow, FluxCurve, FluxPoint, OpenRow, read, read_asymptotic_slope,
+    read_flux_curve, read_pooled_beta, read_refined_flux_curve,
+};
 
 use crate::ladder::{LadderData, LadderLevel};
 use crate::refined_ladder::RefinedData;
@@ -72,7 +83,7 @@ use store::ArtefactWriter;
 pub struct ExponentsKind;
 
 /// Bump when the artefact's content changes for the same inputs.
-pub const CODE_VERSION: u64 = 5;
+pub const CODE_VERSION: u64 = 6;
 
 /// The paper's fitting window of |l| (inclusive; a relative 1e-9 of slack for rounding).
 pub const WINDOW: (f64, f64) = (0.002, 0.02);

@@ -3,7 +3,10 @@
 //! `model/<name>` and the report's statistics (split from the stage's `run`).
 
 use super::asymptotic::{self, Asymptotic};
-use super::io::{FluxPoint, write_fit, write_measure};
+use super::io::{
+    AsymptoticSlope, FluxPoint, write_asymptotic_slope, write_fit, write_measure,
+    write_refined_flux_curve,
+};
 use super::{
     Exponent, NAMES, PAPER, combine, group_notes, identity, level_fits, measure, normalised_flux,
     symbol,
@@ -12,6 +15,7 @@ use crate::headline::Headline;
 use crate::ladder::LadderData;
 use crate::refined_ladder::RefinedData;
 use anyhow::Result;
+use critical::refined::Measured;
 use critical::scaling::{EdgeOptions, ExponentFit};
 use orchestrator::StageContext;
 use serde_json::{Value, json};
@@ -36,14 +40,15 @@ pub(super) fn run_model(
     let at = format!("model/{name}");
     let mut notes = Vec::new();
     let (per, zeta_free) = fit_levels(out, &at, d, opts, &mut notes)?;
-    write_flux(out, d, opts, flux_points)?;
+    let curve = write_flux(out, d, opts, flux_points)?;
     let ex: Vec<Exponent> = per.iter().map(|p| combine(p)).collect();
     write_exponents(out, &at, &ex)?;
     for (k, e) in ex.iter().enumerate() {
         let (pv, pe) = PAPER[k];
         heads.push(Headline::new(format!("{} {name}", NAMES[k]), e.value, e.error).paper(pv, pe));
     }
-    let (asy, uni) = asymptotics(out, &at, d, refined, &mut notes)?;
+    let (asy, uni, junctions) = asymptotics(out, &at, d, refined, &mut notes)?;
+    write_figure_flux(out, d, refined, &curve, junctions[3], &asy[3], &mut notes)?;
     let asy_identity = asymptotic::identity(&asy[0], &asy[1], &asy[2]);
     asy_identity.write(out, &at, "beta_identity")?;
     asymptotic::identity(&uni[0], &uni[1], &uni[2]).write(out, &at, "beta_identity_uniform")?;
@@ -75,6 +80,7 @@ pub(super) fn run_model(
             "zeta": [uni[0].value, uni[0].error],
             "upsilon": [uni[1].value, uni[1].error],
             "chi": [uni[2].value, uni[2].error],
+            "beta": [uni[3].value, uni[3].error],
         },
     }))
 }
@@ -126,25 +132,109 @@ fn fit_levels(
     Ok((per, zeta_free))
 }
 
-/// The finest grid's normalised flux curve (`ladder/<name>/*`), kept for the pooled β.
+/// The finest grid's normalised flux curve (`ladder/<name>/*`), kept for the pooled β;
+/// returned (empty if none).
 fn write_flux(
     out: &mut ArtefactWriter,
     d: &LadderData,
     opts: &EdgeOptions,
     flux_points: &mut Vec<(Vec<f64>, Vec<f64>)>,
-) -> Result<()> {
+) -> Result<Vec<FluxPoint>> {
     let name = d.lattice.name();
+    let mut points = Vec::new();
     if let Some(lv) = d.levels.last() {
         let (x, y) = normalised_flux(&measure(lv, opts, &mut Vec::new()));
         if !x.is_empty() {
-            let points: Vec<FluxPoint> = (x.iter().zip(&y))
+            points = (x.iter().zip(&y))
                 .map(|(&distance, &flux)| FluxPoint { distance, flux })
                 .collect();
             super::io::write_flux_curve(out, name, &points)?;
             flux_points.push((x, y));
         }
     }
+    Ok(points)
+}
+
+/// Figure 6's extended flux panel (module docs of [`super`]): the refined flux continuing the
+/// uniform curve (`ladder/<name>/refined/*`) and the asymptotic β's slope.
+fn write_figure_flux(
+    out: &mut ArtefactWriter,
+    d: &LadderData,
+    refined: Option<&RefinedData>,
+    uniform: &[FluxPoint],
+    junction: Option<f64>,
+    beta: &Asymptotic,
+    notes: &mut Vec<String>,
+) -> Result<()> {
+    let name = d.lattice.name();
+    let rpoints = refined.map_or(Vec::new(), |r| r.points(Measured::Flux));
+    let refined_curve = refined_flux_curve(uniform, &rpoints, junction.map(f64::abs));
+    if !rpoints.is_empty() && refined_curve.is_empty() {
+        notes.push(
+            "Figure 6: the refined flux shares no rung with the uniform curve: not drawn".into(),
+        );
+    }
+    if !refined_curve.is_empty() {
+        write_refined_flux_curve(out, name, &refined_curve)?;
+    }
+    if beta.value.is_finite() && beta.l_min.is_finite() {
+        let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+        let at = |c: &[FluxPoint]| c.iter().find(|p| same(p.distance, beta.l_min)).copied();
+        // below the junction the estimate used the refined rungs
+        let below = junction.is_some_and(|j| beta.l_min < j.abs() * (1.0 - 1e-9));
+        let p = if below {
+            at(&refined_curve)
+        } else {
+            at(uniform)
+        };
+        if let Some(p) = p {
+            write_asymptotic_slope(
+                out,
+                name,
+                &AsymptoticSlope {
+                    beta: beta.value,
+                    error: beta.error,
+                    through: (p.distance, p.flux),
+                },
+            )?;
+        }
+    }
     Ok(())
+}
+
+/// The refined flux `refined` (l < 0, any order) as a normalised curve continuing `uniform`
+/// (ascending distance): multiplied so that it equals the uniform curve at distance `junction`
+/// if given and shared, else at the largest distance both share; empty without a shared rung.
+/// Ascending distance.
+pub fn refined_flux_curve(
+    uniform: &[FluxPoint],
+    refined: &[analysis::ScalingPoint],
+    junction: Option<f64>,
+) -> Vec<FluxPoint> {
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    let shared = |x: f64| {
+        let u = uniform.iter().find(|p| same(p.distance, x))?;
+        let r = refined.iter().find(|p| same(p.l.abs(), x))?;
+        Some(u.flux / r.y)
+    };
+    let scale = junction.and_then(shared).or_else(|| {
+        let mut d: Vec<f64> = uniform.iter().map(|p| p.distance).collect();
+        d.sort_by(|a, b| b.total_cmp(a));
+        d.into_iter().find_map(shared)
+    });
+    let Some(s) = scale else {
+        return Vec::new();
+    };
+    let mut c: Vec<FluxPoint> = refined
+        .iter()
+        .filter(|p| p.l < 0.0 && p.y > 0.0)
+        .map(|p| FluxPoint {
+            distance: p.l.abs(),
+            flux: p.y * s,
+        })
+        .collect();
+    c.sort_by(|a, b| a.distance.total_cmp(&b.distance));
+    c
 }
 
 /// The combined exponents' attributes under `at`.
@@ -164,16 +254,17 @@ fn write_exponents(out: &mut ArtefactWriter, at: &str, ex: &[Exponent]) -> Resul
 
 /// The asymptotic estimates from the combined ladder and from the uniform one alone (written
 /// under `at` as `<e>_asymptotic_*`, `<e>_uniform_asymptotic_*` and `<e>_asymptotic_method`);
-/// a failed one is NONE with a note.
+/// a failed one is NONE with a note. Also where each combined ladder's refined part began.
 fn asymptotics(
     out: &mut ArtefactWriter,
     at: &str,
     d: &LadderData,
     refined: Option<&RefinedData>,
     notes: &mut Vec<String>,
-) -> Result<([Asymptotic; 4], [Asymptotic; 4])> {
+) -> Result<([Asymptotic; 4], [Asymptotic; 4], [Option<f64>; 4])> {
     let mut asy = [Asymptotic::NONE; 4];
     let mut uni = [Asymptotic::NONE; 4];
+    let mut junctions = [None; 4];
     for k in 0..4 {
         let e = asymptotic::which(k);
         let levels = asymptotic::resolutions(d, e, notes);
@@ -197,7 +288,46 @@ fn asymptotics(
         }
         asy[k].write(out, at, NAMES[k])?;
         uni[k].write(out, at, &format!("{}_uniform", NAMES[k]))?;
+        junctions[k] = how.junction;
         out.set_attr_at(at, &format!("{}_asymptotic_method", NAMES[k]), how.method)?;
     }
-    Ok((asy, uni))
+    Ok((asy, uni, junctions))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use analysis::ScalingPoint;
+
+    #[test]
+    fn the_refined_flux_continues_the_uniform_curve() {
+        let q = |a: f64| a.powf(3.45);
+        let uniform: Vec<FluxPoint> = [2e-3, 5e-3, 1e-2, 2e-2]
+            .iter()
+            .map(|&a| FluxPoint {
+                distance: a,
+                flux: q(a) / q(2e-2),
+            })
+            .collect();
+        // another quantity with the same law (2.5 × 0.9 ...), and a rung at l > 0 (left out)
+        let refined: Vec<ScalingPoint> = [1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3]
+            .iter()
+            .map(|&a| ScalingPoint::new(-a, 7.0 * q(a), 0.0))
+            .chain([ScalingPoint::new(5e-3, 1.0, 0.0)])
+            .collect();
+        // at the junction 2e-3 the refined curve equals the uniform one, and so everywhere
+        let c = refined_flux_curve(&uniform, &refined, Some(2e-3));
+        assert_eq!(c.len(), 6);
+        assert_eq!(c[0].distance, 1e-4);
+        for p in &c {
+            let want = q(p.distance) / q(2e-2);
+            assert!((p.flux / want - 1.0).abs() < 1e-12, "{p:?}");
+        }
+        // without a junction: the largest shared distance (5e-3), the same here
+        let c2 = refined_flux_curve(&uniform, &refined, None);
+        assert!((c2[0].flux / c[0].flux - 1.0).abs() < 1e-12);
+        // a junction that is not shared falls back likewise; no shared rung: nothing
+        assert_eq!(refined_flux_curve(&uniform, &refined, Some(3e-3)).len(), 6);
+        assert!(refined_flux_curve(&uniform, &refined[..3], None).is_empty());
+    }
 }
