@@ -420,7 +420,7 @@ impl TypedKind for ExponentsKind {
             InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model"),
             InputSpec::many("refined", &["refined_ladder"])
                 .optional()
-                .doc("at most one `refined_ladder` stage per model (optional): extends the asymptotic fits of ζ, υ, χ below the uniform grids' reach"),
+                .doc("at most one `refined_ladder` stage per model (optional): extends the asymptotic fits of ζ, υ, χ, β below the uniform grids' reach"),
         ]
     }
     fn cost(&self, _params: &ExponentsParams) -> f64 {
