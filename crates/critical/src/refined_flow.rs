@@ -134,7 +134,7 @@ impl FluxSetup {
             ));
         }
         Ok(FluxSetup {
-            grid: refinement.surface.grid.clone(),
+            grid: refinement.surface.grid,
             axis: if refinement.frame.channel_axis == 0 {
                 FlowAxis::X
             } else {
@@ -229,6 +229,9 @@ pub fn saddle_window_flux(
     Ok(r.flux)
 }
 
+/// The rungs of [`ladder_with_flux`] and, per rung, its flux or why none.
+pub type FluxLadder = (Vec<RefinedRung>, Vec<Result<RungFlux, String>>);
+
 /// A refined ladder with its flux: [`Refinement::ladder`] at `p_c (1 + l)` for every l of `ls`,
 /// each rung below p_c(D) with an open saddle given its [`RungFlux`] (`RefinedRung::flux` =
 /// (conductance, 1σ)); a rung whose flow fails keeps NaN and a note. `on_rung` sees every rung
@@ -240,7 +243,7 @@ pub fn ladder_with_flux(
     ls: &[f64],
     method: FluxMethod,
     on_rung: &mut dyn FnMut(&RefinedRung, &Refined),
-) -> Result<(Vec<RefinedRung>, Vec<Result<RungFlux, String>>), CriticalError> {
+) -> Result<FluxLadder, CriticalError> {
     let setup = FluxSetup::new(refinement, method)?;
     let mut fluxes = Vec::new();
     let mut rungs = refinement.ladder(p_c, ls, &mut |rung, r| {

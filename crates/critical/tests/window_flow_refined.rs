@@ -31,7 +31,8 @@ const LS: [f64; 4] = [-2e-2, -1e-2, -5e-3, -2e-3];
 
 /// Per load: (refined value, uniform value, refined single-window cell K, uniform cell K,
 /// refined gap, uniform gap).
-type Rows = Vec<(f64, f64, f64, f64, f64, f64)>;
+type Row = (f64, f64, f64, f64, f64, f64);
+type Rows = Vec<Row>;
 
 fn compare(lattice: Lattice) -> Rows {
     let opts = RefinedOptions {
@@ -50,7 +51,7 @@ fn compare(lattice: Lattice) -> Rows {
     let c = r.critical_load(Some(guess.p_c()), 2e-4).unwrap();
     let method = FluxMethod::of(lattice);
     let setup = FluxSetup::new(&r, method).unwrap();
-    let (grid, axis, trim) = (setup.grid.clone(), setup.axis, setup.trim_along);
+    let (grid, axis, trim) = (setup.grid, setup.axis, setup.trim_along);
     let mut windows = Vec::new();
     let mut single = Vec::new();
     let (rungs, fluxes) = ladder_with_flux(&mut r, c.p_c(), &LS, method, &mut |_, sol| {
@@ -126,9 +127,8 @@ fn compare(lattice: Lattice) -> Rows {
         );
     }
     let ls = LS.to_vec();
-    let col = |f: fn(&(f64, f64, f64, f64, f64, f64)) -> f64| -> Vec<f64> {
-        running(&ls, &rows.iter().map(f).collect::<Vec<_>>())
-    };
+    let col =
+        |f: fn(&Row) -> f64| -> Vec<f64> { running(&ls, &rows.iter().map(f).collect::<Vec<_>>()) };
     let (br, bu, bs, bc) = (col(|x| x.0), col(|x| x.1), col(|x| x.2), col(|x| x.3));
     for k in 0..br.len() {
         eprintln!(
@@ -185,9 +185,8 @@ fn the_triangular_saddle_conductance_follows_the_uniform_window() {
     // l = −2e-3): off by more than 0.5 there
     let last = rows.last().unwrap();
     assert!(last.2 / last.3 - 1.0 > 0.5, "{last:?}");
-    let col = |f: fn(&(f64, f64, f64, f64, f64, f64)) -> f64| -> Vec<f64> {
-        running(&ls, &rows.iter().map(f).collect::<Vec<_>>())
-    };
+    let col =
+        |f: fn(&Row) -> f64| -> Vec<f64> { running(&ls, &rows.iter().map(f).collect::<Vec<_>>()) };
     let (br, bu, bc) = (col(|x| x.0), col(|x| x.1), col(|x| x.3));
     for k in 0..br.len() {
         // the refined neck against the uniform neck: measured ≤ 8.1e-3
