@@ -252,6 +252,9 @@ fn write_exponents(out: &mut ArtefactWriter, at: &str, ex: &[Exponent]) -> Resul
     Ok(())
 }
 
+/// Per exponent: the combined estimate, the uniform-only one, the combined ladder's junction.
+type Asymptotics = ([Asymptotic; 4], [Asymptotic; 4], [Option<f64>; 4]);
+
 /// The asymptotic estimates from the combined ladder and from the uniform one alone (written
 /// under `at` as `<e>_asymptotic_*`, `<e>_uniform_asymptotic_*` and `<e>_asymptotic_method`);
 /// a failed one is NONE with a note. Also where each combined ladder's refined part began.
@@ -261,7 +264,7 @@ fn asymptotics(
     d: &LadderData,
     refined: Option<&RefinedData>,
     notes: &mut Vec<String>,
-) -> Result<([Asymptotic; 4], [Asymptotic; 4], [Option<f64>; 4])> {
+) -> Result<Asymptotics> {
     let mut asy = [Asymptotic::NONE; 4];
     let mut uni = [Asymptotic::NONE; 4];
     let mut junctions = [None; 4];
