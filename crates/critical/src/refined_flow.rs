@@ -101,6 +101,8 @@ pub struct RungFlux {
     pub isobar_spread: f64,
     /// Open fine nodes on the flow window's side lines (closed in the window problems).
     pub open_side_nodes: usize,
+    /// Wall time of the flow solves (s).
+    pub wall_s: f64,
 }
 
 /// What [`rung_flux`] needs of a refinement (so that the ladder's callback can use it while the
@@ -154,6 +156,7 @@ pub fn rung_flux(
     r: &Refined,
     saddle_gap: f64,
 ) -> Result<RungFlux, WindowFlowError> {
+    let t = std::time::Instant::now();
     let window = FlowWindow::inside(r, &setup.grid, setup.axis, setup.trim_along, 1)?;
     let rel = FLUX_PER_GAP * setup.tol_gap / saddle_gap;
     match setup.method {
@@ -167,6 +170,7 @@ pub fn rung_flux(
                 neck_share: w.neck_share,
                 isobar_spread: w.isobar_spread,
                 open_side_nodes: w.open_side_nodes,
+                wall_s: t.elapsed().as_secs_f64(),
             })
         }
         FluxMethod::SaddleWindow => {
@@ -186,6 +190,7 @@ pub fn rung_flux(
                 neck_share: f64::NAN,
                 isobar_spread: f64::NAN,
                 open_side_nodes,
+                wall_s: t.elapsed().as_secs_f64(),
             })
         }
     }

@@ -39,7 +39,7 @@
 //! Root attributes `lattice`, `base`, `window`, `spacing` (finest fine spacing, λ), `p_fc`
 //! (the base grid's p_fc), `tol_gap`, `flux_method` (`series` or `saddle_window`); per discretisation `d/<i>` (coarse to fine, then the margin check)
 //! attributes `levels`, `margin`, `p_c`, `p_c_lo`, `p_c_hi`, `probes`, `spacing`, `wall_s`,
-//! `iterations` and datasets ([`RefinedRungRow`]) `l`, `load`, `saddle_gap`, `contact_area`,
+//! `iterations`, `flux_wall_s` (the flow solves' share of `wall_s`) and datasets ([`RefinedRungRow`]) `l`, `load`, `saddle_gap`, `contact_area`,
 //! `iterations`, `wall_s`, `neck_nodes`, `flagged`, `half_width`, `half_width_error`,
 //! `half_length`, `half_length_error`, `conductance`, `conductance_error` (NaN where not
 //! measured) plus `flag` (strings, empty if none), `edge_note` (why an edge fit failed, empty if
@@ -70,7 +70,7 @@ use surface::Lattice;
 pub struct RefinedLadderKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 4;
+pub const CODE_VERSION: u64 = 5;
 
 /// The running exponents' grid-error bound (as the uniform ladders', issue 13).
 pub const GRID_BOUND: f64 = 0.005;
@@ -258,6 +258,7 @@ impl TypedKind for RefinedLadderKind {
         let (mut guess, mut width) = (base.p_c(), 2e-4);
         let method = FluxMethod::of(params.lattice);
         let mut runs = Vec::new();
+        let mut flux_walls = Vec::new();
         for (i, &disc) in plan.iter().enumerate() {
             ctx.progress(
                 i as f64 / plan.len() as f64,
@@ -275,6 +276,9 @@ impl TypedKind for RefinedLadderKind {
                 .map(|f| f.as_ref().err().cloned().unwrap_or_default())
                 .collect();
             out.write_strings(&format!("d/{i}/flux_note"), &notes)?;
+            let flux_wall: f64 = fluxes.iter().flatten().map(|f| f.wall_s).sum();
+            out.set_attr_at(&format!("d/{i}"), "flux_wall_s", flux_wall)?;
+            flux_walls.push(flux_wall);
             // the next discretisation's p_c lies within ~1e-6 of this one's (critical::refined)
             (guess, width) = (c.p_c(), 2e-5);
             runs.push((disc, c, rungs));
@@ -322,6 +326,7 @@ impl TypedKind for RefinedLadderKind {
             "p_c_over_p_fc": runs.iter().map(|r| r.1.p_c() / p_fc).collect::<Vec<_>>(),
             "pairs": npairs,
             "flagged_pairs": flagged,
+            "flux_wall_s": flux_walls,
         })))
     }
 }
