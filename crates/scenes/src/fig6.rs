@@ -24,7 +24,7 @@
 //!   normalisation, drawn as filled diamonds) and the attributes `beta_asymptotic`,
 //!   `beta_asymptotic_error`, `beta_asymptotic_distance`, `beta_asymptotic_flux` on
 //!   `ladder/<lattice>` (the asymptotic β drawn as a dashed line in the model's colour through
-//!   that point, from its distance to the largest drawn).
+//!   that point, over the whole range drawn).
 
 use crate::scene::{OutputSpec, Outputs, Scene, scene_params};
 use anyhow::{Result, bail};
@@ -370,7 +370,7 @@ impl Scene for Fig6 {
         "Figure 6: flux against load, near-critical current density and flux ladder (figure, points and stops tables)"
     }
     fn code_version(&self) -> u64 {
-        2
+        3
     }
     fn fields_read(&self) -> u64 {
         3

@@ -2,8 +2,8 @@
 //! γ0 > 0 dashed with the end point (where flow stops discontinuously) marked. Bottom left:
 //! normalised flux against L_c − L, log–log, with the fitted power law (slope β); the refined
 //! ladder's flux continuing the uniform points (filled diamonds in the model's colour) and each
-//! model's asymptotic β as a dashed line in its colour, from its estimate's smallest distance
-//! to the largest drawn. Bottom
+//! model's asymptotic β as a dashed line in its colour through the point at its estimate's
+//! smallest distance, over the whole range drawn, its value written in the lower right corner. Bottom
 //! right: the Reynolds current density in the critical region (|j| colour-coded, contact
 //! white, arrows for the direction).
 
@@ -58,7 +58,7 @@ pub struct SlopeLine {
     pub exponent: f64,
     /// Its 1σ (NaN: not shown).
     pub exponent_err: f64,
-    /// A point of the line (distance, normalised flux); the line starts there.
+    /// A point of the line (distance, normalised flux).
     pub through: (f64, f64),
 }
 
@@ -204,6 +204,15 @@ fn bottom_left(d: &Fig6Data) -> Result<XyPanel> {
         Axis::log("$Q$ / $Q$_0"),
     );
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    let mut y_lo = f64::INFINITY;
+    for n in d.normalised.iter().chain(&d.refined) {
+        y_lo = n
+            .flux
+            .iter()
+            .copied()
+            .filter(|y| *y > 0.0)
+            .fold(y_lo, f64::min);
+    }
     for n in &d.normalised {
         ensure!(
             n.distance.len() == n.flux.len(),
@@ -250,8 +259,8 @@ fn bottom_left(d: &Fig6Data) -> Result<XyPanel> {
             }
         }
     }
-    for sl in &d.slopes {
-        if !(sl.through.0 > 0.0 && sl.through.1 > 0.0 && hi > sl.through.0) {
+    for (k, sl) in d.slopes.iter().enumerate() {
+        if !(sl.through.0 > 0.0 && sl.through.1 > 0.0 && hi > lo) {
             continue;
         }
         let label = if sl.exponent_err.is_finite() {
@@ -269,11 +278,19 @@ fn bottom_left(d: &Fig6Data) -> Result<XyPanel> {
             )
         };
         p.annotations.push(Annotation::PowerLaw {
-            x_range: (sl.through.0, hi),
+            x_range: (lo.min(sl.through.0), hi.max(sl.through.0)),
             through: sl.through,
             exponent: sl.exponent,
             stroke: Stroke::dashed(model_color(sl.model)).width(1.0),
-            label: Some(label),
+            label: None,
+        });
+        // the lower right corner is empty on a rising log–log curve: one line per model
+        p.annotations.push(Annotation::Text {
+            at: (hi, y_lo * 10f64.powf(0.9 * k as f64)),
+            text: label,
+            h: HAlign::Right,
+            v: VAlign::Bottom,
+            color: model_color(sl.model),
         });
     }
     if d.normalised.is_empty() && d.refined.is_empty() {
