@@ -113,7 +113,8 @@ pub enum Termination {
     /// [`FlowOptions::max_iterations`] reached first.
     IterationCap,
     /// The residual stopped decreasing (or the recurrence and true residuals disagreed after
-    /// repeated restarts).
+    /// repeated restarts, or a tightened solve aiming below the rounding floor climbed away from
+    /// its best iterate, which it returns, above that floor: see the `pcg` module).
     Stagnation,
     /// The residual grew by orders of magnitude.
     ResidualGrowth,
@@ -523,30 +524,41 @@ impl Setup {
         // flux (near a critical constriction the ponds' conductance dwarfs the throat's, and a
         // residual of 1e-10 left 7 % in the flux). So a solve that meets the tolerance but whose
         // cross-section fluxes still disagree beyond rounding is repeated with a 100× tighter
-        // tolerance, down to 1e-16; the iterations add up.
+        // tolerance, down to 1e-16. The tighter solve goes on from where the looser one stopped
+        // (the same iterates as a fresh start, which retraced them: see `pcg::Pcg`), or starts
+        // afresh if the looser one restarted on the way; the iterations of fresh starts add up.
         let mut tol = options.tolerance;
         let mut iterations = 0usize;
+        let mut cg = pcg::Pcg::new(&b, &mut u);
+        let mut floor_hint = 0.0;
         let (outcome, ev) = loop {
-            let mut outcome = pcg::solve(
+            let mut outcome = cg.run(
                 mg,
                 &b,
                 &mut u,
-                tol,
-                options.max_iterations.saturating_sub(iterations),
+                pcg::Goal {
+                    tol,
+                    max_iter: options.max_iterations.saturating_sub(iterations),
+                    floor_hint,
+                },
                 &true_residual,
             );
-            iterations += outcome.iterations;
-            outcome.iterations = iterations;
+            outcome.iterations += iterations;
             let ev = asm.evaluate(&u, dp);
             let beyond = conservation_deviation(&ev, 4.0);
             if outcome.stop != pcg::Stop::Converged
                 || beyond <= CONSERVATION_TOLERANCE
                 || tol <= 1e-16
-                || iterations >= options.max_iterations
+                || outcome.iterations >= options.max_iterations
             {
                 break (outcome, ev);
             }
             tol = (tol * 1e-2).max(1e-16);
+            floor_hint = ev.rounding_floor;
+            if !cg.resumable() {
+                iterations = outcome.iterations;
+                cg = pcg::Pcg::new(&b, &mut u);
+            }
         };
         let levels = mg.depth();
         let flux = ev.flux;
