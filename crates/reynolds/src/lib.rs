@@ -113,8 +113,7 @@ pub enum Termination {
     /// [`FlowOptions::max_iterations`] reached first.
     IterationCap,
     /// The residual stopped decreasing (or the recurrence and true residuals disagreed after
-    /// repeated restarts, or a tightened solve aiming below the rounding floor climbed away from
-    /// its best iterate, which it returns, above that floor: see the `pcg` module).
+    /// repeated restarts).
     Stagnation,
     /// The residual grew by orders of magnitude.
     ResidualGrowth,
@@ -530,7 +529,6 @@ impl Setup {
         let mut tol = options.tolerance;
         let mut iterations = 0usize;
         let mut cg = pcg::Pcg::new(&b, &mut u);
-        let mut floor_hint = 0.0;
         let (outcome, ev) = loop {
             let mut outcome = cg.run(
                 mg,
@@ -539,7 +537,6 @@ impl Setup {
                 pcg::Goal {
                     tol,
                     max_iter: options.max_iterations.saturating_sub(iterations),
-                    floor_hint,
                 },
                 &true_residual,
             );
@@ -554,7 +551,6 @@ impl Setup {
                 break (outcome, ev);
             }
             tol = (tol * 1e-2).max(1e-16);
-            floor_hint = ev.rounding_floor;
             if !cg.resumable() {
                 iterations = outcome.iterations;
                 cg = pcg::Pcg::new(&b, &mut u);
