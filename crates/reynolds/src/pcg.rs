@@ -14,9 +14,10 @@
 //! of a solve aiming below the rounding floor falls to a best value, climbs by orders of
 //! magnitude and falls again, several times, and those phases can still make progress. An exit at
 //! the first climb of 10× above the best, returning the best iterate, was measured (2026-11-26):
-//! it cut the hexagonal ladder's 1024² flows from 249 to 144 iterations but turned a flux
-//! certified as round-off limited (2048², l = −5e-4, along the channel) into an uncertified one
-//! (stagnation above the floor), so it is not used; resuming ([`Pcg`]) is the saving kept.
+//! it cut the hexagonal ladder's 1024² flows (l = −1e-3 … −1e-4) from 249 to 144 iterations
+//! but turned a flux certified as round-off limited (2048², l = −5e-4, along the channel) into
+//! an uncertified one (stagnation above the floor), so it is not used; resuming ([`Pcg`]) is
+//! the saving kept.
 
 use crate::multigrid::Multigrid;
 use crate::stencil::{REDUCE_BLOCK, dot};
