@@ -523,30 +523,38 @@ impl Setup {
         // flux (near a critical constriction the ponds' conductance dwarfs the throat's, and a
         // residual of 1e-10 left 7 % in the flux). So a solve that meets the tolerance but whose
         // cross-section fluxes still disagree beyond rounding is repeated with a 100× tighter
-        // tolerance, down to 1e-16; the iterations add up.
+        // tolerance, down to 1e-16. The tighter solve goes on from where the looser one stopped
+        // (the same iterates as a fresh start, which retraced them: see `pcg::Pcg`), or starts
+        // afresh if the looser one restarted on the way; the iterations of fresh starts add up.
         let mut tol = options.tolerance;
         let mut iterations = 0usize;
+        let mut cg = pcg::Pcg::new(&b, &mut u);
         let (outcome, ev) = loop {
-            let mut outcome = pcg::solve(
+            let mut outcome = cg.run(
                 mg,
                 &b,
                 &mut u,
-                tol,
-                options.max_iterations.saturating_sub(iterations),
+                pcg::Goal {
+                    tol,
+                    max_iter: options.max_iterations.saturating_sub(iterations),
+                },
                 &true_residual,
             );
-            iterations += outcome.iterations;
-            outcome.iterations = iterations;
+            outcome.iterations += iterations;
             let ev = asm.evaluate(&u, dp);
             let beyond = conservation_deviation(&ev, 4.0);
             if outcome.stop != pcg::Stop::Converged
                 || beyond <= CONSERVATION_TOLERANCE
                 || tol <= 1e-16
-                || iterations >= options.max_iterations
+                || outcome.iterations >= options.max_iterations
             {
                 break (outcome, ev);
             }
             tol = (tol * 1e-2).max(1e-16);
+            if !cg.resumable() {
+                iterations = outcome.iterations;
+                cg = pcg::Pcg::new(&b, &mut u);
+            }
         };
         let levels = mg.depth();
         let flux = ev.flux;
