@@ -213,49 +213,32 @@ fn bottom_left(d: &Fig6Data) -> Result<XyPanel> {
             .filter(|y| *y > 0.0)
             .fold(y_lo, f64::min);
     }
-    for n in &d.normalised {
-        ensure!(
-            n.distance.len() == n.flux.len(),
-            "normalised flux ({}): lengths differ",
-            n.model.name()
-        );
-        let col = model_color(n.model);
-        let mut s = Series::points(
-            n.distance.clone(),
-            n.flux.clone(),
-            MarkerStyle::open(model_marker(n.model), col).size(5.5),
-        );
-        if let Some(e) = &n.flux_err {
-            s = s.y_err(e.clone());
-        }
-        p.series.push(s);
-        for &x in &n.distance {
-            if x > 0.0 {
-                lo = lo.min(x);
-                hi = hi.max(x);
+    for (set, what, style) in [
+        (&d.normalised, "normalised", None),
+        (&d.refined, "refined", Some(Marker::Diamond)),
+    ] {
+        for n in set {
+            ensure!(
+                n.distance.len() == n.flux.len(),
+                "{what} flux ({}): lengths differ",
+                n.model.name()
+            );
+            let col = model_color(n.model);
+            // uniform rungs open in the model's marker, refined rungs filled diamonds
+            let marker = match style {
+                None => MarkerStyle::open(model_marker(n.model), col).size(5.5),
+                Some(m) => MarkerStyle::filled(m, col).size(4.5),
+            };
+            let mut s = Series::points(n.distance.clone(), n.flux.clone(), marker);
+            if let Some(e) = &n.flux_err {
+                s = s.y_err(e.clone());
             }
-        }
-    }
-    for n in &d.refined {
-        ensure!(
-            n.distance.len() == n.flux.len(),
-            "refined flux ({}): lengths differ",
-            n.model.name()
-        );
-        let col = model_color(n.model);
-        let mut s = Series::points(
-            n.distance.clone(),
-            n.flux.clone(),
-            MarkerStyle::filled(Marker::Diamond, col).size(4.5),
-        );
-        if let Some(e) = &n.flux_err {
-            s = s.y_err(e.clone());
-        }
-        p.series.push(s);
-        for &x in &n.distance {
-            if x > 0.0 {
-                lo = lo.min(x);
-                hi = hi.max(x);
+            p.series.push(s);
+            for &x in &n.distance {
+                if x > 0.0 {
+                    lo = lo.min(x);
+                    hi = hi.max(x);
+                }
             }
         }
     }
