@@ -406,7 +406,9 @@
 //!   component), and the coarse
 //!   region's floor for the triangular model (larger windows, or nested ones).
 //! - [`EdgeRuns`] reports a window that is too small (no contact line crossing its edge, or a
-//!   run of open or contact nodes on the edge shorter than a given number of base cells).
+//!   run of open or contact nodes on the edge shorter than a given number of base cells), read
+//!   on the region's second ring of fine nodes (the edge's base nodes carry the coarse hats)
+//!   with slivers of 1–2 nodes merged ([`SLIVER_NODES`]).
 
 pub mod blocks;
 pub mod coupled;

@@ -14,6 +14,8 @@
 //! search from (width 2e-5). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
 //! default 1e-13) and iteration cap per attempt (default `RefinedOptions`'s, 2000). `REFINED_EDGE_DUMP` (any value):
 //! print the runs of each rung's outermost ring of fine nodes (`edge,…` rows, see `dump_edge`).
+//! `REFINED_PC`: p_c/p_fc of every D (no search: the rungs' reduced loads from it; for timing
+//! rungs of a D whose p_c is known or close to another D's).
 use critical::refined::{
     Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, base_guess, default_ls,
     running_zeta,
@@ -51,7 +53,18 @@ fn run(
     }));
     let setup = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let c = r.critical_load(Some(guess), width).expect("p_c");
+    // REFINED_PC: p_c/p_fc given (no search; for timing rungs at a known p_c)
+    let c = match std::env::var("REFINED_PC") {
+        Ok(v) => {
+            let pc = v.parse::<f64>().expect("REFINED_PC (p_c/p_fc)") * r.p_fc();
+            critical::refined::ClosingLoad {
+                lo: pc,
+                hi: pc,
+                probes: 0,
+            }
+        }
+        Err(_) => r.critical_load(Some(guess), width).expect("p_c"),
+    };
     let pc = c.p_c();
     println!(
         "pc,{name},{},{},{},{},{},{:.15e},{:.6e},{},{},{:.2},{:.2},{}",

@@ -236,6 +236,12 @@
 //! - The two models approach each other: 0.088 apart at 0.05→0.02, 0.047 at 5e-4→2e-4, ~0.04
 //!   at 2e-4→1e-4 (triangular not converged there). Neither has a plateau at 6/5; the square
 //!   one stays 0.035–0.045 below it from 2e-4 to 1e-5.
+//! - Hexagonal (2026-11-26, window 16; README "The window check; triangular flags;
+//!   hexagonal"): the ladder runs (4 crossings at every rung, margin changes ≤ 3.4e-4) but the
+//!   neck is narrow (at k = 4: 29, 21, 13, 9 fine nodes at l = −1e-3, −5e-4, −2e-4, −1e-4, the
+//!   square's at ten times smaller |l|), so k = 3 vs 4 on 256² differ by 3.4e-3, 7.5e-3,
+//!   1.6e-2, 2.2e-2, 4.0e-2 from 5e-3→2e-3 to 2e-4→1e-4 (ζ_eff at k = 4: 1.1554, 1.1528,
+//!   1.1522, 1.1566, 1.1679): it needs k ≥ 5.
 //! - The far-field (margin) error grows like 1/|l| as the module doc of `contact::refinement`
 //!   predicted, and with k at a fixed window (the fine window sees the same coarse far field
 //!   at a finer scale): square margin 8 → 12 at 2e-5→1e-5: 6e-5 (k = 3, window 32), 1.1e-3
