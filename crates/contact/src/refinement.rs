@@ -406,7 +406,9 @@
 //!   component), and the coarse
 //!   region's floor for the triangular model (larger windows, or nested ones).
 //! - [`EdgeRuns`] reports a window that is too small (no contact line crossing its edge, or a
-//!   run of open or contact nodes on the edge shorter than a given number of base cells).
+//!   run of open or contact nodes on the edge shorter than a given number of base cells), read
+//!   on the region's second ring of fine nodes (the edge's base nodes carry the coarse hats)
+//!   with slivers of 1–2 nodes merged ([`SLIVER_NODES`]).
 
 pub mod blocks;
 pub mod coupled;
@@ -520,52 +522,146 @@ pub struct Refined {
     pub windows: Vec<WindowSolution>,
 }
 
-/// The contact state along the region's edge (its fine nodes, once around): the runs of open
-/// and of contact nodes between the points where a contact line crosses the edge.
+/// Runs of fewer fine nodes than this on the window's edge ring are slivers: merged into their
+/// neighbours before the contact lines are counted ([`EdgeRuns::of`]). A contact line's position
+/// on a lattice is known to one node: where it grazes the ring (runs nearly parallel to it, or
+/// crosses it at a shallow angle) its staircase alternates the state over runs of 1–2 nodes
+/// (measured: triangular, 128² base, k = 3, window 16, l ≤ −2e-4, one-node runs beside each
+/// of the four real crossings), so a run of ≤ 2 nodes is below what the lattice resolves. Any
+/// structure the window check accepts is at least `min_cells` base cells, i.e. ≥ 2^k ≥ 2 fine
+/// nodes per base cell, wide (the kind's default min_cells 2: ≥ 4 fine nodes); a real
+/// channel or bridge of ≤ 2 nodes on the ring is merged away, so the ring then shows fewer
+/// crossings, which flags the window just as a narrow run would (test
+/// `a_too_small_window_is_reported`).
+pub const SLIVER_NODES: usize = 3;
+
+/// The contact state along the region's edge ring (once around): the runs of open and of
+/// contact nodes between the points where a contact line crosses it, after merging slivers.
+///
+/// The ring is the region's second ring of fine nodes (one node inside its edge), not the
+/// edge itself: the edge's base nodes are unknowns that also carry the coarse hats outside the
+/// region, so their contact state is that of a hat-weighted mean gap, not of the node. Where a
+/// contact line meets the edge next to a base node that node's state differs from its fine
+/// neighbours' (measured: open with a hat-mean gap of 1.7e-3 h0 between fine nodes in contact;
+/// a one-node contact tongue beside it), which made one-node runs and eight extra crossings.
+/// The second ring holds no base node (for 2^k ≥ 2 its index 1 is not a multiple of 2^k).
+/// Slivers (runs shorter than [`SLIVER_NODES`]) are then merged, shortest first, into the
+/// state around them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EdgeRuns {
-    /// Contact lines crossing the edge (state changes once around; even).
+    /// Contact lines crossing the ring after merging slivers (state changes once around; even).
     pub crossings: usize,
-    /// Shortest run of open nodes between two crossings, in base cells (None without crossings).
+    /// Shortest run of open nodes between two crossings, in base cells (None without
+    /// crossings), after merging slivers.
     pub narrowest_open: Option<f64>,
-    /// Shortest run of contact nodes between two crossings, in base cells.
+    /// Shortest run of contact nodes between two crossings, in base cells, likewise.
     pub narrowest_contact: Option<f64>,
-    /// Whether the whole edge is in contact (meaningful without crossings).
+    /// Whether the whole ring is in contact (meaningful without crossings).
     pub all_contact: bool,
+    /// State changes on the ring before merging slivers.
+    pub raw_crossings: usize,
+    /// Slivers merged.
+    pub slivers: usize,
 }
 
 impl EdgeRuns {
-    /// Runs of `contact` (rx × ry, row-major) around the edge; `f` fine nodes per base cell.
+    /// Runs of `contact` (rx × ry, row-major) around the region's second ring (its edge ring if
+    /// rx or ry < 3); `f` fine nodes per base cell (struct docs).
     pub fn of(contact: &[bool], rx: usize, ry: usize, f: usize) -> EdgeRuns {
+        let inset = usize::from(rx >= 3 && ry >= 3);
+        let (x0, x1, y0, y1) = (inset, rx - 1 - inset, inset, ry - 1 - inset);
+        let at = |a: usize, b: usize| contact[a * ry + b];
         let mut ring: Vec<bool> = Vec::with_capacity(2 * (rx + ry));
-        ring.extend((0..ry).map(|b| contact[b]));
-        ring.extend((1..rx).map(|a| contact[a * ry + ry - 1]));
-        ring.extend((0..ry - 1).rev().map(|b| contact[(rx - 1) * ry + b]));
-        ring.extend((1..rx - 1).rev().map(|a| contact[a * ry]));
+        ring.extend((y0..=y1).map(|b| at(x0, b)));
+        ring.extend((x0 + 1..=x1).map(|a| at(a, y1)));
+        if x1 > x0 {
+            ring.extend((y0..y1).rev().map(|b| at(x1, b)));
+        }
+        if y1 > y0 {
+            ring.extend((x0 + 1..x1).rev().map(|a| at(a, y0)));
+        }
+        Self::of_ring(&ring, f)
+    }
+
+    /// Runs of a closed ring of contact states (`f` nodes per base cell), slivers merged.
+    pub fn of_ring(ring: &[bool], f: usize) -> EdgeRuns {
         let n = ring.len();
         let starts: Vec<usize> = (0..n)
             .filter(|&k| ring[k] != ring[(k + n - 1) % n])
             .collect();
+        // runs once around: (state, nodes)
+        let mut runs: Vec<(bool, usize)> = starts
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| {
+                let next = starts[(i + 1) % starts.len()];
+                let len = (next + n - k) % n;
+                (ring[k], if len == 0 { n } else { len })
+            })
+            .collect();
+        let raw_crossings = runs.len();
+        let mut slivers = 0;
+        // merge the shortest sliver into its two neighbours (same state) until none is left
+        while runs.len() > 2 {
+            let (i, &(_, len)) = runs
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, r)| r.1)
+                .expect("runs");
+            if len >= SLIVER_NODES {
+                break;
+            }
+            let m = runs.len();
+            let (prev, next) = ((i + m - 1) % m, (i + 1) % m);
+            let merged = (runs[prev].0, runs[prev].1 + len + runs[next].1);
+            // remove i and next, put the merged run at prev (indices shift if they wrap)
+            let mut keep: Vec<(bool, usize)> = Vec::with_capacity(m - 2);
+            for (j, &r) in runs.iter().enumerate() {
+                if j == prev {
+                    keep.push(merged);
+                } else if j != i && j != next {
+                    keep.push(r);
+                }
+            }
+            runs = keep;
+            slivers += 1;
+        }
+        // two runs left with a sliver among them: the ring is one state
+        if runs.len() == 2 && runs.iter().any(|r| r.1 < SLIVER_NODES) {
+            let big = *runs.iter().max_by_key(|r| r.1).expect("two runs");
+            runs = vec![(big.0, n)];
+            slivers += 1;
+        }
+        let crossings = if runs.len() > 1 { runs.len() } else { 0 };
         let (mut open, mut touch) = (None::<f64>, None::<f64>);
-        for (i, &k) in starts.iter().enumerate() {
-            let next = starts[(i + 1) % starts.len()];
-            let len = (next + n - k) % n;
-            let len = if len == 0 { n } else { len } as f64 / f as f64;
-            let slot = if ring[k] { &mut touch } else { &mut open };
-            *slot = Some(slot.map_or(len, |v: f64| v.min(len)));
+        if crossings > 0 {
+            for &(state, len) in &runs {
+                let len = len as f64 / f as f64;
+                let slot = if state { &mut touch } else { &mut open };
+                *slot = Some(slot.map_or(len, |v: f64| v.min(len)));
+            }
         }
         EdgeRuns {
-            crossings: starts.len(),
+            crossings,
             narrowest_open: open,
             narrowest_contact: touch,
-            all_contact: ring.iter().all(|&c| c),
+            all_contact: if crossings == 0 {
+                runs.first().is_some_and(|r| r.0) || (runs.is_empty() && ring.iter().all(|&c| c))
+            } else {
+                false
+            },
+            raw_crossings,
+            slivers,
         }
     }
 
-    /// The window is too small for the neck if no contact line crosses its edge (it lies inside
-    /// the open channel or inside a contact patch: the contact lines that bound the neck are left
-    /// to the coarse grid), or if a run of either state on the edge is shorter than `min_cells`
-    /// base cells (the narrow part of the channel or of the contact bridge reaches the edge).
+    /// The window is too small for the neck if no contact line crosses its ring (it lies inside
+    /// the open channel or inside a contact patch: the contact lines that bound the neck are
+    /// left to the coarse grid), or if a run of either state on the ring is shorter than
+    /// `min_cells` base cells (the narrow part of the channel or of the contact bridge reaches
+    /// the edge). Slivers were merged before (struct docs). A caller that knows the neck's
+    /// topology also checks the count (`critical::refined`: a channel through the saddle
+    /// crosses the ring at both ends, with both sides: at least 4).
     pub fn too_small(&self, min_cells: f64) -> bool {
         self.crossings == 0
             || self.narrowest_open.is_some_and(|w| w < min_cells)
@@ -1866,16 +1962,75 @@ mod tests {
             seen.push(r.edge.too_small(2.0));
         }
         assert_eq!(seen, [true, false]);
-        // the run count on a hand-made edge: a 5 × 4 region with contact on its first row
-        let mut c = vec![false; 20];
-        c[..4].iter_mut().for_each(|v| *v = true);
-        let e = EdgeRuns::of(&c, 5, 4, 2);
-        assert_eq!(e.crossings, 2);
-        // the ring has 14 nodes: row 0 (4, in contact), then 10 open; 2 fine nodes per cell
+        // the run count on a hand-made region: 7 × 6 with contact on its first two rows; the
+        // ring is the second ring (rows 1 ..= 5, columns 1 ..= 4: 16 nodes), whose row 1 (4
+        // nodes) is in contact, the other 10 open (the ring has 14 nodes); 2 fine nodes per cell
+        let mut c = vec![false; 42];
+        c[..12].iter_mut().for_each(|v| *v = true);
+        let e = EdgeRuns::of(&c, 7, 6, 2);
+        assert_eq!((e.crossings, e.raw_crossings, e.slivers), (2, 2, 0));
         assert_eq!(
             (e.narrowest_contact, e.narrowest_open),
             (Some(2.0), Some(5.0))
         );
+        // contact on the edge alone (row 0) is not seen: the edge's base nodes carry the hats
+        let mut c = vec![false; 42];
+        c[..6].iter_mut().for_each(|v| *v = true);
+        let e = EdgeRuns::of(&c, 7, 6, 2);
+        assert_eq!((e.crossings, e.all_contact), (0, false));
+    }
+
+    /// Ring of runs (state, nodes) in order.
+    fn ring(runs: &[(bool, usize)]) -> Vec<bool> {
+        runs.iter()
+            .flat_map(|&(s, n)| std::iter::repeat_n(s, n))
+            .collect()
+    }
+
+    /// Slivers (runs of 1–2 nodes, [`SLIVER_NODES`]) are merged before the crossings are
+    /// counted: a contact line grazing the ring beside a real crossing (the measured triangular
+    /// pattern: contact | open 1 | contact 1 | open …) gives the neck's four crossings, not
+    /// eight, and is not too small; a real channel of 3 nodes (under 2 base cells at 4 nodes
+    /// per cell) stays a narrow run and is too small; one of 2 nodes is merged away, and the
+    /// ring then shows 2 crossings, which is too few for a channel through the window.
+    #[test]
+    fn edge_slivers_are_merged_but_narrow_runs_are_not() {
+        let f = 4;
+        // the neck: contact 40, open 50, contact 40, open 50; slivers beside two crossings
+        let grazing = ring(&[
+            (true, 39),
+            (false, 1),
+            (true, 1),
+            (false, 49),
+            (true, 38),
+            (false, 2),
+            (true, 1),
+            (false, 49),
+        ]);
+        let e = EdgeRuns::of_ring(&grazing, f);
+        assert_eq!((e.raw_crossings, e.slivers, e.crossings), (8, 2, 4));
+        // shortest first, the first of equals: open 1 joins contact 39 + 1; then contact 1
+        // joins open 2 + 49: runs 41, 49 (open), 38, 52 (open) nodes
+        assert_eq!(e.narrowest_contact, Some(38.0 / 4.0));
+        assert_eq!(e.narrowest_open, Some(49.0 / 4.0));
+        assert!(!e.too_small(2.0));
+        // (unmerged, its narrowest runs were 1 node = 0.25 base cells: flagged by the old rule)
+        // a channel of 3 nodes reaching the ring: kept, narrower than 2 base cells
+        let narrow = ring(&[(true, 80), (false, 3), (true, 40), (false, 57)]);
+        let e = EdgeRuns::of_ring(&narrow, f);
+        assert_eq!((e.crossings, e.slivers), (4, 0));
+        assert_eq!(e.narrowest_open, Some(0.75));
+        assert!(e.too_small(2.0));
+        // a channel of 2 nodes: merged, two crossings left (the caller's count check)
+        let thin = ring(&[(true, 80), (false, 2), (true, 40), (false, 58)]);
+        let e = EdgeRuns::of_ring(&thin, f);
+        assert_eq!((e.raw_crossings, e.crossings, e.slivers), (4, 2, 1));
+        // one sliver in a uniform ring: no crossing at all (too small), its state the rest's
+        let e = EdgeRuns::of_ring(&ring(&[(true, 2), (false, 60)]), f);
+        assert_eq!((e.crossings, e.all_contact), (0, false));
+        assert!(e.too_small(2.0));
+        let e = EdgeRuns::of_ring(&ring(&[(true, 60), (false, 1)]), f);
+        assert_eq!((e.crossings, e.all_contact), (0, true));
     }
 
     /// Diagnostic (ignored; `--ignored --nocapture`): the blockwise p_c and saddle gaps at fixed

@@ -12,7 +12,10 @@
 //! `REFINED_FINE_CSV`, `REFINED_MARGIN_CSV`: the same for D(k) and D(k, margin + Δ) (all three
 //! given: no solve, only the running exponents). `REFINED_PC_GUESS`: p_c/p_fc to start D(k)'s
 //! search from (width 2e-5). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
-//! default 1e-13) and iteration cap per attempt (default 20000).
+//! default 1e-13) and iteration cap per attempt (default `RefinedOptions`'s, 2000). `REFINED_EDGE_DUMP` (any value):
+//! print the runs of each rung's outermost ring of fine nodes (`edge,…` rows, see `dump_edge`).
+//! `REFINED_PC`: p_c/p_fc of every D (no search: the rungs' reduced loads from it; for timing
+//! rungs of a D whose p_c is known or close to another D's).
 use critical::refined::{
     Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, base_guess, default_ls,
     running_zeta,
@@ -50,7 +53,18 @@ fn run(
     }));
     let setup = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let c = r.critical_load(Some(guess), width).expect("p_c");
+    // REFINED_PC: p_c/p_fc given (no search; for timing rungs at a known p_c)
+    let c = match std::env::var("REFINED_PC") {
+        Ok(v) => {
+            let pc = v.parse::<f64>().expect("REFINED_PC (p_c/p_fc)") * r.p_fc();
+            critical::refined::ClosingLoad {
+                lo: pc,
+                hi: pc,
+                probes: 0,
+            }
+        }
+        Err(_) => r.critical_load(Some(guess), width).expect("p_c"),
+    };
     let pc = c.p_c();
     println!(
         "pc,{name},{},{},{},{},{},{:.15e},{:.6e},{},{},{:.2},{:.2},{}",
@@ -69,9 +83,9 @@ fn run(
     );
     std::io::stdout().flush().ok();
     let rungs = r
-        .ladder(pc, ls, &mut |g, _| {
+        .ladder(pc, ls, &mut |g, _r| {
             println!(
-                "rung,{name},{},{},{},{},{},{:e},{:.15e},{:.12e},{},{:.2},{},{},{},{},{},{},{}",
+                "rung,{name},{},{},{},{},{},{:e},{:.15e},{:.12e},{},{:.2},{},{},{},{},{},{},{},{},{}",
                 d.lattice.name(),
                 d.base_log2,
                 d.levels,
@@ -89,8 +103,13 @@ fn run(
                 g.neck_nodes,
                 g.flag
                     .map_or(String::new(), |f| f.to_string().replace(',', ";")),
-                load_average()
+                load_average(),
+                g.edge.raw_crossings,
+                g.edge.slivers
             );
+            if std::env::var("REFINED_EDGE_DUMP").is_ok() {
+                dump_edge(g.l, _r, 1usize << d.levels);
+            }
             std::io::stdout().flush().ok();
         })
         .expect("ladder");
@@ -140,7 +159,7 @@ fn main() {
         "pc,name,model,base_log2,k,window,margin,p_c_over_p_fc,bracket_rel,probes,iterations,setup_s,search_s,load_average"
     );
     println!(
-        "rung,name,model,base_log2,k,window,margin,l,load,saddle_gap,iterations,wall_s,crossings,narrowest_open,narrowest_contact,window_contact,neck_nodes,flag,load_average"
+        "rung,name,model,base_log2,k,window,margin,l,load,saddle_gap,iterations,wall_s,crossings,narrowest_open,narrowest_contact,window_contact,neck_nodes,flag,load_average,raw_crossings,slivers"
     );
     // a guess from the periodic base grid alone
     let t = Instant::now();
@@ -246,6 +265,8 @@ fn read_rungs(path: &str, levels: u32, margin: usize) -> (f64, Vec<RefinedRung>)
                 narrowest_open: num(13),
                 narrowest_contact: num(14),
                 all_contact: false,
+                raw_crossings: c[12].parse().expect("crossings"),
+                slivers: 0,
             };
             let contact: usize = c[15].parse().expect("window_contact");
             // runs before neck_nodes was printed have 18 columns, later ones 19
@@ -285,4 +306,60 @@ fn lattice_p_fc(lattice: Lattice, n: u32) -> f64 {
     surface::Surface::new(lattice, n)
         .expect("surface")
         .p_fc_grid()
+}
+
+/// `REFINED_EDGE_DUMP`: every run of the region's outermost ring of fine nodes (the ring the
+/// window check read before 2026-11-26; it now reads the second ring, see
+/// `contact::refinement::EdgeRuns`): `edge,l,state,ring index,nodes,(a;b) of its first node,
+/// base nodes in it, state of the first node's two inner neighbours, gap/pressure of its first
+/// four nodes`.
+fn dump_edge(l: f64, r: &contact::refinement::Refined, f: usize) {
+    let (rx, ry) = r.window_pressure.dim();
+    let mut ring: Vec<(usize, usize)> = Vec::new();
+    ring.extend((0..ry).map(|b| (0, b)));
+    ring.extend((1..rx).map(|a| (a, ry - 1)));
+    ring.extend((0..ry - 1).rev().map(|b| (rx - 1, b)));
+    ring.extend((1..rx - 1).rev().map(|a| (a, 0)));
+    let n = ring.len();
+    let contact = |(a, b): (usize, usize)| r.window_pressure[[a, b]] > 0.0;
+    let c = |k: usize| contact(ring[k]);
+    let starts: Vec<usize> = (0..n).filter(|&k| c(k) != c((k + n - 1) % n)).collect();
+    // the node `depth` rows inside the edge from (a, b)
+    let inward = |(a, b): (usize, usize), depth: usize| {
+        if a == 0 {
+            (depth, b)
+        } else if a == rx - 1 {
+            (rx - 1 - depth, b)
+        } else if b == 0 {
+            (a, depth)
+        } else {
+            (a, ry - 1 - depth)
+        }
+    };
+    for (i, &k) in starts.iter().enumerate() {
+        let next = starts[(i + 1) % starts.len()];
+        let len = (next + n - k) % n;
+        let base = (0..len)
+            .map(|t| ring[(k + t) % n])
+            .filter(|&(a, b)| a % f == 0 && b % f == 0)
+            .count();
+        let fields: Vec<String> = (0..len.min(4))
+            .map(|t| {
+                let (a, b) = ring[(k + t) % n];
+                format!(
+                    "{:.2e}/{:.2e}",
+                    r.window_gap[[a, b]],
+                    r.window_pressure[[a, b]]
+                )
+            })
+            .collect();
+        let (a, b) = ring[k];
+        println!(
+            "edge,{l:e},{},{k},{len},({a};{b}),base={base},inner1={},inner2={},{}",
+            if c(k) { "contact" } else { "open" },
+            contact(inward(ring[k], 1)),
+            contact(inward(ring[k], 2)),
+            fields.join(" ")
+        );
+    }
 }

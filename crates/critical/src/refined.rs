@@ -57,6 +57,22 @@
 //! that uses it. Each rung's [`Refined`] is handed to a callback (the window flux can be wired
 //! in there).
 //!
+//! # The window check
+//! "Too small" means that the neck's structure reaches the window's edge: the open channel or
+//! the contact bridge crosses it narrower than `min_edge_cells` = 2 base cells (its width there
+//! is not yet the far channel's), or the edge crosses no contact line or only one patch (fewer
+//! than 4 crossings: the contact lines bounding the neck lie outside, on the coarse grid). The
+//! edge is read on the region's second ring of fine nodes, and runs of 1–2 fine nodes are
+//! merged into their neighbours first ([`contact::refinement::SLIVER_NODES`]): the outermost
+//! ring's base nodes carry the coarse hats, and their hat-mean contact state made one-node
+//! runs wherever a contact line met the edge beside one (the triangular flags below, which
+//! were 12 crossings and runs of 1/2^k base cells). A run of ≤ 2 fine nodes is below the
+//! lattice's resolution of a contact line; a real structure of that width on the edge is
+//! merged away, which leaves fewer than 4 crossings and flags the window all the same, and
+//! one of 3 nodes up to 2 base cells stays a narrow run (tests: `contact::refinement`,
+//! `a_grazing_contact_line_is_not_a_window_too_small` and `a_too_small_window_is_flagged` in
+//! tests/refined.rs).
+//!
 //! # Running ζ ([`running_zeta`])
 //! ζ_eff = Δ ln g_s / Δ ln |l| between neighbouring rungs of the finest D; its grid error is the
 //! larger of the changes from D with k − 1 levels and from D with another margin (the far-field
@@ -184,10 +200,14 @@
 //!
 //! Triangular flags: the window of 32 base cells at k = 3 and the last three rungs at k = 4
 //! show 12 edge crossings with runs of one fine node (0.125, 0.0625 base cells) besides the four
-//! real crossings: probably the contact line meeting the edge at a base node, whose unknown
-//! also carries the coarse hats (its hat-weighted gap differs from its fine neighbours'). The
-//! check flags them as it must (it cannot tell); the window of 16 at k = 3 and k = 4 down to
-//! 1e-4 is clean. k = 3 and k = 4 are within 1–3e-3 of uniform 2048² from 0.02→0.01 to
+//! real crossings. They were the contact line meeting the edge next to a base node, whose
+//! unknown also carries the coarse hats (2026-11-26, `REFINED_EDGE_DUMP`; 256² base, k = 4,
+//! window 16, l = −5e-5: base node (16, 256) of the region open with hat-mean gap 4.2e-4 h0
+//! between fine nodes in contact, the fine node beside it in contact with p = 1.8e-4, then the
+//! open channel; the same at all four ends of the two channel crossings; 128² base, k = 3,
+//! window 16, l ≤ −2e-4 likewise). The check now reads the region's second ring (no base
+//! node on it) and merges runs of 1–2 fine nodes ([`contact::refinement::EdgeRuns`]): those
+//! rungs show the neck's 4 crossings and no sliver (below, "The window check"). k = 3 and k = 4 are within 1–3e-3 of uniform 2048² from 0.02→0.01 to
 //! 0.002→0.001 (uniform's own grid errors there 0.5–5e-3; the square agreed to 9e-4), and the neck is 3–7 fine nodes wide below 1e-4 at k = 3 (frozen at the
 //! last pair: ζ_eff = 1.278 is the discretisation's). Triangular k = 5 (window 16, from the
 //! k = 4 rows) was not measured: its cold warm-up solve at l ≈ −1e-2 stopped at the 400-iteration
@@ -216,6 +236,12 @@
 //! - The two models approach each other: 0.088 apart at 0.05→0.02, 0.047 at 5e-4→2e-4, ~0.04
 //!   at 2e-4→1e-4 (triangular not converged there). Neither has a plateau at 6/5; the square
 //!   one stays 0.035–0.045 below it from 2e-4 to 1e-5.
+//! - Hexagonal (2026-11-26, window 16; README "The window check; triangular flags;
+//!   hexagonal"): the ladder runs (4 crossings at every rung, margin changes ≤ 3.4e-4) but the
+//!   neck is narrow (at k = 4: 29, 21, 13, 9 fine nodes at l = −1e-3, −5e-4, −2e-4, −1e-4, the
+//!   square's at ten times smaller |l|), so k = 3 vs 4 on 256² differ by 3.4e-3, 7.5e-3,
+//!   1.6e-2, 2.2e-2, 4.0e-2 from 5e-3→2e-3 to 2e-4→1e-4 (ζ_eff at k = 4: 1.1554, 1.1528,
+//!   1.1522, 1.1566, 1.1679): it needs k ≥ 5.
 //! - The far-field (margin) error grows like 1/|l| as the module doc of `contact::refinement`
 //!   predicted, and with k at a fixed window (the fine window sees the same coarse far field
 //!   at a finer scale): square margin 8 → 12 at 2e-5→1e-5: 6e-5 (k = 3, window 32), 1.1e-3
@@ -626,8 +652,8 @@ impl std::fmt::Display for RungFlag {
         match self {
             RungFlag::Window(e) => write!(
                 f,
-                "window too small: {} crossings, narrowest open {:?}, contact {:?} base cells",
-                e.crossings, e.narrowest_open, e.narrowest_contact
+                "window too small: {} crossings ({} before merging {} slivers), narrowest open {:?}, contact {:?} base cells",
+                e.crossings, e.raw_crossings, e.slivers, e.narrowest_open, e.narrowest_contact
             ),
             RungFlag::NotConverged => write!(f, "solve not converged"),
             RungFlag::Closed => write!(f, "saddle closed"),

@@ -145,6 +145,63 @@ fn a_too_small_window_is_flagged() {
     assert_eq!(flags[1], [false, false, false]);
 }
 
+/// A contact line grazing the window's edge is not a window too small: the triangular model on
+/// a 128² base refined k = 3 in a window of 16 base cells, at l = −1e-4 from p_c(D) (measured
+/// by `examples/refined_ladder.rs`: p_c/p_fc = 0.7121159066, whose rungs from −2e-4 down were
+/// all flagged before). On the region's outermost ring the contact line meets the edge next
+/// to a base node whose unknown also carries the coarse hats: that node is open (hat-mean gap)
+/// between fine nodes in contact, with a one-node contact tongue beside it, at both ends of both
+/// channel crossings (12 state changes, runs of 1 node = 0.125 base cells). The ring the check
+/// uses (one node inside) shows the neck's 4 crossings and no sliver, and the rung is not
+/// flagged; a window of 2 base cells at the same load still is.
+#[test]
+fn a_grazing_contact_line_is_not_a_window_too_small() {
+    let opts = RefinedOptions {
+        tol_gap: 5e-12,
+        ..Default::default()
+    };
+    let disc = Discretisation {
+        lattice: Lattice::Triangular,
+        base_log2: 7,
+        levels: 3,
+        window: 16,
+        margin: 8,
+    };
+    let mut r = Refinement::new(disc, &opts).unwrap();
+    let pc = 0.7121159066 * r.p_fc();
+    let rungs = r
+        .ladder(pc, &[-1e-4], &mut |g, sol| {
+            // the outermost ring of the region, once around, as the old check read it
+            let p = &sol.window_pressure;
+            let (rx, ry) = p.dim();
+            let mut ring: Vec<bool> = (0..ry).map(|b| p[[0, b]] > 0.0).collect();
+            ring.extend((1..rx).map(|a| p[[a, ry - 1]] > 0.0));
+            ring.extend((0..ry - 1).rev().map(|b| p[[rx - 1, b]] > 0.0));
+            ring.extend((1..rx - 1).rev().map(|a| p[[a, 0]] > 0.0));
+            let outer = EdgeRuns::of_ring(&ring, 8);
+            eprintln!("l {:e}: edge {:?}; outermost ring {outer:?}", g.l, g.edge);
+            assert!(
+                outer.raw_crossings > 4,
+                "the grazing pattern is gone: {outer:?}"
+            );
+        })
+        .unwrap();
+    let g = &rungs[0];
+    assert_eq!(
+        (g.edge.crossings, g.edge.raw_crossings),
+        (4, 4),
+        "{:?}",
+        g.edge
+    );
+    assert!(g.flag.is_none(), "{:?}", g.flag);
+    // the neck is resolved (3 open fine nodes across at this load), the saddle open
+    assert!(g.neck_nodes >= 3 && g.saddle_gap > 0.0, "{g:?}");
+    let mut small = Refinement::new(Discretisation { window: 2, ..disc }, &opts).unwrap();
+    let s = &small.ladder(pc, &[-1e-4], &mut |_, _| {}).unwrap()[0];
+    eprintln!("window 2: {:?}, flag {:?}", s.edge, s.flag);
+    assert!(matches!(s.flag, Some(RungFlag::Window(_))), "{s:?}");
+}
+
 fn rung(l: f64, g: f64, hash: u64, flag: Option<RungFlag>) -> RefinedRung {
     RefinedRung {
         l,
@@ -158,6 +215,8 @@ fn rung(l: f64, g: f64, hash: u64, flag: Option<RungFlag>) -> RefinedRung {
             narrowest_open: Some(3.0),
             narrowest_contact: Some(3.0),
             all_contact: false,
+            raw_crossings: 4,
+            slivers: 0,
         },
         window_contact: hash as usize,
         neck_nodes: 10,
