@@ -21,8 +21,9 @@
 //! filled markers, the axis gaps of the refined ladder's finest discretisation
 //! (`kinds::refined_ladder::read_profiles`: the fine window around the saddle) at its rungs
 //! below p_c(D) that are unflagged and open, in the same per-model units (from the uniform
-//! fits; l from the refined discretisation's own p_c): the collapse at the small |l| the
-//! uniform grids do not resolve. Panel (a) has no refined contact lines.
+//! fits where they exist, else the refined ladder's own power-law fits over its unflagged
+//! rungs, with a warning; l from the refined discretisation's own p_c): the collapse at the
+//! small |l| the uniform grids do not resolve. Panel (a) has no refined contact lines.
 //!
 //! # Collapse quality (`fig5_collapse.csv`)
 //! In [`crate::fig5_collapse`].
@@ -42,7 +43,8 @@ pub use crate::fig5_collapse::{
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
 use critical::ladder::Window;
-use critical::scaling::{axis_gap, contact_lines};
+use critical::refined::Measured;
+use critical::scaling::{axis_gap, contact_lines, fit_exponent};
 use figures::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
 use figures::style::Model;
 use kinds::exponents::{self, ModelExponents, NAMES};
@@ -205,6 +207,81 @@ pub fn fig5_data(
     Ok((d, warn, curves, refined))
 }
 
+/// The units of a refined ladder's profiles: per exponent the uniform fit of the `exponents`
+/// input (as panel (b)'s open markers) where it has one, else the refined ladder's own power-law
+/// fit over its finest discretisation's unflagged rungs (ζ: saddle gap, χ: blocked half-length;
+/// `critical::scaling::fit_exponent`), with a warning naming it; `None` (and a warning) if an
+/// exponent has neither.
+fn refined_units(
+    rd: &RefinedData,
+    e: Option<&ModelExponents>,
+    warn: &mut Vec<String>,
+) -> Option<Units> {
+    let name = rd.lattice.name();
+    let unflagged: Vec<f64> = rd.finest().map_or(Vec::new(), |f| {
+        f.rungs
+            .iter()
+            .filter(|(_, flag)| flag.is_empty())
+            .map(|(r, _)| r.l)
+            .collect()
+    });
+    let mut pick = |k: usize, m: Measured| -> Option<(f64, f64)> {
+        if let Some(x) = e.map(|e| e.exponents[k])
+            && x.value.is_finite()
+            && x.prefactor.is_finite()
+            && x.prefactor > 0.0
+        {
+            return Some((x.value, x.prefactor));
+        }
+        let (l, y): (Vec<f64>, Vec<f64>) = rd
+            .points(m)
+            .iter()
+            .filter(|p| unflagged.contains(&p.l))
+            .map(|p| (p.l, p.y))
+            .unzip();
+        let sym = exponents::symbol(NAMES[k]);
+        // two points (no degree of freedom, which the fit refuses): the power law through them
+        let fit = fit_exponent(&l, &y).or_else(|err| match (l.as_slice(), y.as_slice()) {
+            ([l0, l1], [y0, y1]) if l0 != l1 && *y0 > 0.0 && *y1 > 0.0 => {
+                let value = (y1 / y0).ln() / (l1.abs() / l0.abs()).ln();
+                Ok(critical::scaling::ExponentFit {
+                    value,
+                    error: f64::NAN,
+                    prefactor: y0 / l0.abs().powf(value),
+                    points: 2,
+                })
+            }
+            _ => Err(err),
+        });
+        match fit {
+            Ok(f) if f.value.is_finite() && f.prefactor.is_finite() && f.prefactor > 0.0 => {
+                warn.push(format!(
+                    "{name}: no uniform {sym} fit; the refined profiles use the refined ladder's own ({} rungs: {sym} = {:.4})",
+                    f.points, f.value
+                ));
+                Some((f.value, f.prefactor))
+            }
+            _ => {
+                warn.push(format!(
+                    "{name}: no {sym} fit, uniform or refined; the refined profiles are left out of Figure 5"
+                ));
+                None
+            }
+        }
+    };
+    let (zeta, a_z) = pick(0, Measured::SaddleGap)?;
+    let (upsilon, a_u) = pick(1, Measured::OpenHalfWidth)?;
+    let (chi, a_c) = pick(2, Measured::BlockedHalfLength)?;
+    Some(Units {
+        zeta,
+        a_z,
+        upsilon,
+        a_u,
+        chi,
+        a_c,
+    })
+}
+
 /// The refined ladders' finest axis-gap profiles (`kinds::refined_ladder::read_profiles`) of the
 /// rungs below p_c(D) that are unflagged and open, rescaled in the model's units from the
 /// uniform fits (module docs): added to `d.refined_profiles` (thinned) and returned in full.
@@ -235,13 +312,7 @@ fn refined_curves(
             ));
             continue;
         }
-        let Some(e) = ex.iter().find(|e| e.lattice == name) else {
-            warn.push(format!(
-                "{name}: refined ladder not in the `exponents` input (no units); left out of Figure 5"
-            ));
-            continue;
-        };
-        let Some(u) = units_of(e, warn) else {
+        let Some(u) = refined_units(&rd, ex.iter().find(|e| e.lattice == name), warn) else {
             continue;
         };
         let usable = |l: f64| {
