@@ -367,6 +367,7 @@ pub fn fig5() -> Fig5Data {
                 .collect(),
         ],
         profiles,
+        refined_profiles: Vec::new(),
         gap_analytic: vec![
             (0..=40)
                 .map(|k| {

@@ -47,7 +47,9 @@
 //! `running/*` (ζ), `running_upsilon/*`, `running_chi/*` and `running_beta/*`
 //! ([`RefinedPairRow`]: `l_hi`,
 //! `l_lo`, `value`, `error_levels`, `error_margin`, `grid_error`, `fit_error`) and their
-//! `flag`s.
+//! `flag`s; the finest discretisation's axis-gap profiles `profile/*` ([`RefinedProfileRow`]:
+//! `l`, `distance` (λ from the saddle along the channel axis), `gap` (h0), every rung, from the
+//! fine window around the saddle; read by [`read_profiles`]).
 
 use crate::surface::lattice_spec;
 use analysis::ScalingPoint;
@@ -70,7 +72,7 @@ use surface::Lattice;
 pub struct RefinedLadderKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 5;
+pub const CODE_VERSION: u64 = 6;
 
 /// The running exponents' grid-error bound (as the uniform ladders', issue 13).
 pub const GRID_BOUND: f64 = 0.005;
@@ -267,10 +269,21 @@ impl TypedKind for RefinedLadderKind {
             let t = std::time::Instant::now();
             let mut r = Refinement::new(disc, &opts)?;
             let c = r.critical_load(Some(guess), width)?;
+            // the finest level keeps its solutions for the axis-gap profiles (`profile/*`)
+            let keep = i + 1 == params.levels.len();
+            let mut solutions = Vec::new();
             let (rungs, fluxes) =
-                ladder_with_flux(&mut r, c.p_c(), &params.ls, method, &mut |_, _| {})?;
+                ladder_with_flux(&mut r, c.p_c(), &params.ls, method, &mut |_, sol| {
+                    if keep {
+                        solutions.push(sol.clone());
+                    }
+                })?;
             let wall = t.elapsed().as_secs_f64();
             write_discretisation(out, &format!("d/{i}"), disc, &c, &rungs, wall, r.iterations)?;
+            if keep {
+                let rows = profile_rows(&r, &rungs, &solutions);
+                RefinedProfileRow::write(&rows, out, "profile")?;
+            }
             let notes: Vec<String> = fluxes
                 .iter()
                 .map(|f| f.as_ref().err().cloned().unwrap_or_default())
@@ -329,6 +342,31 @@ impl TypedKind for RefinedLadderKind {
             "flux_wall_s": flux_walls,
         })))
     }
+}
+
+/// The finest level's axis-gap profiles ([`RefinedProfileRow`]): per rung (in the ladder's
+/// order, as `on_rung` saw them), the gap on the channel axis of the fine window around the
+/// saddle (`Refinement::saddle_window`, `critical::scaling::axis_gap`) from the saddle outward.
+fn profile_rows(
+    r: &Refinement,
+    rungs: &[RefinedRung],
+    solutions: &[contact::refinement::Refined],
+) -> Vec<RefinedProfileRow> {
+    let mut rows = Vec::new();
+    for (rung, sol) in rungs.iter().zip(solutions) {
+        let w = r.saddle_window(sol);
+        let (dist, gap) = critical::scaling::axis_gap(&w);
+        rows.extend(
+            dist.into_iter()
+                .zip(gap)
+                .map(|(distance, gap)| RefinedProfileRow {
+                    l: rung.l,
+                    distance,
+                    gap,
+                }),
+        );
+    }
+    rows
 }
 
 /// The artefact group of a measured quantity's running exponents (`running` for ζ, as before υ,
@@ -430,6 +468,20 @@ formats::record! {
 }
 
 formats::record! {
+    /// One point of the finest discretisation's axis-gap profiles (`profile/*`, optional: absent
+    /// before CODE_VERSION 6): rungs in the ladder's order, each from the saddle outward.
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct RefinedProfileRow {
+        /// The rung's reduced load.
+        pub l: f64,
+        /// Distance from the saddle along the channel axis (λ).
+        pub distance: f64,
+        /// Gap (h0).
+        pub gap: f64,
+    }
+}
+
+formats::record! {
     /// One running-exponent pair of the finest discretisation (`running/*` for ζ,
     /// `running_upsilon/*`, `running_chi/*`).
     #[derive(Clone, Debug, PartialEq)]
@@ -485,6 +537,30 @@ pub struct RefinedData {
     pub flux_method: String,
     /// Running exponents of the finest discretisation (ζ, υ, χ, then β) with their flags.
     pub running: Vec<RefinedPair>,
+}
+
+/// One rung's axis-gap profile of the finest discretisation as read back: (l, distance from
+/// the saddle along the channel axis (λ), gap (h0)).
+pub type RefinedProfile = (f64, Vec<f64>, Vec<f64>);
+
+/// The finest discretisation's axis-gap profiles (`profile/*`), one per rung in the ladder's
+/// (ascending l) order; empty for an artefact written before they were stored (CODE_VERSION < 6).
+pub fn read_profiles(r: &ArtefactReader) -> Result<Vec<RefinedProfile>> {
+    if !r.has_dataset("profile/l") {
+        return Ok(Vec::new());
+    }
+    let rows: Vec<RefinedProfileRow> = read_in(r, "profile")?;
+    let mut out: Vec<RefinedProfile> = Vec::new();
+    for row in rows {
+        match out.last_mut() {
+            Some(p) if p.0 == row.l => {
+                p.1.push(row.distance);
+                p.2.push(row.gap);
+            }
+            _ => out.push((row.l, vec![row.distance], vec![row.gap])),
+        }
+    }
+    Ok(out)
 }
 
 /// One running-exponent pair as read back.

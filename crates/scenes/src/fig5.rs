@@ -2,7 +2,7 @@
 //! tables. (Figure 6's bottom-left panel takes the `exponents` stage as its `ladder` input:
 //! crates/stages/src/exponents.rs.)
 //!
-//! # Figure 5 (`fig5`; inputs `ladder`: one per model, `exponents`)
+//! # Figure 5 (`fig5`; inputs `ladder`: one per model, `exponents`; optional `refined`)
 //! From each model's finest ladder grid, in each model's own units: lengths along the channel
 //! in units of the blocked half-length `A_χ |l|^χ`, across it in units of the open half-width
 //! `A_υ |l|^υ`, gaps in units of the saddle gap `A_ζ |l|^ζ` (A and the exponents from that
@@ -17,6 +17,13 @@
 //! (a) contact lines (blue l < 0, green l = 0, red l > 0); (b) the gap on the channel axis
 //! against the distance from the saddle, one marker per model, one colour per l. A model without all
 //! three fits (too coarse a grid) is left out, with a warning. The paper's analytic approximations (black lines) are not drawn.
+//! With `refined` inputs (`refined_ladder` stages, one per model) panel (b) also shows, as
+//! filled markers, the axis gaps of the refined ladder's finest discretisation
+//! (`kinds::refined_ladder::read_profiles`: the fine window around the saddle) at its rungs
+//! below p_c(D) that are unflagged and open, in the same per-model units (from the uniform
+//! fits where they exist, else the refined ladder's own power-law fits over its unflagged
+//! rungs, with a warning; l from the refined discretisation's own p_c): the collapse at the
+//! small |l| the uniform grids do not resolve. Panel (a) has no refined contact lines.
 //!
 //! # Collapse quality (`fig5_collapse.csv`)
 //! In [`crate::fig5_collapse`].
@@ -36,11 +43,13 @@ pub use crate::fig5_collapse::{
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
 use critical::ladder::Window;
-use critical::scaling::{axis_gap, contact_lines};
+use critical::refined::Measured;
+use critical::scaling::{axis_gap, contact_lines, fit_exponent};
 use figures::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
 use figures::style::Model;
 use kinds::exponents::{self, ModelExponents, NAMES};
 use kinds::ladder::LadderData;
+use kinds::refined_ladder::{RefinedData, read_profiles};
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{Params, StageContext};
 use store::ArtefactReader;
@@ -52,6 +61,9 @@ pub fn inputs() -> Vec<InputSpec> {
     vec![
         InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model"),
         InputSpec::one("exponents", &["exponents"]).doc("the exponents fitted to those ladders"),
+        InputSpec::many("refined", &["refined_ladder"])
+            .optional()
+            .doc("one `refined_ladder` stage per model (optional): its finest axis-gap profiles (l < 0, unflagged) join panel (b) and fig5_collapse.csv as `refined`"),
     ]
 }
 
@@ -127,8 +139,12 @@ pub fn rescale_rung(w: &Window, l: f64, u: &Units) -> (Vec<(f64, f64)>, Vec<f64>
 }
 
 /// Figure 5's data (see the module docs); the second value lists warnings, the third every
-/// drawn model's full-resolution rescaled axis gaps (for [`collapse_table`]).
-pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>, Vec<ModelCurves>)> {
+/// drawn model's full-resolution rescaled axis gaps from the uniform ladders, the fourth from
+/// the refined ones (for [`collapse_table`]).
+#[allow(clippy::type_complexity)]
+pub fn fig5_data(
+    inputs: &Inputs,
+) -> Result<(Fig5Data, Vec<String>, Vec<ModelCurves>, Vec<ModelCurves>)> {
     let ex = exponents::read(inputs.one("exponents")?)?;
     let mut warn = Vec::new();
     let mut d = Fig5Data {
@@ -187,7 +203,145 @@ pub fn fig5_data(inputs: &Inputs) -> Result<(Fig5Data, Vec<String>, Vec<ModelCur
         }
         curves.push((name.to_string(), mine));
     }
-    Ok((d, warn, curves))
+    let refined = refined_curves(inputs, &ex, &mut d, &mut warn)?;
+    Ok((d, warn, curves, refined))
+}
+
+/// The units of a refined ladder's profiles: per exponent the uniform fit of the `exponents`
+/// input (as panel (b)'s open markers) where it has one, else the refined ladder's own power-law
+/// fit over its finest discretisation's unflagged rungs (ζ: saddle gap, χ: blocked half-length;
+/// `critical::scaling::fit_exponent`), with a warning naming it; `None` (and a warning) if an
+/// exponent has neither.
+fn refined_units(
+    rd: &RefinedData,
+    e: Option<&ModelExponents>,
+    warn: &mut Vec<String>,
+) -> Option<Units> {
+    let name = rd.lattice.name();
+    let unflagged: Vec<f64> = rd.finest().map_or(Vec::new(), |f| {
+        f.rungs
+            .iter()
+            .filter(|(_, flag)| flag.is_empty())
+            .map(|(r, _)| r.l)
+            .collect()
+    });
+    let mut pick = |k: usize, m: Measured| -> Option<(f64, f64)> {
+        if let Some(x) = e.map(|e| e.exponents[k])
+            && x.value.is_finite()
+            && x.prefactor.is_finite()
+            && x.prefactor > 0.0
+        {
+            return Some((x.value, x.prefactor));
+        }
+        let (l, y): (Vec<f64>, Vec<f64>) = rd
+            .points(m)
+            .iter()
+            .filter(|p| unflagged.contains(&p.l))
+            .map(|p| (p.l, p.y))
+            .unzip();
+        let sym = exponents::symbol(NAMES[k]);
+        // two points (no degree of freedom, which the fit refuses): the power law through them
+        let fit = fit_exponent(&l, &y).or_else(|err| match (l.as_slice(), y.as_slice()) {
+            ([l0, l1], [y0, y1]) if l0 != l1 && *y0 > 0.0 && *y1 > 0.0 => {
+                let value = (y1 / y0).ln() / (l1.abs() / l0.abs()).ln();
+                Ok(critical::scaling::ExponentFit {
+                    value,
+                    error: f64::NAN,
+                    prefactor: y0 / l0.abs().powf(value),
+                    points: 2,
+                })
+            }
+            _ => Err(err),
+        });
+        match fit {
+            Ok(f) if f.value.is_finite() && f.prefactor.is_finite() && f.prefactor > 0.0 => {
+                warn.push(format!(
+                    "{name}: no uniform {sym} fit; the refined profiles use the refined ladder's own ({} rungs: {sym} = {:.4})",
+                    f.points, f.value
+                ));
+                Some((f.value, f.prefactor))
+            }
+            _ => {
+                warn.push(format!(
+                    "{name}: no {sym} fit, uniform or refined; the refined profiles are left out of Figure 5"
+                ));
+                None
+            }
+        }
+    };
+    let (zeta, a_z) = pick(0, Measured::SaddleGap)?;
+    let (upsilon, a_u) = pick(1, Measured::OpenHalfWidth)?;
+    let (chi, a_c) = pick(2, Measured::BlockedHalfLength)?;
+    Some(Units {
+        zeta,
+        a_z,
+        upsilon,
+        a_u,
+        chi,
+        a_c,
+    })
+}
+
+/// The refined ladders' finest axis-gap profiles (`kinds::refined_ladder::read_profiles`) of the
+/// rungs below p_c(D) that are unflagged and open, rescaled in the model's units from the
+/// uniform fits (module docs): added to `d.refined_profiles` (thinned) and returned in full.
+fn refined_curves(
+    inputs: &Inputs,
+    ex: &[ModelExponents],
+    d: &mut Fig5Data,
+    warn: &mut Vec<String>,
+) -> Result<Vec<ModelCurves>> {
+    let mut out: Vec<ModelCurves> = Vec::new();
+    let mut data = Vec::new();
+    for r in inputs.all("refined") {
+        data.push((RefinedData::read(r)?, read_profiles(r)?));
+    }
+    data.sort_by_key(|(rd, _)| {
+        Model::ALL
+            .iter()
+            .position(|m| m.name() == rd.lattice.name())
+    });
+    for (rd, profiles) in data {
+        let name = rd.lattice.name();
+        if out.iter().any(|m| m.0 == name) {
+            anyhow::bail!("two `refined` inputs for the {name} model; give one per model");
+        }
+        if profiles.is_empty() {
+            warn.push(format!(
+                "{name}: the refined ladder stores no axis-gap profiles (written before kinds::refined_ladder CODE_VERSION 6); left out of Figure 5"
+            ));
+            continue;
+        }
+        let Some(u) = refined_units(&rd, ex.iter().find(|e| e.lattice == name), warn) else {
+            continue;
+        };
+        let usable = |l: f64| {
+            rd.finest().is_some_and(|f| {
+                f.rungs
+                    .iter()
+                    .any(|(r, flag)| r.l == l && flag.is_empty() && r.saddle_gap > 0.0)
+            })
+        };
+        let mut mine = Vec::new();
+        for (l, dist, gap) in profiles {
+            if l >= 0.0 || !usable(l) {
+                continue;
+            }
+            let (sx, sg) = (u.a_c * l.abs().powf(u.chi), u.a_z * l.abs().powf(u.zeta));
+            let x: Vec<f64> = dist.iter().map(|v| v / sx).collect();
+            let y: Vec<f64> = gap.iter().map(|v| v / sg).collect();
+            let (tx, ty) = thin_profile(&x, &y);
+            d.refined_profiles.push(GapProfile {
+                model: model_of(name)?,
+                l,
+                distance: tx,
+                gap: ty,
+            });
+            mine.push((l, x, y));
+        }
+        out.push((name.to_string(), mine));
+    }
+    Ok(out)
 }
 
 /// A model's units from its fits of ζ, υ, χ; `None` (with warnings) without all three.
@@ -317,8 +471,9 @@ pub fn measurement_table(r: &ArtefactReader) -> Result<Table> {
 }
 
 /// The `fig5` scene: Figure 5 (near-critical contact lines and axis gaps collapsed by the
-/// scaling; inputs `ladder`, one per model, and `exponents`) and the tables `exponents.csv`,
-/// `ladder_measurements.csv` and `fig5_collapse.csv` (see the module docs). Attributes `contact_lines`, `profiles`.
+/// scaling; inputs `ladder`, one per model, and `exponents`, optional `refined`) and the tables
+/// `exponents.csv`, `ladder_measurements.csv` and `fig5_collapse.csv` (see the module docs).
+/// Attributes `contact_lines`, `profiles`, `refined_profiles`.
 pub struct Fig5;
 
 impl Scene for Fig5 {
@@ -329,7 +484,7 @@ impl Scene for Fig5 {
         "Figure 5: near-critical scaling collapse (figure), exponents and ladder measurements (tables)"
     }
     fn code_version(&self) -> u64 {
-        2
+        3
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         inputs()
@@ -349,15 +504,17 @@ impl Scene for Fig5 {
         inputs: &Inputs,
         out: &mut ArtefactWriter,
     ) -> Result<Outputs> {
-        let (data, warnings, curves) = fig5_data(inputs)?;
+        let (data, warnings, curves, refined) = fig5_data(inputs)?;
         for w in warnings {
             ctx.warn(w);
         }
         out.set_attr("contact_lines", data.contact_lines.len() as i64)?;
         out.set_attr("profiles", data.profiles.len() as i64)?;
-        let (collapse, pooled) = collapse_table(&curves)?;
+        out.set_attr("refined_profiles", data.refined_profiles.len() as i64)?;
+        let (collapse, [pooled, pooled_refined]) = collapse_table(&curves, &refined)?;
         out.set_attr("collapse_rms_open", pooled[0])?;
         out.set_attr("collapse_rms_blocked", pooled[1])?;
+        out.set_attr("collapse_rms_open_refined", pooled_refined[0])?;
         let r = inputs.one("exponents")?;
         Ok(Outputs::new()
             .figure("figure", figures::scenes::fig5::figure(&data)?)

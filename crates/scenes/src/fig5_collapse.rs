@@ -10,8 +10,12 @@
 //! one side), "rungs" (one model's curves at all its l: how well the per-model rescaling
 //! collapses the model itself, the yardstick for the between-model number). Columns `side`
 //! ("open" l < 0, "blocked" l > 0), `compare`, `model` ("all" for models), `l` (NaN where
-//! pooled), `curves`, `x_lo`, `x_hi`, `samples`, `rms_ln`. Stage attributes
-//! `collapse_rms_open`, `collapse_rms_blocked` (the "models, all l" values).
+//! pooled), `curves`, `x_lo`, `x_hi`, `samples`, `rms_ln`, `method` ("uniform": the uniform
+//! ladders' finest grids; "refined": the refined ladders' finest discretisations, l < 0 only,
+//! unflagged rungs, rescaled in the same per-model units from the uniform fits — the same
+//! residual where the uniform grids no longer resolve the channel). Stage attributes
+//! `collapse_rms_open`, `collapse_rms_blocked` (the uniform "models, all l" values) and
+//! `collapse_rms_open_refined` (the refined one; NaN with fewer than two refined models).
 
 use anyhow::Result;
 use tables::Table;
@@ -90,9 +94,12 @@ pub fn collapse_rms(curves: &[(Vec<f64>, Vec<f64>)]) -> Option<Spread> {
 /// One model's full-resolution rescaled axis gaps: (l, distance, gap) per rung.
 pub type ModelCurves = (String, Vec<(f64, Vec<f64>, Vec<f64>)>);
 
-/// `fig5_collapse.csv` (module docs) and the pooled between-model rms per side (open, blocked).
-pub fn collapse_table(models: &[ModelCurves]) -> Result<(Table, [f64; 2])> {
-    let mut rows: Vec<(String, String, String, f64, usize, Spread)> = Vec::new();
+/// One row of `fig5_collapse.csv`: side, compare, model, l, curves, spread.
+type Row = (String, String, String, f64, usize, Spread);
+
+/// The rows of one method's curves (module docs) and its pooled between-model rms per side.
+fn collapse_rows(models: &[ModelCurves]) -> (Vec<Row>, [f64; 2]) {
+    let mut rows: Vec<Row> = Vec::new();
     let mut pooled = [f64::NAN; 2];
     for (k, side) in ["open", "blocked"].into_iter().enumerate() {
         let on_side = |l: f64| if k == 0 { l < 0.0 } else { l > 0.0 };
@@ -152,6 +159,21 @@ pub fn collapse_table(models: &[ModelCurves]) -> Result<(Table, [f64; 2])> {
             }
         }
     }
+    (rows, pooled)
+}
+
+/// `fig5_collapse.csv` (module docs): the uniform ladders' rows, then the refined ladders'
+/// (`method` "uniform", "refined"), and each method's pooled between-model rms per side
+/// (open, blocked): `[uniform, refined]`.
+pub fn collapse_table(
+    uniform: &[ModelCurves],
+    refined: &[ModelCurves],
+) -> Result<(Table, [[f64; 2]; 2])> {
+    let (mut rows, pu) = collapse_rows(uniform);
+    let n_uniform = rows.len();
+    let (r, pr) = collapse_rows(refined);
+    rows.extend(r);
+    let method = (0..rows.len()).map(|k| if k < n_uniform { "uniform" } else { "refined" });
     let t = Table::new()
         .with_str("side", rows.iter().map(|r| r.0.clone()))
         .with_str("compare", rows.iter().map(|r| r.1.clone()))
@@ -161,8 +183,9 @@ pub fn collapse_table(models: &[ModelCurves]) -> Result<(Table, [f64; 2])> {
         .with_f64("x_lo", rows.iter().map(|r| r.5.x_lo))
         .with_f64("x_hi", rows.iter().map(|r| r.5.x_hi))
         .with_i64("samples", rows.iter().map(|r| r.5.samples as i64))
-        .with_f64("rms_ln", rows.iter().map(|r| r.5.rms));
-    Ok((t, pooled))
+        .with_f64("rms_ln", rows.iter().map(|r| r.5.rms))
+        .with_str("method", method.map(String::from));
+    Ok((t, [pu, pr]))
 }
 
 #[cfg(test)]

@@ -171,6 +171,10 @@ inputs = { refined = ["ref"] }
             "inputs = { ladder = [\"lad\"], refined = [\"ref\"] }\n\n[stages.fig5]",
         )
         .replace(
+            "inputs = { ladder = [\"lad\"], exponents = \"ex\" }",
+            "inputs = { ladder = [\"lad\"], exponents = \"ex\", refined = [\"ref\"] }",
+        )
+        .replace(
             "kind = \"running\"\ninputs = { ladder = [\"lad\"] }",
             "kind = \"running\"\ninputs = { ladder = [\"lad\"], refined = [\"ref\"] }",
         );
@@ -252,5 +256,37 @@ inputs = { refined = ["ref"] }
     );
     for k in 0..e.n_rows() {
         assert!(a[k] == u[k] || (a[k].is_nan() && u[k].is_nan()), "row {k}");
+    }
+    // fig5_collapse.csv: the uniform rows as without the refined ladder (none on these grids:
+    // no uniform χ fit), then `refined` rows (one refined model here, so only its rungs'
+    // collapse, l < 0, in units from its own fits) with a finite residual
+    let typed = |d: &std::path::Path| {
+        let f = d.join("results/tables/fig5_collapse.csv");
+        tables::read_csv(&f, &[("rms_ln", tables::ColumnType::F64)]).unwrap()
+    };
+    let c = typed(dir.path());
+    // an empty CSV reads as text columns
+    let pc = read(plain.path(), "fig5_collapse.csv");
+    let cm = c.str("method").unwrap();
+    let n_u = cm.iter().filter(|m| *m == "uniform").count();
+    assert_eq!(n_u, pc.n_rows());
+    let rms = c.f64("rms_ln").unwrap();
+    if n_u > 0 {
+        let pt = typed(plain.path());
+        let prms = pt.f64("rms_ln").unwrap();
+        for k in 0..n_u {
+            assert!(
+                rms[k] == prms[k] || (rms[k].is_nan() && prms[k].is_nan()),
+                "row {k}"
+            );
+        }
+    }
+    assert!(cm.len() > n_u, "no refined rows in fig5_collapse.csv");
+    let (side, model) = (c.str("side").unwrap(), c.str("model").unwrap());
+    for k in n_u..cm.len() {
+        assert_eq!(cm[k], "refined");
+        assert_eq!(side[k], "open");
+        assert_eq!(model[k], "square");
+        assert!(rms[k].is_finite() && rms[k] >= 0.0, "row {k}: {}", rms[k]);
     }
 }

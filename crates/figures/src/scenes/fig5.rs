@@ -1,7 +1,8 @@
 //! Figure 5: (a) contact-line shapes near the saddle below (blue), at (green) and above (red)
 //! the critical load, collapsed by the scaling; (b) the gap on the symmetry axis against the
 //! distance from the saddle, rescaled, one marker shape per model and one colour per reduced
-//! load l; analytic approximations as black lines.
+//! load l (open markers: uniform grids; filled: locally refined discretisations, optional);
+//! analytic approximations as black lines.
 
 use std::path::{Path, PathBuf};
 
@@ -47,6 +48,8 @@ pub struct Fig5Data {
     pub contact_axes: (String, String),
     /// Panel (b) data.
     pub profiles: Vec<GapProfile>,
+    /// Panel (b) data from locally refined discretisations (filled markers; empty: none).
+    pub refined_profiles: Vec<GapProfile>,
     /// Panel (b) analytic curves (black lines), as (distance, gap) points.
     pub gap_analytic: Vec<Vec<(f64, f64)>>,
     /// Panel (b) axis labels (rich text); empty for defaults.
@@ -103,7 +106,7 @@ fn or<'a>(s: &'a str, d: &'a str) -> &'a str {
 
 /// Builds Figure 5 (two panels side by side).
 pub fn figure(d: &Fig5Data) -> Result<Figure> {
-    for p in &d.profiles {
+    for p in d.profiles.iter().chain(&d.refined_profiles) {
         ensure!(
             p.distance.len() == p.gap.len(),
             "gap profile ({}, l = {}): lengths differ",
@@ -143,7 +146,12 @@ pub fn figure(d: &Fig5Data) -> Result<Figure> {
     a.tag = Some("(a)".into());
 
     // (b)
-    let mut ls: Vec<f64> = d.profiles.iter().map(|p| p.l).collect();
+    let mut ls: Vec<f64> = d
+        .profiles
+        .iter()
+        .chain(&d.refined_profiles)
+        .map(|p| p.l)
+        .collect();
     ls.sort_by(f64::total_cmp);
     ls.dedup();
     let mut b = XyPanel::new(
@@ -167,7 +175,25 @@ pub fn figure(d: &Fig5Data) -> Result<Figure> {
             models.push(p.model);
         }
     }
+    for p in &d.refined_profiles {
+        let col = load_color(p.l, &ls);
+        b.series.push(Series::points(
+            p.distance.clone(),
+            p.gap.clone(),
+            MarkerStyle::filled(model_marker(p.model), col).size(4.0),
+        ));
+        if !models.contains(&p.model) {
+            models.push(p.model);
+        }
+    }
     models.sort_by_key(|m| Model::ALL.iter().position(|x| x == m));
+    if !d.refined_profiles.is_empty() {
+        b.legend_extra.push(LegendEntry {
+            label: "filled: refined".into(),
+            stroke: None,
+            marker: Some(MarkerStyle::filled(crate::style::Marker::Circle, BLACK).size(5.0)),
+        });
+    }
     for m in models {
         b.legend_extra.push(LegendEntry {
             label: m.name().into(),
