@@ -41,6 +41,11 @@
 //! - **undecided** when there is no estimate or its error exceeds [`DECISIVE`] (0.02 for ζ, υ,
 //!   χ; 0.05 for β): the three models' window fits differ by 0.04–0.12 in ζ and by 0.1–0.35 in
 //!   β, so a larger error bar cannot tell a model-dependent exponent from a universal one;
+//! - **undecided** when the fit range could not be varied (no narrower window of the
+//!   reference's form was accepted, so `range_spread` is NaN, not 0): the error bar then holds
+//!   nothing of the choice of range, and a σ measured in it says nothing (triangular χ at the
+//!   paper preset, 2026-11-26: 0.6287 ± 0.0004 from five pairs 0.05 … 0.002, "+80σ" from 3/5
+//!   before this rule, while the running χ is not grid-converged below 0.002);
 //! - **consistent** when the deviation is at most [`THRESHOLD_SIGMA`] = 2σ;
 //! - **not consistent** otherwise.
 //!
@@ -314,11 +319,23 @@ pub fn estimate_combined(
 fn from_estimate(e: &AsymptoticEstimate) -> Asymptotic {
     let f = e.reference_fit();
     let fixed = e.omega_fixed;
+    // was the range varied? (a narrower window of the reference's form and ω mode accepted)
+    let r = &e.variants[e.reference];
+    let range_varied = e.variants.iter().any(|v| {
+        v.form == r.form
+            && v.omega_free == r.omega_free
+            && v.dropped != r.dropped
+            && v.outcome.is_ok()
+    });
     Asymptotic {
         value: e.value,
         error: e.error,
         stat_error: e.stat_error,
-        range_spread: e.range_spread,
+        range_spread: if range_varied {
+            e.range_spread
+        } else {
+            f64::NAN
+        },
         form_spread: e.form_spread,
         omega: if f.omega_free { f.omega } else { fixed },
         points: f.points as f64,
@@ -342,6 +359,15 @@ pub fn verdict(a: &Asymptotic, k: usize) -> (String, f64) {
         return ("undecided: no asymptotic estimate".into(), f64::NAN);
     }
     let sigma = (a.value - conj) / a.error;
+    // a fitted estimate (stat_error known) whose range could not be varied (module docs)
+    if a.stat_error.is_finite() && a.range_spread.is_nan() {
+        return (
+            format!(
+                "undecided: fit range not varied (one window with a degree of freedom; {sigma:+.1}σ from {label} in the fit's own error)"
+            ),
+            sigma,
+        );
+    }
     if a.error > DECISIVE[k] {
         return (
             format!(
@@ -377,6 +403,18 @@ mod tests {
         assert!(t.starts_with("consistent with 6/5") && (s - 10.0 / 6.0).abs() < 1e-9);
         assert!(v(1.30, 0.03).0.starts_with("undecided: error 0.030"));
         assert!(v(f64::NAN, 0.01).0.starts_with("undecided: no"));
+        // a fit whose range could not be varied: undecided however small its error
+        let unvaried = Asymptotic {
+            stat_error: 3.5e-4,
+            ..Asymptotic::of(0.6287, 3.6e-4)
+        };
+        let (t, s) = verdict(&unvaried, 2);
+        assert!(
+            t.starts_with("undecided: fit range not varied") && s > 70.0,
+            "{t}"
+        );
+        // the identity (no fit of its own: stat_error NaN) keeps the ordinary rule
+        assert!(v(1.21, 0.004).0.starts_with("not consistent"));
         assert!(v(1.2, 0.0).1.is_nan());
         // β's decisive error is larger: 3.50 ± 0.04 is 1.25σ from 69/20
         let (t, _) = verdict(&Asymptotic::of(3.5, 0.04), 3);

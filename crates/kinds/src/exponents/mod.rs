@@ -83,7 +83,7 @@ use store::ArtefactWriter;
 pub struct ExponentsKind;
 
 /// Bump when the artefact's content changes for the same inputs.
-pub const CODE_VERSION: u64 = 6;
+pub const CODE_VERSION: u64 = 7;
 
 /// The paper's fitting window of |l| (inclusive; a relative 1e-9 of slack for rounding).
 pub const WINDOW: (f64, f64) = (0.002, 0.02);
