@@ -47,9 +47,11 @@
 
 use crate::CriticalError;
 use crate::refined::{RefinedRung, Refinement};
-use crate::window_flow::{FlowWindow, WindowFlowError, refined_flow};
+use crate::window_flow::{
+    FlowWindow, WindowFlowError, between_isobars, open_side_nodes, percolating, refined_flow,
+};
 use contact::refinement::Refined;
-use reynolds::{FlowAxis, FlowOptions, SideEdges};
+use reynolds::{FlowAxis, FlowOptions};
 use surface::{Grid, Lattice};
 
 /// d ln K / d ln g_s near the saddle (β/ζ; module docs): propagates the gap's 1σ to K's.
@@ -176,12 +178,7 @@ pub fn rung_flux(
         FluxMethod::SaddleWindow => {
             let fine = crate::window_flow::fine_window_gap(r, &setup.grid, window)?;
             let q = saddle_window_flux(&fine, &setup.grid, window, setup.axis, &setup.flow)?;
-            let (fx, fy) = fine.dim();
-            let side = |a: usize, b: usize| usize::from(fine[[a, b]] > 0.0);
-            let open_side_nodes = match setup.axis {
-                FlowAxis::X => (0..fx).map(|a| side(a, 0) + side(a, fy - 1)).sum(),
-                FlowAxis::Y => (0..fy).map(|b| side(0, b) + side(fx - 1, b)).sum(),
-            };
+            let open_side_nodes = open_side_nodes(fine.view(), setup.axis);
             Ok(RungFlux {
                 method: FluxMethod::SaddleWindow,
                 conductance: q,
@@ -206,31 +203,13 @@ pub fn saddle_window_flux(
     axis: FlowAxis,
     opts: &FlowOptions,
 ) -> Result<f64, WindowFlowError> {
-    let (fx, fy) = fine.dim();
-    let f = (fx - 1) / window.wx.max(1);
+    let f = (fine.dim().0 - 1) / window.wx.max(1);
     let (dx, dy) = (base.lx / base.nx as f64, base.ly / base.ny as f64);
-    let (fdx, fdy) = (dx / f as f64, dy / f as f64);
-    let r = reynolds::solve_between_isobars(
-        fine.view(),
-        fx as f64 * fdx,
-        fy as f64 * fdy,
-        axis,
-        SideEdges::NoFlux,
-        opts,
-    )
-    .map_err(|e| WindowFlowError::Flow {
-        which: "fine window",
-        detail: e.to_string(),
-    })?;
-    if !r.converged || !r.percolating || r.flux <= 0.0 {
-        return Err(WindowFlowError::Flow {
-            which: "fine window",
-            detail: format!(
-                "not usable: percolating {}, converged {} ({:?}), flux {:e}",
-                r.percolating, r.converged, r.termination, r.flux
-            ),
-        });
-    }
+    let spacing = (dx / f as f64, dy / f as f64);
+    let r = percolating(
+        "fine window",
+        between_isobars(fine.view(), spacing, axis, opts),
+    )?;
     Ok(r.flux)
 }
 

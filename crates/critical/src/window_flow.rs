@@ -396,60 +396,29 @@ pub fn series_replacement(
         ));
     }
     let (dx, dy) = (lx / nx as f64, ly / ny as f64);
-    let check = |which: &'static str, r: Result<FlowResult, reynolds::FlowError>| {
-        let r = r.map_err(|e| WindowFlowError::Flow {
-            which,
-            detail: e.to_string(),
-        })?;
-        if !r.converged || !r.percolating || r.flux <= 0.0 {
-            return Err(WindowFlowError::Flow {
-                which,
-                detail: format!(
-                    "not usable: percolating {}, converged {} ({:?}), flux {:e}",
-                    r.percolating, r.converged, r.termination, r.flux
-                ),
-            });
-        }
-        Ok(r)
-    };
     let cell_opts = FlowOptions {
         return_fields: true,
         ..opts.clone()
     };
-    let cell = check(
+    let cell = percolating(
         "base cell",
         reynolds::solve(coarse, lx, ly, axis, &cell_opts),
     )?;
     let base_window = Array2::from_shape_fn((wx + 1, wy + 1), |(a, b)| {
         coarse[[(window.i0 + a) % nx, (window.j0 + b) % ny]]
     });
-    let (wlx, wly) = ((wx + 1) as f64 * dx, (wy + 1) as f64 * dy);
     let window_opts = FlowOptions {
         return_fields: false,
         ..opts.clone()
     };
-    let wc = check(
+    let wc = percolating(
         "base window",
-        reynolds::solve_between_isobars(
-            base_window.view(),
-            wlx,
-            wly,
-            axis,
-            SideEdges::NoFlux,
-            &window_opts,
-        ),
+        between_isobars(base_window.view(), (dx, dy), axis, &window_opts),
     )?;
     let (fdx, fdy) = (dx / f as f64, dy / f as f64);
-    let wf = check(
+    let wf = percolating(
         "fine window",
-        reynolds::solve_between_isobars(
-            fine,
-            (f * wx + 1) as f64 * fdx,
-            (f * wy + 1) as f64 * fdy,
-            axis,
-            SideEdges::NoFlux,
-            &window_opts,
-        ),
+        between_isobars(fine, (fdx, fdy), axis, &window_opts),
     )?;
     let (r_cc, r_wc, r_wf) = (1.0 / cell.flux, 1.0 / wc.flux, 1.0 / wf.flux);
     let flux = 1.0 / (r_cc - r_wc + r_wf);
@@ -459,12 +428,7 @@ pub fn series_replacement(
     };
     let p = &cell.fields.as_ref().expect("fields asked for").pressure;
     let isobar_spread = end_line_spread(p.view(), window, axis);
-    let (fx, fy) = fine.dim();
-    let side = |a: usize, b: usize| usize::from(fine[[a, b]] > 0.0);
-    let open_side_nodes = match axis {
-        FlowAxis::X => (0..fx).map(|a| side(a, 0) + side(a, fy - 1)).sum(),
-        FlowAxis::Y => (0..fy).map(|b| side(0, b) + side(fx - 1, b)).sum(),
-    };
+    let open_side_nodes = open_side_nodes(fine, axis);
     Ok(WindowFlow {
         flux_cell_coarse: cell.flux,
         flux_window_coarse: wc.flux,
@@ -679,6 +643,57 @@ pub struct MultiWindowFlow {
     pub wall_s: f64,
 }
 
+/// The two-terminal flow through a window's gap `gap` (nodes × `spacing` = its size): the end
+/// lines across `axis` held as isobars (ΔP = 1), the sides closed.
+pub(crate) fn between_isobars(
+    gap: ArrayView2<f64>,
+    spacing: (f64, f64),
+    axis: FlowAxis,
+    opts: &FlowOptions,
+) -> Result<FlowResult, reynolds::FlowError> {
+    let (nx, ny) = gap.dim();
+    reynolds::solve_between_isobars(
+        gap,
+        nx as f64 * spacing.0,
+        ny as f64 * spacing.1,
+        axis,
+        SideEdges::NoFlux,
+        opts,
+    )
+}
+
+/// Open nodes of `gap` on the two side lines along `axis` (closed in the window problems).
+pub(crate) fn open_side_nodes(gap: ArrayView2<f64>, axis: FlowAxis) -> usize {
+    let (fx, fy) = gap.dim();
+    let side = |a: usize, b: usize| usize::from(gap[[a, b]] > 0.0);
+    match axis {
+        FlowAxis::X => (0..fx).map(|a| side(a, 0) + side(a, fy - 1)).sum(),
+        FlowAxis::Y => (0..fy).map(|b| side(0, b) + side(fx - 1, b)).sum(),
+    }
+}
+
+/// A flow result that converged, percolates and carries a positive flux (else an error naming
+/// `which` problem and why).
+pub(crate) fn percolating(
+    which: &'static str,
+    r: Result<FlowResult, reynolds::FlowError>,
+) -> Result<FlowResult, WindowFlowError> {
+    let r = r.map_err(|e| WindowFlowError::Flow {
+        which,
+        detail: e.to_string(),
+    })?;
+    if !r.converged || !r.percolating || r.flux <= 0.0 {
+        return Err(WindowFlowError::Flow {
+            which,
+            detail: format!(
+                "not usable: percolating {}, converged {} ({:?}), flux {:e}",
+                r.percolating, r.converged, r.termination, r.flux
+            ),
+        });
+    }
+    Ok(r)
+}
+
 fn usable(
     which: &'static str,
     r: Result<FlowResult, reynolds::FlowError>,
@@ -774,25 +789,11 @@ pub fn scaled_replacement(
         let (fdx, fdy) = (dx / f as f64, dy / f as f64);
         let wc = usable(
             "base window",
-            reynolds::solve_between_isobars(
-                base_window.view(),
-                (w.wx + 1) as f64 * dx,
-                (w.wy + 1) as f64 * dy,
-                sw.axis,
-                SideEdges::NoFlux,
-                opts,
-            ),
+            between_isobars(base_window.view(), (dx, dy), sw.axis, opts),
         )?;
         let wf = usable(
             "fine window",
-            reynolds::solve_between_isobars(
-                *fine,
-                (f * w.wx + 1) as f64 * fdx,
-                (f * w.wy + 1) as f64 * fdy,
-                sw.axis,
-                SideEdges::NoFlux,
-                opts,
-            ),
+            between_isobars(*fine, (fdx, fdy), sw.axis, opts),
         )?;
         let (qc, qf) = (
             if wc.percolating { wc.flux } else { 0.0 },
@@ -811,17 +812,11 @@ pub fn scaled_replacement(
                 });
             }
         };
-        let (fx, fy) = fine.dim();
-        let side = |a: usize, b: usize| usize::from(fine[[a, b]] > 0.0);
-        let open_side_nodes = match sw.axis {
-            FlowAxis::X => (0..fx).map(|a| side(a, 0) + side(a, fy - 1)).sum(),
-            FlowAxis::Y => (0..fy).map(|b| side(0, b) + side(fx - 1, b)).sum(),
-        };
         scales.push(WindowScale {
             flux_coarse: qc,
             flux_fine: qf,
             scale,
-            open_side_nodes,
+            open_side_nodes: open_side_nodes(*fine, sw.axis),
         });
     }
     let cell = usable("base cell", reynolds::solve(coarse, lx, ly, axis, opts))?;
