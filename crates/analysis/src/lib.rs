@@ -63,6 +63,6 @@ pub use models::{
 pub use nonlinear::{NonlinearOptions, ParamSpec, nonlinear_fit};
 pub use running::{
     DEFAULT_GRID_BOUND, RunningExponent, RunningSlope, ScalingPoint, SlopeFlag,
-    grid_converged_rungs, local_slopes, running_exponents,
+    grid_converged_rungs, local_slopes, running_exponents, same_load,
 };
 pub use verdict::{Estimate, Verdict, beta_identity, linear_combination, verdict};

@@ -197,6 +197,13 @@ pub fn local_slopes(points: &[ScalingPoint]) -> Result<Vec<RunningSlope>> {
         .collect())
 }
 
+/// Two reduced loads (or distances to L_c) are the same rung: equal to a relative 1e-9 (the
+/// ladders' loads are parameters written in decimal; this tells them apart from rounding of
+/// products such as p_c (1 + l) without merging neighbouring rungs, which differ by ≥ 2×).
+pub fn same_load(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
+}
+
 /// Running exponents of the finest resolution `fine`, each with its grid error against the
 /// next coarser resolution `coarse` (the same pair of loads, matched to a relative 1e-9) and
 /// flagged as the module docs say. `coarse = None` flags every pair ([`SlopeFlag::NoCoarse`]).
@@ -209,13 +216,12 @@ pub fn running_exponents(
     check_arg("bound", bound, "finite and > 0", bound > 0.0)?;
     let fine = local_slopes(fine)?;
     let coarse = coarse.map(local_slopes).transpose()?.unwrap_or_default();
-    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
     Ok(fine
         .into_iter()
         .map(|s| {
             let c = coarse
                 .iter()
-                .find(|c| same(c.l_hi, s.l_hi) && same(c.l_lo, s.l_lo));
+                .find(|c| same_load(c.l_hi, s.l_hi) && same_load(c.l_lo, s.l_lo));
             let grid_error = c.map_or(f64::NAN, |c| (s.value - c.value).abs());
             let flag = match c {
                 None => Some(SlopeFlag::NoCoarse),

@@ -252,7 +252,7 @@
 use crate::CriticalError;
 use crate::ladder::{SaddleFrame, Window as SaddleWindow, axis_saddle};
 use crate::scaling::{EdgeOptions, blocked_half_length, open_half_width};
-use analysis::ScalingPoint;
+use analysis::{ScalingPoint, same_load};
 use contact::SolverOptions;
 use contact::refinement::{EdgeRuns, RefineOptions, Refined, RefinedModel, Window};
 use std::time::Instant;
@@ -1202,12 +1202,11 @@ pub fn running_exponent(
     bound: f64,
     sigma_gap: f64,
 ) -> Vec<RunningPair> {
-    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
     let other = |set: Option<&[RefinedRung]>, hi: f64, lo: f64| {
         set.and_then(|s| {
             slopes(s, m, sigma_gap)
                 .into_iter()
-                .find(|c| same(c.0, hi) && same(c.1, lo))
+                .find(|c| same_load(c.0, hi) && same_load(c.1, lo))
                 .filter(|c| c.4.is_none() && c.2.is_finite())
                 .map(|c| c.2)
         })
@@ -1306,9 +1305,8 @@ pub fn combined_ladder(
     refined: &[ScalingPoint],
     refined_pairs: &[LadderPair],
 ) -> CombinedLadder {
-    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
-    let at = |pts: &[ScalingPoint], l: f64| pts.iter().find(|p| same(p.l, l)).copied();
-    let next = |pairs: &[LadderPair], l: f64| pairs.iter().find(|p| same(p.l_hi, l)).copied();
+    let at = |pts: &[ScalingPoint], l: f64| pts.iter().find(|p| same_load(p.l, l)).copied();
+    let next = |pairs: &[LadderPair], l: f64| pairs.iter().find(|p| same_load(p.l_hi, l)).copied();
     let mut out = CombinedLadder {
         points: Vec::new(),
         sources: Vec::new(),

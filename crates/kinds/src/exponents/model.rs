@@ -14,6 +14,7 @@ use super::{
 use crate::headline::Headline;
 use crate::ladder::LadderData;
 use crate::refined_ladder::RefinedData;
+use analysis::same_load;
 use anyhow::Result;
 use critical::refined::Measured;
 use critical::scaling::{EdgeOptions, ExponentFit};
@@ -178,8 +179,11 @@ fn write_figure_flux(
         write_refined_flux_curve(out, name, &refined_curve)?;
     }
     if beta.value.is_finite() && beta.l_min.is_finite() {
-        let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
-        let at = |c: &[FluxPoint]| c.iter().find(|p| same(p.distance, beta.l_min)).copied();
+        let at = |c: &[FluxPoint]| {
+            c.iter()
+                .find(|p| same_load(p.distance, beta.l_min))
+                .copied()
+        };
         // below the junction the estimate used the refined rungs
         let below = junction.is_some_and(|j| beta.l_min < j.abs() * (1.0 - 1e-9));
         let p = if below {
@@ -211,10 +215,9 @@ pub fn refined_flux_curve(
     refined: &[analysis::ScalingPoint],
     junction: Option<f64>,
 ) -> Vec<FluxPoint> {
-    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
     let shared = |x: f64| {
-        let u = uniform.iter().find(|p| same(p.distance, x))?;
-        let r = refined.iter().find(|p| same(p.l.abs(), x))?;
+        let u = uniform.iter().find(|p| same_load(p.distance, x))?;
+        let r = refined.iter().find(|p| same_load(p.l.abs(), x))?;
         Some(u.flux / r.y)
     };
     let scale = junction.and_then(shared).or_else(|| {
