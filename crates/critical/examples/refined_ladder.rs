@@ -83,7 +83,7 @@ fn run(
     );
     std::io::stdout().flush().ok();
     let rungs = r
-        .ladder(pc, ls, &mut |g, _r| {
+        .ladder(pc, ls, &mut |g, _r, _| {
             println!(
                 "rung,{name},{},{},{},{},{},{:e},{:.15e},{:.12e},{},{:.2},{},{},{},{},{},{},{},{},{}",
                 d.lattice.name(),

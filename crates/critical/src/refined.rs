@@ -933,12 +933,13 @@ impl Refinement {
     }
 
     /// The ladder at loads p_c (1 + l) for every l of `ls` (< 0, any order, solved ascending),
-    /// each rung checked and flagged (module docs); `on_rung` sees each rung with its solution.
+    /// each rung checked and flagged (module docs); `on_rung` sees each rung with its solution
+    /// and the fine window around the saddle ([`Refinement::saddle_window`]) it was measured on.
     pub fn ladder(
         &mut self,
         p_c: f64,
         ls: &[f64],
-        on_rung: &mut dyn FnMut(&RefinedRung, &Refined),
+        on_rung: &mut dyn FnMut(&RefinedRung, &Refined, &SaddleWindow),
     ) -> Result<Vec<RefinedRung>, CriticalError> {
         if !(p_c.is_finite() && p_c > 0.0) {
             return Err(CriticalError::param("p_c", p_c, "finite and > 0 (E* h0/λ)"));
@@ -1027,7 +1028,7 @@ impl Refinement {
                 edge_note,
                 flux: (f64::NAN, f64::NAN),
             };
-            on_rung(&rung, &r);
+            on_rung(&rung, &r, &w);
             rungs.push(rung);
         }
         Ok(rungs)

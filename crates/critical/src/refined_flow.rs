@@ -46,6 +46,7 @@
 //! preset's 8-cell window.
 
 use crate::CriticalError;
+use crate::ladder::Window;
 use crate::refined::{RefinedRung, Refinement};
 use crate::window_flow::{
     FlowWindow, WindowFlowError, between_isobars, open_side_nodes, percolating, refined_flow,
@@ -219,19 +220,19 @@ pub type FluxLadder = (Vec<RefinedRung>, Vec<Result<RungFlux, String>>);
 /// A refined ladder with its flux: [`Refinement::ladder`] at `p_c (1 + l)` for every l of `ls`,
 /// each rung below p_c(D) with an open saddle given its [`RungFlux`] (`RefinedRung::flux` =
 /// (conductance, 1σ)); a rung whose flow fails keeps NaN and a note. `on_rung` sees every rung
-/// (before its flux is filled in) with its solution. Returns the rungs, and per rung its flux
+/// (before its flux is filled in) with its solution and saddle window. Returns the rungs, and per rung its flux
 /// or why none.
 pub fn ladder_with_flux(
     refinement: &mut Refinement,
     p_c: f64,
     ls: &[f64],
     method: FluxMethod,
-    on_rung: &mut dyn FnMut(&RefinedRung, &Refined),
+    on_rung: &mut dyn FnMut(&RefinedRung, &Refined, &Window),
 ) -> Result<FluxLadder, CriticalError> {
     let setup = FluxSetup::new(refinement, method)?;
     let mut fluxes = Vec::new();
-    let mut rungs = refinement.ladder(p_c, ls, &mut |rung, r| {
-        on_rung(rung, r);
+    let mut rungs = refinement.ladder(p_c, ls, &mut |rung, r, w| {
+        on_rung(rung, r, w);
         fluxes.push(if rung.l > 0.0 {
             Err("above p_c: no flux".to_string())
         } else if rung.saddle_gap <= 0.0 {

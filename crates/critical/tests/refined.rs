@@ -131,7 +131,7 @@ fn a_too_small_window_is_flagged() {
             .unwrap()
             .p_c();
         let rungs = r
-            .ladder(pc, &[-2e-2, -1e-2, -5e-3], &mut |_, _| {})
+            .ladder(pc, &[-2e-2, -1e-2, -5e-3], &mut |_, _, _| {})
             .unwrap();
         for g in &rungs {
             eprintln!(
@@ -170,7 +170,7 @@ fn a_grazing_contact_line_is_not_a_window_too_small() {
     let mut r = Refinement::new(disc, &opts).unwrap();
     let pc = 0.7121159066 * r.p_fc();
     let rungs = r
-        .ladder(pc, &[-1e-4], &mut |g, sol| {
+        .ladder(pc, &[-1e-4], &mut |g, sol, _| {
             // the outermost ring of the region, once around, as the old check read it
             let p = &sol.window_pressure;
             let (rx, ry) = p.dim();
@@ -197,7 +197,7 @@ fn a_grazing_contact_line_is_not_a_window_too_small() {
     // the neck is resolved (3 open fine nodes across at this load), the saddle open
     assert!(g.neck_nodes >= 3 && g.saddle_gap > 0.0, "{g:?}");
     let mut small = Refinement::new(Discretisation { window: 2, ..disc }, &opts).unwrap();
-    let s = &small.ladder(pc, &[-1e-4], &mut |_, _| {}).unwrap()[0];
+    let s = &small.ladder(pc, &[-1e-4], &mut |_, _, _| {}).unwrap()[0];
     eprintln!("window 2: {:?}, flag {:?}", s.edge, s.flag);
     assert!(matches!(s.flag, Some(RungFlag::Window(_))), "{s:?}");
 }
@@ -411,7 +411,7 @@ fn refined_upsilon_and_chi_match_the_uniform_fine_grid() {
         .critical_load(Some(0.2286 * r.p_fc()), 1e-2)
         .unwrap()
         .p_c();
-    let rungs = r.ladder(pc, &ls, &mut |_, _| {}).unwrap();
+    let rungs = r.ladder(pc, &ls, &mut |_, _, _| {}).unwrap();
     let mut compared = 0;
     for (g, u) in rungs.iter().zip(&uni) {
         let rv = if g.l < 0.0 {
@@ -440,7 +440,7 @@ fn refined_upsilon_and_chi_match_the_uniform_fine_grid() {
         .critical_load(Some(0.2286 * rs.p_fc()), 1e-2)
         .unwrap()
         .p_c();
-    let g = &rs.ladder(pcs, &[-5e-2], &mut |_, _| {}).unwrap()[0];
+    let g = &rs.ladder(pcs, &[-5e-2], &mut |_, _, _| {}).unwrap()[0];
     assert!(g.half_width.0.is_nan(), "{g:?}");
     let note = g.edge_note.as_deref().unwrap_or_default();
     eprintln!("window 6: {note}");

@@ -54,7 +54,7 @@ fn compare(lattice: Lattice) -> Rows {
     let (grid, axis, trim) = (setup.grid, setup.axis, setup.trim_along);
     let mut windows = Vec::new();
     let mut single = Vec::new();
-    let (rungs, fluxes) = ladder_with_flux(&mut r, c.p_c(), &LS, method, &mut |_, sol| {
+    let (rungs, fluxes) = ladder_with_flux(&mut r, c.p_c(), &LS, method, &mut |_, sol, _| {
         let w = FlowWindow::inside(sol, &grid, axis, trim, 1).unwrap();
         windows.push(w);
         single.push(

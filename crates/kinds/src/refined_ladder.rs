@@ -269,20 +269,19 @@ impl TypedKind for RefinedLadderKind {
             let t = std::time::Instant::now();
             let mut r = Refinement::new(disc, &opts)?;
             let c = r.critical_load(Some(guess), width)?;
-            // the finest level keeps its solutions for the axis-gap profiles (`profile/*`)
+            // the finest level's axis-gap profiles (`profile/*`), from each rung's saddle window
             let keep = i + 1 == params.levels.len();
-            let mut solutions = Vec::new();
+            let mut profiles = Vec::new();
             let (rungs, fluxes) =
-                ladder_with_flux(&mut r, c.p_c(), &params.ls, method, &mut |_, sol| {
+                ladder_with_flux(&mut r, c.p_c(), &params.ls, method, &mut |rung, _, w| {
                     if keep {
-                        solutions.push(sol.clone());
+                        profiles.extend(profile_rows(rung.l, w));
                     }
                 })?;
             let wall = t.elapsed().as_secs_f64();
             write_discretisation(out, &format!("d/{i}"), disc, &c, &rungs, wall, r.iterations)?;
             if keep {
-                let rows = profile_rows(&r, &rungs, &solutions);
-                RefinedProfileRow::write(&rows, out, "profile")?;
+                RefinedProfileRow::write(&profiles, out, "profile")?;
             }
             let notes: Vec<String> = fluxes
                 .iter()
@@ -344,29 +343,14 @@ impl TypedKind for RefinedLadderKind {
     }
 }
 
-/// The finest level's axis-gap profiles ([`RefinedProfileRow`]): per rung (in the ladder's
-/// order, as `on_rung` saw them), the gap on the channel axis of the fine window around the
-/// saddle (`Refinement::saddle_window`, `critical::scaling::axis_gap`) from the saddle outward.
-fn profile_rows(
-    r: &Refinement,
-    rungs: &[RefinedRung],
-    solutions: &[contact::refinement::Refined],
-) -> Vec<RefinedProfileRow> {
-    let mut rows = Vec::new();
-    for (rung, sol) in rungs.iter().zip(solutions) {
-        let w = r.saddle_window(sol);
-        let (dist, gap) = critical::scaling::axis_gap(&w);
-        rows.extend(
-            dist.into_iter()
-                .zip(gap)
-                .map(|(distance, gap)| RefinedProfileRow {
-                    l: rung.l,
-                    distance,
-                    gap,
-                }),
-        );
-    }
-    rows
+/// One rung's axis-gap profile ([`RefinedProfileRow`]): the gap on the channel axis of the fine
+/// window around the saddle `w` (`Refinement::saddle_window`, `critical::scaling::axis_gap`),
+/// from the saddle outward.
+fn profile_rows(l: f64, w: &critical::ladder::Window) -> impl Iterator<Item = RefinedProfileRow> {
+    let (dist, gap) = critical::scaling::axis_gap(w);
+    dist.into_iter()
+        .zip(gap)
+        .map(move |(distance, gap)| RefinedProfileRow { l, distance, gap })
 }
 
 /// The artefact group of a measured quantity's running exponents (`running` for ζ, as before υ,
