@@ -82,21 +82,8 @@ pub fn read_ladder(inputs: &Inputs) -> Result<LadderPanel> {
         let file = r.path().display();
         for m in Model::ALL {
             if let Some(c) = exponents::read_refined_flux_curve(r, m.name())? {
-                if let Some(p) = c.iter().find(|p| !(p.distance > 0.0 && p.flux > 0.0)) {
-                    bail!(
-                        "`{file}`: ladder/{}/refined has distance {} and flux {}; both must be > 0 \
-                         (log–log panel)",
-                        m.name(),
-                        p.distance,
-                        p.flux
-                    );
-                }
-                refined.push(NormalisedFlux {
-                    model: m,
-                    distance: c.iter().map(|p| p.distance).collect(),
-                    flux: c.iter().map(|p| p.flux).collect(),
-                    flux_err: None,
-                });
+                let g = format!("ladder/{}/refined", m.name());
+                refined.push(log_log_flux(&file, &g, m, &c, None)?);
             }
             if let Some(s) = exponents::read_asymptotic_slope(r, m.name())? {
                 slopes.push(SlopeLine {
@@ -110,22 +97,7 @@ pub fn read_ladder(inputs: &Inputs) -> Result<LadderPanel> {
                 continue;
             };
             let g = format!("ladder/{}", m.name());
-            if let Some(k) = (curve.points.iter()).position(|p| !(p.distance > 0.0 && p.flux > 0.0))
-            {
-                let p = curve.points[k];
-                bail!(
-                    "`{file}`: {g} point {k} has distance {} and flux {}; both must be > 0 \
-                     (log–log panel)",
-                    p.distance,
-                    p.flux
-                );
-            }
-            points.push(NormalisedFlux {
-                model: m,
-                distance: curve.points.iter().map(|p| p.distance).collect(),
-                flux: curve.points.iter().map(|p| p.flux).collect(),
-                flux_err: curve.flux_err,
-            });
+            points.push(log_log_flux(&file, &g, m, &curve.points, curve.flux_err)?);
         }
         if fit.is_none()
             && let Some((exponent, exponent_err, prefactor)) = exponents::read_pooled_beta(r)?
@@ -142,6 +114,35 @@ pub fn read_ladder(inputs: &Inputs) -> Result<LadderPanel> {
         fit,
         refined,
         slopes,
+    })
+}
+
+/// A normalised flux curve of group `g` of `file` for the log–log panel: an error naming the
+/// first point whose distance or flux is not > 0.
+fn log_log_flux(
+    file: &impl std::fmt::Display,
+    g: &str,
+    model: Model,
+    points: &[exponents::FluxPoint],
+    flux_err: Option<Vec<f64>>,
+) -> Result<NormalisedFlux> {
+    if let Some(k) = points
+        .iter()
+        .position(|p| !(p.distance > 0.0 && p.flux > 0.0))
+    {
+        let p = points[k];
+        bail!(
+            "`{file}`: {g} point {k} has distance {} and flux {}; both must be > 0 \
+             (log–log panel)",
+            p.distance,
+            p.flux
+        );
+    }
+    Ok(NormalisedFlux {
+        model,
+        distance: points.iter().map(|p| p.distance).collect(),
+        flux: points.iter().map(|p| p.flux).collect(),
+        flux_err,
     })
 }
 
