@@ -143,26 +143,91 @@ impl Assembly<'_> {
         b
     }
 
-    /// Physical pressure drop `p_ij − p_{i+1,j}` across x-face `(i, j)` for unknown `u`.
+    /// Physical pressure drop `p_ij − p_{i+1,j}` across x-face `(i, j)` for the unknown `u`
+    /// (plus `lo`, see [`Unknown`]).
     #[inline]
-    fn drop_x(&self, u: &[f64], i: usize, j: usize, dp: f64) -> f64 {
+    fn drop_x(&self, u: Unknown, i: usize, j: usize, dp: f64) -> f64 {
         let ny = self.ny;
         let ip = if i + 1 == self.nx { 0 } else { i + 1 };
-        let d = u[i * ny + j] - u[ip * ny + j];
-        if i == self.cut { d + dp } else { d }
+        let (k, m) = (i * ny + j, ip * ny + j);
+        let mut d = u.hi[k] - u.hi[m];
+        if i == self.cut {
+            d += dp;
+        }
+        if let Some(lo) = u.lo {
+            d += lo[k] - lo[m];
+        }
+        d
     }
 
     #[inline]
-    fn drop_y(&self, u: &[f64], i: usize, j: usize) -> f64 {
+    fn drop_y(&self, u: Unknown, i: usize, j: usize) -> f64 {
         let ny = self.ny;
         let jp = if j + 1 == ny { 0 } else { j + 1 };
-        u[i * ny + j] - u[i * ny + jp]
+        let (k, m) = (i * ny + j, i * ny + jp);
+        let d = u.hi[k] - u.hi[m];
+        match u.lo {
+            Some(lo) => d + (lo[k] - lo[m]),
+            None => d,
+        }
+    }
+
+    /// The fluxes through the four faces of node `(i, j)` (reservoir faces included).
+    #[inline]
+    fn faces(&self, u: Unknown, dp: f64, i: usize, j: usize) -> Faces {
+        let (nx, ny) = (self.nx, self.ny);
+        let im = if i == 0 { nx - 1 } else { i - 1 };
+        let jm = if j == 0 { ny - 1 } else { j - 1 };
+        let k = i * ny + j;
+        let (dxe, dyn_) = (self.drop_x(u, i, j, dp), self.drop_y(u, i, j));
+        let mut f = Faces {
+            east: self.e[k] * dxe,
+            west: self.e[im * ny + j] * self.drop_x(u, im, j, dp),
+            north: self.n[k] * dyn_,
+            south: self.n[i * ny + jm] * self.drop_y(u, i, jm),
+            drop_east: dxe,
+            drop_north: dyn_,
+            inlet: None,
+            outlet: None,
+        };
+        if let Some(r) = &self.reservoirs {
+            if i == 0 {
+                // p = u + ΔP on the inlet side of the cut: the drop from the inlet (ΔP) to the
+                // node is −u.
+                let (s, d) = (r.inlet[j], -u.value(k));
+                f.west = s * d;
+                f.inlet = Some((s, d));
+            }
+            if i + 1 == nx {
+                let (s, d) = (r.outlet[j], u.value(k));
+                f.east = s * d;
+                f.outlet = Some((s, d));
+            }
+        }
+        f
+    }
+
+    /// The net outflow of every node, `A u − b` (zero for the exact solution).
+    pub fn net_outflow(&self, u: Unknown, dp: f64) -> Vec<f64> {
+        let ny = self.ny;
+        let mut out = vec![0.0; self.nx * ny];
+        out.par_chunks_mut(ny).enumerate().for_each(|(i, row)| {
+            for (j, o) in row.iter_mut().enumerate() {
+                let f = self.faces(u, dp, i, j);
+                *o = (f.east - f.west) + (f.north - f.south);
+            }
+        });
+        out
     }
 
     /// Post-processing of a solution `u` for pressure drop `dp`.
     pub fn evaluate(&self, u: &[f64], dp: f64) -> Evaluation {
+        self.evaluate_split(Unknown::single(u), dp)
+    }
+
+    /// [`Assembly::evaluate`] of an unknown held in two parts ([`Unknown`]).
+    pub fn evaluate_split(&self, u: Unknown, dp: f64) -> Evaluation {
         let (nx, ny) = (self.nx, self.ny);
-        let eps = f64::EPSILON;
         // Per row i: dissipation of its x- and y-faces, flux through its x-face column and the
         // rounding noise of that flux, squared residual (the net outflow of each node, computed
         // face by face), its rounding floor, and the dissipation of rounding noise; with
@@ -178,47 +243,35 @@ impl Assembly<'_> {
                     let jm = if j == 0 { ny - 1 } else { j - 1 };
                     let jp = if j + 1 == ny { 0 } else { j + 1 };
                     let k = i * ny + j;
-                    let (dxe, dyn_) = (self.drop_x(u, i, j, dp), self.drop_y(u, i, j));
-                    let mut fe = self.e[k] * dxe;
-                    let mut fw = self.e[im * ny + j] * self.drop_x(u, im, j, dp);
-                    // Reservoir faces: (coupling, drop, rounding noise of the drop).
+                    let f = self.faces(u, dp, i, j);
+                    // Reservoir faces: their coupling and the rounding noise of their drop.
                     let (mut ground, mut face_noise) = (0.0, 0.0);
-                    if let Some(r) = &self.reservoirs {
-                        if i == 0 {
-                            // p = u + ΔP on the inlet side of the cut: the drop from
-                            // the inlet (ΔP) to the node is −u.
-                            let (s, d) = (r.inlet[j], -u[k]);
-                            fw = s * d;
-                            acc[0] += fw * d;
-                            acc[6] += fw;
-                            acc[7] += s * eps * u[k].abs();
-                            ground += s;
-                            face_noise += s * (eps * u[k].abs()).powi(2);
-                        }
-                        if i + 1 == nx {
-                            let (s, d) = (r.outlet[j], u[k]);
-                            fe = s * d;
-                            acc[0] += fe * d;
-                            acc[2] += s * eps * u[k].abs();
-                            ground += s;
-                            face_noise += s * (eps * u[k].abs()).powi(2);
-                        }
+                    if let Some((s, d)) = f.inlet {
+                        acc[0] += f.west * d;
+                        acc[6] += f.west;
+                        acc[7] += s * u.noise(k);
+                        ground += s;
+                        face_noise += s * u.noise(k).powi(2);
                     }
-                    let fnn = self.n[k] * dyn_;
-                    let fs = self.n[i * ny + jm] * self.drop_y(u, i, jm);
-                    acc[0] += self.e[k] * dxe * dxe + fnn * dyn_;
-                    acc[1] += fe;
+                    if let Some((s, d)) = f.outlet {
+                        acc[0] += f.east * d;
+                        acc[2] += s * u.noise(k);
+                        ground += s;
+                        face_noise += s * u.noise(k).powi(2);
+                    }
+                    acc[0] += self.e[k] * f.drop_east * f.drop_east + f.north * f.drop_north;
+                    acc[1] += f.east;
                     // Rounding u to doubles perturbs a face's drop by ≈ ε(|u_k| + |u_m|).
-                    let ne = eps * (u[k].abs() + u[ip * ny + j].abs());
-                    let nn = eps * (u[k].abs() + u[i * ny + jp].abs());
+                    let ne = u.noise(k) + u.noise(ip * ny + j);
+                    let nn = u.noise(k) + u.noise(i * ny + jp);
                     acc[2] += self.e[k] * ne;
                     // Net outflow; zero for the exact solution.
-                    let r = (fe - fw) + (fnn - fs);
+                    let r = (f.east - f.west) + (f.north - f.south);
                     acc[3] += r * r;
                     // Residual that rounding u_k to the nearest double alone can cause.
                     let d =
                         self.e[k] + self.e[im * ny + j] + self.n[k] + self.n[i * ny + jm] + ground;
-                    let f = d * u[k].abs() * eps;
+                    let f = d * u.noise(k);
                     acc[4] += f * f;
                     acc[5] += self.e[k] * ne * ne + self.n[k] * nn * nn + face_noise;
                 }
@@ -246,7 +299,7 @@ impl Assembly<'_> {
     /// flowing nodes; NaN elsewhere) and node-centred current densities `−g³ ∇p`.
     pub fn fields(
         &self,
-        u: &[f64],
+        u: Unknown,
         dp: f64,
         dx: f64,
         dy: f64,
@@ -262,9 +315,9 @@ impl Assembly<'_> {
             for j in 0..ny {
                 let k = i * ny + j;
                 if flowing[k] && reservoirs {
-                    p[[i, j]] = u[k] + if i <= self.cut { dp } else { 0.0 };
+                    p[[i, j]] = u.value(k) + if i <= self.cut { dp } else { 0.0 };
                 } else if flowing[k] {
-                    let v = u[k] - if i > self.cut { dp } else { 0.0 };
+                    let v = u.value(k) - if i > self.cut { dp } else { 0.0 };
                     p[[i, j]] = v;
                     // Periodic part φ = p + x ΔP / L with x = i dx.
                     mean += v + (i as f64) * dx * dp / lx;
@@ -281,11 +334,11 @@ impl Assembly<'_> {
         let jx = |i: usize, j: usize| self.e[i * ny + j] * self.drop_x(u, i, j, dp) / dy;
         let jy = |i: usize, j: usize| self.n[i * ny + j] * self.drop_y(u, i, j) / dx;
         let west = |i: usize, j: usize| match &self.reservoirs {
-            Some(r) if i == 0 => -r.inlet[j] * u[j] / dy,
+            Some(r) if i == 0 => -r.inlet[j] * u.value(j) / dy,
             _ => jx((i + nx - 1) % nx, j),
         };
         let east = |i: usize, j: usize| match &self.reservoirs {
-            Some(r) if i + 1 == nx => r.outlet[j] * u[i * ny + j] / dy,
+            Some(r) if i + 1 == nx => r.outlet[j] * u.value(i * ny + j) / dy,
             _ => jx(i, j),
         };
         let cx = Array2::from_shape_fn((nx, ny), |(i, j)| 0.5 * (east(i, j) + west(i, j)));
@@ -294,6 +347,62 @@ impl Assembly<'_> {
         });
         (p, cx, cy)
     }
+}
+
+/// The unknown `u` of an iterate, held either as one double per node or, after iterative
+/// refinement (see `reynolds::solve`), as an unevaluated sum `hi + lo` of two (a double-double
+/// value: `lo` carries the digits below `hi`'s rounding). Every drop is formed as
+/// `(hi_k − hi_m) + (lo_k − lo_m)`, so pressure differences far below the rounding of the pond
+/// pressures `hi` survive.
+#[derive(Clone, Copy)]
+pub(crate) struct Unknown<'a> {
+    pub hi: &'a [f64],
+    pub lo: Option<&'a [f64]>,
+}
+
+impl<'a> Unknown<'a> {
+    /// One double per node.
+    pub fn single(u: &'a [f64]) -> Self {
+        Unknown { hi: u, lo: None }
+    }
+
+    /// `hi + lo`.
+    pub fn split(hi: &'a [f64], lo: &'a [f64]) -> Self {
+        Unknown { hi, lo: Some(lo) }
+    }
+
+    /// The node's value (rounded to one double).
+    #[inline]
+    fn value(&self, k: usize) -> f64 {
+        match self.lo {
+            Some(lo) => self.hi[k] + lo[k],
+            None => self.hi[k],
+        }
+    }
+
+    /// How far rounding can put the node's represented value from the one intended: ε|u_k| for
+    /// one double; ε|lo_k| + ε²|hi_k| for a sum (after renormalisation |lo_k| ≤ ε|hi_k|/2).
+    #[inline]
+    fn noise(&self, k: usize) -> f64 {
+        const EPS: f64 = f64::EPSILON;
+        match self.lo {
+            Some(lo) => EPS * lo[k].abs() + EPS * EPS * self.hi[k].abs(),
+            None => EPS * self.hi[k].abs(),
+        }
+    }
+}
+
+/// The fluxes out of a node through its faces (`west`, `south` into it), the drops across its
+/// own east and north faces, and its reservoir faces' (coupling, drop).
+struct Faces {
+    east: f64,
+    west: f64,
+    north: f64,
+    south: f64,
+    drop_east: f64,
+    drop_north: f64,
+    inlet: Option<(f64, f64)>,
+    outlet: Option<(f64, f64)>,
 }
 
 /// What [`Assembly::evaluate`] measures.
