@@ -150,14 +150,25 @@ impl Assembly<'_> {
         let ny = self.ny;
         let ip = if i + 1 == self.nx { 0 } else { i + 1 };
         let (k, m) = (i * ny + j, ip * ny + j);
-        let mut d = u.hi[k] - u.hi[m];
-        if i == self.cut {
-            d += dp;
+        match u.lo {
+            None => {
+                let d = u.hi[k] - u.hi[m];
+                if i == self.cut { d + dp } else { d }
+            }
+            // Exact sums of the large parts: across the cut hi jumps by ≈ −ΔP, and the rounding
+            // of hi_k − hi_m + ΔP (ε ΔP) would swamp the drop that the pair resolves.
+            Some(lo) => {
+                let (s, mut err) = two_sum(u.hi[k], -u.hi[m]);
+                let s = if i == self.cut {
+                    let (s2, e2) = two_sum(s, dp);
+                    err += e2;
+                    s2
+                } else {
+                    s
+                };
+                s + (err + (lo[k] - lo[m]))
+            }
         }
-        if let Some(lo) = u.lo {
-            d += lo[k] - lo[m];
-        }
-        d
     }
 
     #[inline]
@@ -165,10 +176,12 @@ impl Assembly<'_> {
         let ny = self.ny;
         let jp = if j + 1 == ny { 0 } else { j + 1 };
         let (k, m) = (i * ny + j, i * ny + jp);
-        let d = u.hi[k] - u.hi[m];
         match u.lo {
-            Some(lo) => d + (lo[k] - lo[m]),
-            None => d,
+            Some(lo) => {
+                let (s, err) = two_sum(u.hi[k], -u.hi[m]);
+                s + (err + (lo[k] - lo[m]))
+            }
+            None => u.hi[k] - u.hi[m],
         }
     }
 
@@ -403,6 +416,14 @@ struct Faces {
     drop_north: f64,
     inlet: Option<(f64, f64)>,
     outlet: Option<(f64, f64)>,
+}
+
+/// `a + b` as the rounded sum and its exact rounding error (Knuth's two-sum).
+#[inline]
+pub(crate) fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
 }
 
 /// What [`Assembly::evaluate`] measures.

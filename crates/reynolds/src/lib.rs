@@ -57,7 +57,15 @@
 //! tolerance in 1–3 rounds (22–48 iterations in all) with the flux equal to the analytic limit
 //! to 3e-14. At g_t = 1e-9 and 1e-10 (K ~ 1e-27 of the ponds') four rounds do not reach the
 //! tolerance: the result is flagged (or certified by the energy estimate), never silent.
-//! [`FlowResult::refinement_rounds`] says how many rounds a solve took.
+//! Hexagonal model, 1024², l = −1e-3 along x (the ladder's load 0.2438829 E* h0/λ, gap from
+//! `saddleflow solve --tol 1e-12`): doubles alone stopped round-off limited at relative
+//! residual 3.4e-14 with cross-sections disagreeing by 34 % and K = 9.926766e-13, "certified"
+//! by the energy estimate (1.6e-13); two rounds reach a relative residual of 5e-27, the
+//! cross-sections agree to 6e-14, and K = 9.926733e-13: the certified value was 3.3e-6 off.
+//! Across the cut the drop is formed with exact two-sums (hi jumps by ≈ −ΔP there, and rounding
+//! hi_c − hi_{c+1} + ΔP to one double left a residual floor of ~3e-17 and cross-sections
+//! disagreeing by 1e-3 after any number of rounds). [`FlowResult::refinement_rounds`] says how
+//! many rounds a solve took.
 
 mod dense_elimination;
 mod finite_volume;
@@ -746,11 +754,7 @@ fn refine(
         }
         for k in 0..n {
             // lo += e, then (hi, lo) ← two-sum(hi, lo): hi the rounded sum, lo what it lost
-            let l = lo[k] + e[k];
-            let s = hi[k] + l;
-            let bb = s - hi[k];
-            lo[k] = (hi[k] - (s - bb)) + (l - bb);
-            hi[k] = s;
+            (hi[k], lo[k]) = finite_volume::two_sum(hi[k], lo[k] + e[k]);
         }
         let ev = asm.evaluate_split(finite_volume::Unknown::split(&hi, &lo), dp);
         let gained = ev.residual_norm < 0.5 * best.ev.residual_norm;

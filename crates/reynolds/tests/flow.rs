@@ -872,3 +872,46 @@ fn the_flux_error_estimate_tracks_the_true_error() {
         "only {checked} early stops had an error to estimate"
     );
 }
+
+#[test]
+fn a_pond_across_the_cut_behind_one_throat_node() {
+    // The hexagonal cell's situation near closing: no node column is a wall, so the cut column
+    // (least total conductance) runs through the pond, where the unknown jumps by ≈ ΔP while
+    // the physical drop is tiny. A wavy contact barrier winding along y (column
+    // c(j) = n/4 + round(n/8 · sin 2πj/n), the rows joined 8-connected, so no 4-connected
+    // fluid path crosses it and no column is all contact) with one node opened to gap g_t
+    // where the barrier runs straight (j = n/4: contact above and below it); gap 1 elsewhere.
+    // All flow along x goes through that node's two x-faces in series (harmonic means
+    // 2g³/(1 + g³) with the pond): K → g³/(1 + g³) · (1 + O(K)) (the pond's resistance is
+    // O(1) in these units). Doubles alone leave this flux round-off limited; with refinement
+    // it must be converged, conserved and right.
+    let n = 64;
+    let c = |j: usize| {
+        (n / 4) as isize
+            + ((n / 8) as f64 * (std::f64::consts::TAU * j as f64 / n as f64).sin()).round()
+                as isize
+    };
+    let j0 = n / 4;
+    assert!(c(j0 - 1) == c(j0) && c(j0) == c(j0 + 1));
+    for gt in [1e-3, 1e-4, 1e-5] {
+        let mut g = Array2::from_elem((n, n), 1.0);
+        for j in 0..n {
+            let (a, b) = (c(j), c((j + 1) % n));
+            for i in a.min(b)..=a.max(b) {
+                g[[i as usize, j]] = 0.0;
+            }
+        }
+        g[[c(j0) as usize, j0]] = gt;
+        let g3: f64 = gt * gt * gt;
+        let limit = g3 / (1.0 + g3);
+        let r = solve(g.view(), 1.0, 1.0, FlowAxis::X, &opts()).unwrap();
+        assert!(r.converged, "g_t = {gt}: {r:?}");
+        assert_eq!(r.termination, Termination::Converged, "g_t = {gt}: {r:?}");
+        assert!(r.conservation_error < 1e-9, "g_t = {gt}: {r:?}");
+        assert!(
+            rel(r.conductivity, limit) < 10.0 * limit + 1e-12,
+            "g_t = {gt}: {} vs {limit}",
+            r.conductivity
+        );
+    }
+}
