@@ -471,7 +471,8 @@ fn leakage_seed(
         leak.attr_f64("p_fc").map_err(e)?,
         critical::leakage::full_contact_pressure(field),
     );
-    if !((p_leak - p_here).abs() <= 1e-12 * p_here.abs()) {
+    let same = (p_leak - p_here).abs() <= 1e-12 * p_here.abs(); // false for NaN
+    if !same {
         return Err(format!(
             "p_fc = {p_leak:e}, the surface's is {p_here:e}: another surface"
         ));
