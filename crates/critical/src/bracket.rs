@@ -117,6 +117,64 @@ pub fn bracket_transitions(
     prober: &mut dyn Prober,
     opts: &SearchOptions,
 ) -> Result<([Bracket; 3], usize), CriticalError> {
+    bracket_transitions_seeded(prober, opts, None).map(|(b, probes, _)| (b, probes))
+}
+
+/// A starting bracket `(lo, hi)` per criterion, in [`Criterion::ALL`] order (any, x, y), taken
+/// from another search on the same field and criterion (E* h0/λ). It is a guess only: the
+/// search probes its ends itself before it narrows it ([`bracket_transitions_seeded`]).
+pub type BracketSeed = [(f64, f64); 3];
+
+/// What became of a [`BracketSeed`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum SeedOutcome {
+    /// No seed was given.
+    Unseeded,
+    /// Every end was confirmed by a probe (lo open, hi blocked for its criterion): the search
+    /// narrowed the seed's brackets and skipped the expansion from the guess.
+    Used {
+        /// Probes spent on the seed's ends.
+        probes: usize,
+    },
+    /// The seed was not valid: the search bracketed from its guess as without a seed (the
+    /// probes of the seed's ends, if any, are still used: they are probes of this search).
+    Rejected {
+        /// Which criterion and end failed, and how.
+        reason: String,
+    },
+}
+
+/// Why a seed cannot be used before any probe (ends not finite, not ordered, out of range).
+fn seed_shape_issue(seed: &BracketSeed, opts: &SearchOptions) -> Option<String> {
+    Criterion::ALL.iter().zip(seed).find_map(|(c, &(lo, hi))| {
+        let ok = lo.is_finite()
+            && hi.is_finite()
+            && lo >= opts.load_min
+            && hi <= opts.load_max
+            && lo < hi;
+        (!ok).then(|| {
+            format!(
+                "criterion {}: seed bracket [{lo:e}, {hi:e}] is not an ordered bracket within \
+                 [load_min, load_max] = [{:e}, {:e}]",
+                c.name(),
+                opts.load_min,
+                opts.load_max
+            )
+        })
+    })
+}
+
+/// [`bracket_transitions`] starting from `seed` if it is confirmed: its distinct ends are
+/// probed first, in ascending load; if every criterion is open at its seed's `lo` and blocked at
+/// its `hi`, the expansion from `opts.guess` is skipped and the bisection narrows from there.
+/// Otherwise the seed is rejected (the outcome says which end failed) and the search runs from
+/// `opts.guess` as without a seed, keeping the probes it made. Either way every bracket
+/// returned was probed at both ends by this search: a seed can change the probes, never trust.
+pub fn bracket_transitions_seeded(
+    prober: &mut dyn Prober,
+    opts: &SearchOptions,
+    seed: Option<&BracketSeed>,
+) -> Result<([Bracket; 3], usize, SeedOutcome), CriticalError> {
     check_options(opts)?;
     let mut b = [Open { lo: None, hi: None }; 3];
     let mut probes = 0usize;
@@ -127,7 +185,7 @@ pub fn bracket_transitions(
                  b: &mut [Open; 3],
                  probes: &mut usize,
                  prober: &mut dyn Prober|
-     -> Result<(), CriticalError> {
+     -> Result<FlowState, CriticalError> {
         if *probes >= opts.max_probes {
             return Err(CriticalError::TooManyProbes {
                 probes: *probes,
@@ -175,13 +233,53 @@ pub fn bracket_transitions(
         keep.sort_by(f64::total_cmp);
         keep.dedup();
         prober.keep(&keep);
-        Ok(())
+        Ok(state)
     };
 
-    // 1. The guess, then expansions until every criterion has both ends.
-    visit(opts.guess, &mut b, &mut probes, prober)?;
-    lowest = lowest.min(opts.guess);
-    highest = highest.max(opts.guess);
+    // 0. The seed's ends, ascending (each probe warm-starts from the one below), then the
+    //    check that each criterion is open at its seed's lo and blocked at its hi.
+    let mut outcome = SeedOutcome::Unseeded;
+    if let Some(seed) = seed {
+        outcome = match seed_shape_issue(seed, opts) {
+            Some(reason) => SeedOutcome::Rejected { reason },
+            None => {
+                let mut loads: Vec<f64> = seed.iter().flat_map(|&(lo, hi)| [lo, hi]).collect();
+                loads.sort_by(f64::total_cmp);
+                loads.dedup();
+                let mut states = Vec::with_capacity(loads.len());
+                for &load in &loads {
+                    let state = visit(load, &mut b, &mut probes, prober)?;
+                    states.push((load, state));
+                }
+                let state_at = |load: f64| states.iter().find(|(l, _)| *l == load).map(|(_, s)| *s);
+                let failed = Criterion::ALL.iter().zip(seed).find_map(|(c, &(lo, hi))| {
+                    match (state_at(lo), state_at(hi)) {
+                        (Some(a), Some(z)) if c.open(&a) && !c.open(&z) => None,
+                        (a, z) => Some(format!(
+                            "criterion {}: seed bracket [{lo:e}, {hi:e}] probed {} at lo and \
+                             {} at hi (expected open, blocked)",
+                            c.name(),
+                            open_word(*c, a),
+                            open_word(*c, z)
+                        )),
+                    }
+                });
+                match failed {
+                    None => SeedOutcome::Used { probes },
+                    Some(reason) => SeedOutcome::Rejected { reason },
+                }
+            }
+        };
+    }
+
+    // 1. The guess, then expansions until every criterion has both ends (skipped after a
+    //    confirmed seed: every criterion has both ends then).
+    let seeded = matches!(outcome, SeedOutcome::Used { .. });
+    if !seeded {
+        visit(opts.guess, &mut b, &mut probes, prober)?;
+        lowest = lowest.min(opts.guess);
+        highest = highest.max(opts.guess);
+    }
     let mut w_down = opts.guess_width;
     let mut w_up = opts.guess_width;
     loop {
@@ -248,6 +346,7 @@ pub fn bracket_transitions(
         visit(mid, &mut b, &mut probes, prober)?;
     }
 
+    debug_assert!(!seeded || b.iter().all(|o| o.lo.is_some() && o.hi.is_some()));
     let out = Criterion::ALL.map(|c| {
         let o = b[Criterion::ALL
             .iter()
@@ -262,7 +361,15 @@ pub fn bracket_transitions(
             state_hi: hi.state,
         }
     });
-    Ok((out, probes))
+    Ok((out, probes, outcome))
+}
+
+fn open_word(c: Criterion, s: Option<FlowState>) -> &'static str {
+    match s {
+        Some(s) if c.open(&s) => "open",
+        Some(_) => "blocked",
+        None => "not probed",
+    }
 }
 
 fn summary(b: &[Open; 3]) -> String {
@@ -381,6 +488,75 @@ mod tests {
             assert_eq!(b[0].criterion, Criterion::Any);
             assert!(probes < 150, "{probes}");
         }
+    }
+
+    /// A seed from a coarser search of the same system narrows to the same brackets (each
+    /// contains the transition and is as narrow as asked, so the midpoints agree to rel_width)
+    /// with fewer probes than from the guess.
+    #[test]
+    fn a_confirmed_seed_narrows_to_the_same_brackets() {
+        let step = || Step {
+            cx: 1.5,
+            cy: 1.2,
+            calls: 0,
+        };
+        let mut coarse_opts = opts(0.3);
+        coarse_opts.rel_width = 1e-4;
+        let (coarse, _) = bracket_transitions(&mut step(), &coarse_opts).unwrap();
+        let seed: BracketSeed = coarse.map(|b| (b.lo, b.hi));
+        let (plain, plain_probes) = bracket_transitions(&mut step(), &opts(0.3)).unwrap();
+        let mut s = step();
+        let (seeded, probes, outcome) =
+            bracket_transitions_seeded(&mut s, &opts(0.3), Some(&seed)).unwrap();
+        assert_eq!(probes, s.calls);
+        // any and x share their bracket: 4 distinct ends
+        assert_eq!(outcome, SeedOutcome::Used { probes: 4 });
+        for ((a, b), c) in seeded.iter().zip(&plain).zip([1.5, 1.5, 1.2]) {
+            assert!(a.lo < c && c <= a.hi && a.rel_width() <= 1e-9, "{a:?}");
+            assert!((a.mid() - b.mid()).abs() <= 1e-9 * a.hi, "{a:?} {b:?}");
+        }
+        assert!(
+            probes + 10 < plain_probes,
+            "seeded {probes}, plain {plain_probes}"
+        );
+    }
+
+    /// A seed with both ends on one side of a transition, or not a bracket at all, is rejected
+    /// and the search falls back to the guess: the brackets are still right.
+    #[test]
+    fn a_wrong_seed_is_detected_and_falls_back() {
+        let step = || Step {
+            cx: 1.5,
+            cy: 1.2,
+            calls: 0,
+        };
+        let (plain, plain_probes) = bracket_transitions(&mut step(), &opts(0.3)).unwrap();
+        // any: both ends below 1.5 (open at both)
+        let below: BracketSeed = [(1.0, 1.1), (1.4, 1.6), (1.1, 1.3)];
+        // y: both ends above 1.2 (blocked at both)
+        let above: BracketSeed = [(1.4, 1.6), (1.4, 1.6), (1.3, 1.4)];
+        for (seed, needle) in [(below, "any"), (above, "criterion y")] {
+            let mut s = step();
+            let (b, probes, outcome) =
+                bracket_transitions_seeded(&mut s, &opts(0.3), Some(&seed)).unwrap();
+            let SeedOutcome::Rejected { reason } = outcome else {
+                panic!("{needle}: {outcome:?}");
+            };
+            assert!(reason.contains(needle), "{reason}");
+            assert_eq!(probes, s.calls);
+            for (a, c) in b.iter().zip([1.5, 1.5, 1.2]) {
+                assert!(a.lo < c && c <= a.hi && a.rel_width() <= 1e-9, "{a:?}");
+            }
+        }
+        // not ordered: rejected before any probe, the search is the unseeded one
+        let disordered: BracketSeed = [(1.6, 1.4), (1.4, 1.6), (1.1, 1.3)];
+        let (b, probes, outcome) =
+            bracket_transitions_seeded(&mut step(), &opts(0.3), Some(&disordered)).unwrap();
+        assert!(
+            matches!(&outcome, SeedOutcome::Rejected { reason } if reason.contains("any")),
+            "{outcome:?}"
+        );
+        assert_eq!((b, probes), (plain, plain_probes));
     }
 
     #[test]

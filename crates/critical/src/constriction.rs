@@ -11,6 +11,16 @@
 //! the axis that closes last; that axis is the flow axis of the whole ladder (x if both still
 //! wind at the bracket's lower end).
 //!
+//! # Seeded bracket
+//! L_c's search may start from the brackets of another search on the same field, periodic
+//! boundary and winding criterion (`seed`: a `leakage` stage brackets the same three
+//! transitions with the same solver to a coarser width). The seed is a guess only: its ends are
+//! re-solved here and each criterion must be open at its `lo` and blocked at its `hi`;
+//! otherwise it is rejected (a note says which end failed) and the search starts from the
+//! default guess. Either way every end of the final brackets was probed by this search, and the
+//! result agrees with an unseeded search to `rel_width` (the probes differ, so the last bits
+//! of L_c may).
+//!
 //! # The constriction ([`analyse_constriction`])
 //! The maximin bottleneck of [`percolation::last_constriction`] along the flow axis. On a generic
 //! field it is one node. On symmetric fields (the lattices) several nodes are tied; the node
@@ -62,6 +72,7 @@
 //!
 //! No I/O.
 
+use crate::bracket::{BracketSeed, SeedOutcome};
 use crate::leakage::{Boundary, PercolationOptions, percolation_load};
 use crate::scaling::{ExponentFit, fit_exponent};
 use crate::{CriticalError, FlowState};
@@ -129,6 +140,10 @@ pub struct ConstrictionOptions {
     /// Only rungs whose constriction is the one at L_c (within 2 nodes) count as resolved: the
     /// claim is about the single critical constriction. Default true.
     pub same_constriction_only: bool,
+    /// Starting brackets (any, x, y) of the percolation search from another search on this
+    /// field and criterion (a `leakage` stage's, to a coarser width): confirmed by probes
+    /// before use, rejected with a note otherwise (module docs, "Seeded bracket"). Default none.
+    pub seed: Option<BracketSeed>,
 }
 
 impl Default for ConstrictionOptions {
@@ -147,6 +162,7 @@ impl Default for ConstrictionOptions {
             flow: FlowOptions::default(),
             keep_gap: false,
             same_constriction_only: true,
+            seed: None,
         }
     }
 }
@@ -533,6 +549,8 @@ pub struct ConstrictionStudy {
     pub notes: Vec<String>,
     /// Contact solves of the bisection.
     pub probes: usize,
+    /// What became of `ConstrictionOptions::seed`.
+    pub seed: SeedOutcome,
     /// Polonsky–Keer iterations over all solves.
     pub iterations: usize,
     /// Wall time (s).
@@ -769,6 +787,7 @@ pub fn constriction_study(
             tol_gap: opts.tol_gap,
             max_iter: opts.max_iter,
             rel_width: opts.rel_width,
+            seed: opts.seed,
             ..Default::default()
         },
     )?;
@@ -805,6 +824,11 @@ pub fn constriction_study(
     let (sol_lc, it_lc, _) = crate::solve_with_retries(&mut model, &sopts, lo, prev, &[])?;
     iterations += it_lc;
     let mut notes = Vec::new();
+    if let SeedOutcome::Rejected { reason } = &perc.seed {
+        notes.push(format!(
+            "the seed bracket was rejected ({reason}); L_c was bracketed from the default guess"
+        ));
+    }
     let state_lc = FlowState::of_gap(sol_lc.gap.view())?;
     // The reference state "at L_c": just below it, or, if the re-solve there comes out blocked
     // (the bisection's probe at the same load started from another state, and the last node
@@ -908,6 +932,7 @@ pub fn constriction_study(
         gap_fit,
         notes,
         probes: perc.probes,
+        seed: perc.seed,
         iterations,
         wall_s: t0.elapsed().as_secs_f64(),
     })

@@ -34,10 +34,8 @@
 //!
 //! No I/O: callers read and write files.
 
-use crate::{
-    Bracket, CriticalError, FlowState, Prober, SearchOptions, Transition, bracket_transitions,
-    contact_mask,
-};
+use crate::bracket::{BracketSeed, SeedOutcome, bracket_transitions_seeded};
+use crate::{Bracket, CriticalError, FlowState, Prober, SearchOptions, Transition, contact_mask};
 use contact::free_kernel::Boundary as ElasticBoundary;
 use contact::{Method, Model, Solution, SolverOptions};
 use ndarray::{Array2, ArrayView2};
@@ -342,6 +340,10 @@ pub struct PercolationOptions {
     pub guess_width: f64,
     /// Cap on probes.
     pub max_probes: usize,
+    /// Starting brackets (any, x, y) from another search on this field with this boundary
+    /// (e.g. a coarser one): probed and confirmed before use, else rejected
+    /// ([`crate::bracket::bracket_transitions_seeded`]). Default none.
+    pub seed: Option<BracketSeed>,
 }
 
 impl Default for PercolationOptions {
@@ -353,6 +355,7 @@ impl Default for PercolationOptions {
             guess: None,
             guess_width: 0.5,
             max_probes: 400,
+            seed: None,
         }
     }
 }
@@ -376,6 +379,8 @@ pub struct PercolationLoad {
     pub iterations: usize,
     /// Solves repeated from another start.
     pub retries: usize,
+    /// What became of `PercolationOptions::seed`.
+    pub seed: SeedOutcome,
     /// Wall time (s).
     pub wall_s: f64,
 }
@@ -434,7 +439,8 @@ pub fn percolation_load(
         load_max,
         max_probes: opts.max_probes,
     };
-    let (brackets, probes) = bracket_transitions(&mut prober, &search)?;
+    let (brackets, probes, seed) =
+        bracket_transitions_seeded(&mut prober, &search, opts.seed.as_ref())?;
     let transition = |b: Bracket| Transition {
         area_lo: prober.area(b.lo),
         area_hi: prober.area(b.hi),
@@ -450,6 +456,7 @@ pub fn percolation_load(
         probes,
         iterations: prober.iterations,
         retries: prober.retries,
+        seed,
         wall_s: t0.elapsed().as_secs_f64(),
     })
 }
@@ -611,6 +618,61 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A seed from a coarser search of the same field (what a `leakage` stage hands to a
+    /// `constriction` stage) gives the same transitions to the finer rel_width with fewer
+    /// probes; a seed with both ends below the transition is detected and the search falls back.
+    #[test]
+    fn a_coarse_seed_gives_the_same_transitions_with_fewer_probes() {
+        let f = random(6, 5);
+        let run = |rel_width: f64, seed: Option<BracketSeed>| {
+            let o = PercolationOptions {
+                rel_width,
+                seed,
+                ..Default::default()
+            };
+            percolation_load(&f, Boundary::Periodic, &o).unwrap()
+        };
+        let coarse = run(1e-4, None);
+        let seed = [&coarse.any, &coarse.x, &coarse.y].map(|t| (t.bracket.lo, t.bracket.hi));
+        let plain = run(1e-9, None);
+        let seeded = run(1e-9, Some(seed));
+        assert!(
+            matches!(seeded.seed, SeedOutcome::Used { probes } if probes <= 6),
+            "{:?}",
+            seeded.seed
+        );
+        for c in crate::Criterion::ALL {
+            let (a, b) = (&seeded.transition(c).bracket, &plain.transition(c).bracket);
+            // both brackets hold this field's transition and are ≤ 1e-9 wide (relative), so
+            // their midpoints differ by at most 1e-9 of hi (exact agreement is not expected:
+            // the probes and so the warm starts differ)
+            assert!(a.rel_width() <= 1e-9, "{c:?}: {a:?}");
+            assert!(
+                (a.mid() - b.mid()).abs() <= 1e-9 * a.hi.max(b.hi),
+                "{c:?}: seeded {a:?}, plain {b:?}"
+            );
+        }
+        assert!(
+            seeded.probes < plain.probes,
+            "seeded {} probes, plain {}",
+            seeded.probes,
+            plain.probes
+        );
+        // wrong: every criterion's seed 2–5 % below its coarse bracket (both ends open)
+        let low = seed.map(|(lo, _)| (0.95 * lo, 0.98 * lo));
+        let fallback = run(1e-9, Some(low));
+        assert!(
+            matches!(&fallback.seed, SeedOutcome::Rejected { reason } if reason.contains("any")),
+            "{:?}",
+            fallback.seed
+        );
+        let (a, b) = (&fallback.any.bracket, &plain.any.bracket);
+        assert!(
+            (a.mid() - b.mid()).abs() <= 1e-9 * a.hi.max(b.hi),
+            "{a:?} {b:?}"
+        );
     }
 
     /// Flat gap: every node a depth d below one high node. At a tiny load the body touches that

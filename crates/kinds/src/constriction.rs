@@ -9,6 +9,15 @@
 //! `qr`, `qs` attributes (a `selfaffine` surface) are copied as provenance of the realisation
 //! (NaN where absent).
 //!
+//! Optional input `leakage`: a `leakage` stage of the same surface with `percolation = true`.
+//! Its percolation brackets (any, x, y: the same transitions, boundary, winding criterion and
+//! contact solver, to its coarser `rel_width`) seed the bisection of L_c instead of the
+//! expansion from 0.3 p_fc (`critical::constriction`, "Seeded bracket"). It is used only if it
+//! is periodic, on the surface's grid, with the surface's p_fc (a fingerprint of the heights)
+//! and seed; the seed's ends are re-solved and must be open at lo, blocked at hi. Otherwise the
+//! stage warns and brackets from scratch. L_c then agrees with the unseeded stage's to
+//! `rel_width` (not bit for bit).
+//!
 //! # Parameters
 //! `d_max`, `d_min` (the 1-2-5 ladder between them; default 5e-2 … 1e-4), `min_width` (2),
 //! `affine_radius` (8), `min_contact_changes` (1), `window` (2), `tol_gap` (1e-10),
@@ -29,6 +38,7 @@
 //! - `map/gap`: the gap just below L_c (the bracket's lower end).
 
 use anyhow::{Result, anyhow};
+use critical::bracket::{BracketSeed, SeedOutcome};
 use critical::constriction::{
     ConstrictionOptions, ConstrictionRung, ConstrictionStudy, RunningSlope, constriction_study,
     ladder_125,
@@ -353,6 +363,10 @@ impl TypedKind for ConstrictionKind {
         vec![
             InputSpec::one("surface", &crate::leakage::SURFACE_KINDS)
                 .doc("the height field (periodic)"),
+            InputSpec::one("leakage", &["leakage"]).optional().doc(
+                "a leakage stage of the same surface whose percolation brackets seed L_c's \
+                 bisection (verified by solves; ignored with a warning if not valid)",
+            ),
         ]
     }
     fn cost(&self, params: &ConstrictionParams) -> f64 {
@@ -372,8 +386,16 @@ impl TypedKind for ConstrictionKind {
                 .or_else(|_| r.attr_i64(k).map(|v| v as f64))
                 .unwrap_or(f64::NAN)
         });
-        let s = constriction_study(&field, &params.options())
-            .map_err(|e| anyhow!("input `surface`: {e}"))?;
+        let mut opts = params.options();
+        if !inputs.all("leakage").is_empty() {
+            match leakage_seed(inputs.one("leakage")?, &field, r) {
+                Ok(seed) => opts.seed = Some(seed),
+                Err(why) => ctx.warn(format!(
+                    "input `leakage` not used as a seed ({why}): L_c bracketed from scratch"
+                )),
+            }
+        }
+        let s = constriction_study(&field, &opts).map_err(|e| anyhow!("input `surface`: {e}"))?;
         ctx.progress(0.9, "ladder solved");
         for n in &s.notes {
             ctx.warn(n.clone());
@@ -406,8 +428,63 @@ impl TypedKind for ConstrictionKind {
             "beta_err": get("beta_err"),
             "eta_height": get("eta_height"),
             "n_resolved": get("n_resolved"),
+            "probes": s.probes,
+            "seed": match &s.seed {
+                SeedOutcome::Unseeded => "none",
+                SeedOutcome::Used { .. } => "used",
+                SeedOutcome::Rejected { .. } => "rejected",
+            },
         })))
     }
+}
+
+/// The percolation brackets of a `leakage` artefact as a seed for `field`, or why they cannot
+/// be one: no percolation group, another boundary, grid, full-contact pressure or seed than the
+/// surface's.
+fn leakage_seed(
+    leak: &ArtefactReader,
+    field: &surface::HeightField,
+    surf: &ArtefactReader,
+) -> Result<BracketSeed, String> {
+    let e = |e: anyhow::Error| e.to_string();
+    let boundary = leak.attr_str("boundary").map_err(e)?;
+    if boundary != "periodic" {
+        return Err(format!(
+            "boundary = {boundary}: the constriction's criterion is the periodic winding"
+        ));
+    }
+    let g = &field.grid;
+    let (nx, ny) = (
+        leak.attr_i64("nx").map_err(e)?,
+        leak.attr_i64("ny").map_err(e)?,
+    );
+    let (lx, ly) = leak.cell().map_err(e)?;
+    if (nx, ny, lx, ly) != (g.nx as i64, g.ny as i64, g.lx, g.ly) {
+        return Err(format!(
+            "grid {nx} × {ny}, cell {lx} × {ly}; the surface's is {} × {}, {} × {}",
+            g.nx, g.ny, g.lx, g.ly
+        ));
+    }
+    // p_fc = −min(K h) is a fingerprint of the heights: the same function on the same heights
+    // is bit-identical; 1e-12 relative admits FFT rounding only, another surface differs at O(1)
+    let (p_leak, p_here) = (
+        leak.attr_f64("p_fc").map_err(e)?,
+        critical::leakage::full_contact_pressure(field),
+    );
+    let same = (p_leak - p_here).abs() <= 1e-12 * p_here.abs(); // false for NaN
+    if !same {
+        return Err(format!(
+            "p_fc = {p_leak:e}, the surface's is {p_here:e}: another surface"
+        ));
+    }
+    if let (Ok(a), Ok(b)) = (leak.attr_i64("surface_seed"), surf.attr_i64("seed"))
+        && a != b
+    {
+        return Err(format!("surface_seed = {a}, the surface's seed is {b}"));
+    }
+    crate::leakage::percolation_brackets(leak)
+        .map_err(e)?
+        .ok_or_else(|| "no percolation brackets (percolation = false)".to_string())
 }
 
 fn write_slopes(out: &mut ArtefactWriter, at: &str, s: &[RunningSlope]) -> Result<()> {
@@ -575,6 +652,89 @@ mod tests {
         );
         assert_eq!(r.running_beta.value.len(), direct.running_beta.len());
         assert_eq!(r.gap.as_ref().unwrap().dim(), (64, 64));
+    }
+
+    /// A `leakage` stage of `s` (percolation brackets to 1e-4, as at draft).
+    fn leakage_of(dir: &std::path::Path, s: ArtefactReader) -> ArtefactReader {
+        let p: crate::leakage::LeakageParams = serde_json::from_value(json!({"loads": [0.1],
+            "relative": true, "boundary": "periodic", "sides": "noflux", "tol_gap": 1e-10,
+            "flow_tol": 1e-10, "percolation": true, "rel_width": 1e-4, "map_load": 0.0}))
+        .unwrap();
+        let path = dir.join("l.h5");
+        let mut w = ArtefactWriter::create(&path).unwrap();
+        let inputs = Inputs::new(BTreeMap::from([("surface".to_string(), vec![s])]));
+        let mut ctx = StageContext::detached("l", dir);
+        crate::leakage::LeakageKind
+            .run(&mut ctx, &p, &inputs, &mut w)
+            .unwrap();
+        w.publish().unwrap();
+        ArtefactReader::open(&path).unwrap()
+    }
+
+    /// Runs the kind; the artefact, the report's stats and the warnings.
+    fn run(
+        dir: &std::path::Path,
+        name: &str,
+        inputs: Vec<(&str, ArtefactReader)>,
+    ) -> (ConstrictionRead, serde_json::Value, Vec<String>) {
+        let inputs = Inputs::new(
+            inputs
+                .into_iter()
+                .map(|(k, r)| (k.to_string(), vec![r]))
+                .collect(),
+        );
+        let path = dir.join(format!("{name}.h5"));
+        let mut w = ArtefactWriter::create(&path).unwrap();
+        let mut ctx = StageContext::detached(name, dir);
+        let rep = ConstrictionKind
+            .run(&mut ctx, &params(json!({})), &inputs, &mut w)
+            .unwrap();
+        w.publish().unwrap();
+        let r = ConstrictionRead::read(&ArtefactReader::open(&path).unwrap()).unwrap();
+        (r, rep.stats, ctx.warnings().to_vec())
+    }
+
+    /// With the leakage of the same surface as input, L_c (and its single-axis transitions) is
+    /// the unseeded one to rel_width = 1e-9 with fewer contact solves; a leakage of another
+    /// surface is refused with a warning naming p_fc and changes nothing, bit for bit.
+    #[test]
+    fn a_leakage_of_the_same_surface_seeds_l_c() {
+        let (d1, d2) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        let s = surface(d1.path());
+        let again = || ArtefactReader::open(d1.path().join("s.h5")).unwrap();
+        let leak = leakage_of(d1.path(), again());
+        let other = leakage_of(d2.path(), crate::selfaffine::test_surface(d2.path(), 6, 4));
+        let (plain, st_plain, _) = run(d1.path(), "plain", vec![("surface", again())]);
+        let (seeded, st_seeded, w) = run(
+            d1.path(),
+            "seeded",
+            vec![("surface", again()), ("leakage", leak)],
+        );
+        assert_eq!(st_plain["seed"], "none");
+        assert_eq!(st_seeded["seed"], "used", "{w:?}");
+        assert!(
+            st_seeded["probes"].as_u64() < st_plain["probes"].as_u64(),
+            "{st_seeded} vs {st_plain}"
+        );
+        // both brackets hold the transition and are ≤ 1e-9 wide (relative): the midpoints
+        // differ by at most 1e-9 of the upper end
+        let hi = plain.get("l_c_hi").max(seeded.get("l_c_hi"));
+        for k in ["l_c", "l_c_x", "l_c_y"] {
+            let (a, b) = (seeded.get(k), plain.get(k));
+            assert!((a - b).abs() <= 1e-9 * hi, "{k}: {a} vs {b}");
+        }
+        let (wrong, st_wrong, w) =
+            run(d1.path(), "wrong", vec![("surface", s), ("leakage", other)]);
+        assert_eq!(st_wrong["seed"], "none");
+        assert!(
+            w.iter()
+                .any(|m| m.contains("not used as a seed") && m.contains("p_fc")),
+            "{w:?}"
+        );
+        for k in SUMMARY.iter().filter(|k| **k != "wall_s") {
+            let (a, b) = (wrong.get(k), plain.get(k));
+            assert!(a == b || (a.is_nan() && b.is_nan()), "{k}: {a} vs {b}");
+        }
     }
 
     #[test]

@@ -29,6 +29,7 @@
 //! - `map/gap`, `map/pressure` with attributes `load`, `contact_area`, `mean_gap`.
 
 use anyhow::{Result, anyhow, bail};
+use critical::bracket::BracketSeed;
 use critical::leakage::{
     Boundary, LeakageOptions, LeakagePoint, PercolationLoad, PercolationOptions, SideEdges,
 };
@@ -352,6 +353,20 @@ fn write_points(out: &mut ArtefactWriter, points: &[LeakagePoint], p_fc: f64) ->
         .iter()
         .filter(|p| !(p.flow_x.converged && p.flow_y.converged))
         .count())
+}
+
+/// The percolation brackets `(load_lo, load_hi)` of a `leakage` artefact in
+/// `critical::Criterion::ALL` order (any, x, y), or None if it has none (`percolation = false`).
+pub fn percolation_brackets(r: &ArtefactReader) -> Result<Option<BracketSeed>> {
+    if r.attr_i64_at("percolation", "probes").is_err() {
+        return Ok(None);
+    }
+    let end = |c: &str, k: &str| r.attr_f64_at(&format!("percolation/{c}"), k);
+    let mut out = [(f64::NAN, f64::NAN); 3];
+    for (o, c) in out.iter_mut().zip(critical::Criterion::ALL) {
+        *o = (end(c.name(), "load_lo")?, end(c.name(), "load_hi")?);
+    }
+    Ok(Some(out))
 }
 
 fn write_percolation(out: &mut ArtefactWriter, pl: &PercolationLoad) -> Result<()> {
