@@ -13,7 +13,7 @@ use super::{
 };
 use crate::headline::Headline;
 use crate::ladder::LadderData;
-use crate::refined_ladder::RefinedData;
+use crate::refined_ladder::{Depth, Linked};
 use analysis::same_load;
 use anyhow::Result;
 use critical::refined::Measured;
@@ -32,7 +32,7 @@ pub(super) fn run_model(
     ctx: &mut StageContext,
     out: &mut ArtefactWriter,
     d: &LadderData,
-    refined: Option<&RefinedData>,
+    chain: &[&Linked],
     opts: &EdgeOptions,
     heads: &mut Vec<Headline>,
     flux_points: &mut Vec<(Vec<f64>, Vec<f64>)>,
@@ -48,8 +48,8 @@ pub(super) fn run_model(
         let (pv, pe) = PAPER[k];
         heads.push(Headline::new(format!("{} {name}", NAMES[k]), e.value, e.error).paper(pv, pe));
     }
-    let (asy, uni, junctions) = asymptotics(out, &at, d, refined, &mut notes)?;
-    write_figure_flux(out, d, refined, &curve, junctions[3], &asy[3], &mut notes)?;
+    let (asy, uni, junctions) = asymptotics(out, &at, d, chain, &mut notes)?;
+    write_figure_flux(out, d, chain, &curve, &junctions[3], &asy[3], &mut notes)?;
     let asy_identity = asymptotic::identity(&asy[0], &asy[1], &asy[2]);
     asy_identity.write(out, &at, "beta_identity")?;
     asymptotic::identity(&uni[0], &uni[1], &uni[2]).write(out, &at, "beta_identity_uniform")?;
@@ -156,27 +156,46 @@ fn write_flux(
     Ok(points)
 }
 
-/// Figure 6's extended flux panel (module docs of [`super`]): the refined flux continuing the
-/// uniform curve (`ladder/<name>/refined/*`) and the asymptotic β's slope.
+/// Figure 6's extended flux panel (module docs of [`super`]): each refined ladder's flux of the
+/// chain continuing the curve before it (`ladder/<name>/<depth>/*`: the first link the uniform
+/// curve at its junction, each further one the previous link's curve at its own) and the
+/// asymptotic β's slope.
 fn write_figure_flux(
     out: &mut ArtefactWriter,
     d: &LadderData,
-    refined: Option<&RefinedData>,
+    chain: &[&Linked],
     uniform: &[FluxPoint],
-    junction: Option<f64>,
+    junctions: &[(Depth, f64)],
     beta: &Asymptotic,
     notes: &mut Vec<String>,
 ) -> Result<()> {
     let name = d.lattice.name();
-    let rpoints = refined.map_or(Vec::new(), |r| r.points(Measured::Flux));
-    let refined_curve = refined_flux_curve(uniform, &rpoints, junction.map(f64::abs));
-    if !rpoints.is_empty() && refined_curve.is_empty() {
-        notes.push(
-            "Figure 6: the refined flux shares no rung with the uniform curve: not drawn".into(),
-        );
-    }
-    if !refined_curve.is_empty() {
-        write_refined_flux_curve(out, name, &refined_curve)?;
+    // (depth, its curve, where the estimate's ladder took it over) per link drawn
+    let mut curves: Vec<(Depth, Vec<FluxPoint>, Option<f64>)> = Vec::new();
+    for link in chain {
+        let rpoints = link.data.points(Measured::Flux);
+        let junction = junctions
+            .iter()
+            .find(|(dp, _)| *dp == link.depth)
+            .map(|&(_, j)| j.abs());
+        let before = curves.last().map_or(uniform, |c| c.1.as_slice());
+        let refined_curve = refined_flux_curve(before, &rpoints, junction);
+        if !rpoints.is_empty() && refined_curve.is_empty() {
+            notes.push(format!(
+                "Figure 6: the {} flux shares no rung with the {} curve: not drawn",
+                link.depth.name(),
+                curves.last().map_or("uniform", |c| c.0.name())
+            ));
+        }
+        let drawn = !refined_curve.is_empty();
+        if drawn {
+            write_refined_flux_curve(out, name, link.depth, &refined_curve)?;
+        }
+        curves.push((link.depth, refined_curve, junction));
+        if !drawn {
+            // a later link cannot continue a curve that is not drawn
+            break;
+        }
     }
     if beta.value.is_finite() && beta.l_min.is_finite() {
         let at = |c: &[FluxPoint]| {
@@ -184,12 +203,12 @@ fn write_figure_flux(
                 .find(|p| same_load(p.distance, beta.l_min))
                 .copied()
         };
-        // below the junction the estimate used the refined rungs
-        let below = junction.is_some_and(|j| beta.l_min < j.abs() * (1.0 - 1e-9));
-        let p = if below {
-            at(&refined_curve)
-        } else {
-            at(uniform)
+        // the deepest link whose part of the estimate's ladder holds l_min (below its
+        // junction); else the uniform curve
+        let below = |j: Option<f64>| j.is_some_and(|j| beta.l_min < j * (1.0 - 1e-9));
+        let p = match curves.iter().rev().find(|c| below(c.2)) {
+            Some(c) => at(&c.1),
+            None => at(uniform),
         };
         if let Some(p) = p {
             write_asymptotic_slope(
@@ -255,27 +274,27 @@ fn write_exponents(out: &mut ArtefactWriter, at: &str, ex: &[Exponent]) -> Resul
     Ok(())
 }
 
-/// Per exponent: the combined estimate, the uniform-only one, the combined ladder's junction.
-type Asymptotics = ([Asymptotic; 4], [Asymptotic; 4], [Option<f64>; 4]);
+/// Per exponent: the combined estimate, the uniform-only one, the combined ladder's junctions.
+type Asymptotics = ([Asymptotic; 4], [Asymptotic; 4], [Vec<(Depth, f64)>; 4]);
 
 /// The asymptotic estimates from the combined ladder and from the uniform one alone (written
 /// under `at` as `<e>_asymptotic_*`, `<e>_uniform_asymptotic_*` and `<e>_asymptotic_method`);
-/// a failed one is NONE with a note. Also where each combined ladder's refined part began.
+/// a failed one is NONE with a note. Also where each link of each combined ladder took over.
 fn asymptotics(
     out: &mut ArtefactWriter,
     at: &str,
     d: &LadderData,
-    refined: Option<&RefinedData>,
+    chain: &[&Linked],
     notes: &mut Vec<String>,
 ) -> Result<Asymptotics> {
     let mut asy = [Asymptotic::NONE; 4];
     let mut uni = [Asymptotic::NONE; 4];
-    let mut junctions = [None; 4];
+    let mut junctions: [Vec<(Depth, f64)>; 4] = Default::default();
     for k in 0..4 {
         let e = asymptotic::which(k);
         let levels = asymptotic::resolutions(d, e, notes);
         let uniform = asymptotic::estimate(&levels);
-        let (est, how) = asymptotic::estimate_combined(d.lattice, e, &levels, refined);
+        let (est, how) = asymptotic::estimate_combined(d.lattice, e, &levels, chain);
         match (&est, &uniform) {
             (Err(why), _) => notes.push(format!("no asymptotic {}: {why}", symbol(NAMES[k]))),
             (Ok(_), Err(why)) if how.rungs.1 > 0 => notes.push(format!(
@@ -294,7 +313,7 @@ fn asymptotics(
         }
         asy[k].write(out, at, NAMES[k])?;
         uni[k].write(out, at, &format!("{}_uniform", NAMES[k]))?;
-        junctions[k] = how.junction;
+        junctions[k] = how.junctions.clone();
         out.set_attr_at(at, &format!("{}_asymptotic_method", NAMES[k]), how.method)?;
     }
     Ok((asy, uni, junctions))
