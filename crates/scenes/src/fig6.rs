@@ -36,7 +36,7 @@ use figures::scenes::fig6::{
 use figures::style::Model;
 use kinds::exponents;
 use kinds::flow::FlowData;
-use kinds::refined_ladder::Depth;
+use kinds::refined_chain::Depth;
 use kinds::sweep::Branch as PathBranch;
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{ParamSpec, ParamType, Params, StageContext};

@@ -30,7 +30,8 @@
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
-use kinds::refined_ladder::{Linked, RefinedData, RefinedPair, read_linked};
+use kinds::refined_chain::{Linked, read_linked};
+use kinds::refined_ladder::{RefinedData, RefinedPair};
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
 use tables::Table;

@@ -56,7 +56,8 @@ use figures::style::Model;
 use kinds::exponents::asymptotic::{GRID_BOUND, resolutions};
 use kinds::exponents::{CONJECTURED, PAPER, symbol};
 use kinds::ladder::LadderData;
-use kinds::refined_ladder::{Depth, RefinedData, read_linked};
+use kinds::refined_chain::{Depth, read_linked};
+use kinds::refined_ladder::RefinedData;
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
 use tables::{ColumnData, Table};
@@ -93,7 +94,7 @@ pub struct Row {
     /// Why the value must not be used silently (empty: usable).
     pub flag: String,
     /// Which ladder it comes from: `uniform`, or the refined input's
-    /// [`kinds::refined_ladder::Depth::name`] (`refined`, `refined_deep`).
+    /// [`kinds::refined_chain::Depth::name`] (`refined`, `refined_deep`).
     pub method: &'static str,
 }
 

@@ -54,7 +54,7 @@
 //! The text states the σ either way so that the reader can judge.
 
 use crate::ladder::{LadderData, LadderLevel};
-use crate::refined_ladder::Linked;
+use crate::refined_chain::Linked;
 use analysis::{AsymptoticEstimate, AsymptoticOptions, Estimate, ScalingPoint};
 use critical::ladder::Rung;
 use critical::refined::{LadderPair, Link, Measured, Source, chained_ladder};
@@ -249,7 +249,7 @@ pub fn refined_measure(e: Which) -> Option<Measured> {
 pub struct Combined {
     /// `uniform`, `uniform+<name> below |l| = <junction>`, or `<name> from |l| = <first>`
     /// (no usable uniform pair), `name` the first link's input
-    /// ([`crate::refined_ladder::Depth::name`]: `refined`, `refined_deep`); each further link
+    /// ([`crate::refined_chain::Depth::name`]: `refined`, `refined_deep`); each further link
     /// of the chain appends `+<name> below |l| = <junction>` (e.g.
     /// `uniform+refined below |l| = 5e-4+refined_deep below |l| = 1e-4`).
     pub method: String,
@@ -261,12 +261,12 @@ pub struct Combined {
     /// Where the first refined ladder took over (signed l), if one did.
     pub junction: Option<f64>,
     /// Every link that extended the ladder: its depth and where it took over (signed l).
-    pub junctions: Vec<(crate::refined_ladder::Depth, f64)>,
+    pub junctions: Vec<(crate::refined_chain::Depth, f64)>,
 }
 
 /// The asymptotic estimate of exponent `e` of `model` from the combined ladder (module docs):
 /// the uniform levels and the model's chain of refined ladders (ordered by depth,
-/// [`crate::refined_ladder::chain_of`]; empty: the uniform ladder alone). The estimate or why
+/// [`crate::refined_chain::chain_of`]; empty: the uniform ladder alone). The estimate or why
 /// none, and what was used.
 pub fn estimate_combined(
     model: Lattice,
@@ -519,9 +519,9 @@ mod tests {
     /// the factor).
     #[test]
     fn combined_estimate_uses_the_refined_ladder_below_the_uniform_one() {
+        use crate::refined_chain::{Depth, Linked, chain_of};
         use crate::refined_ladder::{
-            Depth, Linked, RefinedData, RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow,
-            chain_of,
+            RefinedData, RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow,
         };
         let (ls, g) = (LS, corrected);
         let levels = [level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)];

@@ -4,7 +4,7 @@
 
 use super::asymptotic::Asymptotic;
 use super::{Exponent, LevelMeasure, ModelExponents, NAMES};
-use crate::refined_ladder::Depth;
+use crate::refined_chain::Depth;
 use anyhow::{Result, bail};
 use critical::scaling::ExponentFit;
 use formats::records::{Record, read_in};

@@ -70,7 +70,7 @@ pub use io::{
 };
 
 use crate::ladder::{LadderData, LadderLevel};
-use crate::refined_ladder::{Linked, chain_of, read_linked};
+use crate::refined_chain::{Linked, chain_of, read_linked};
 use anyhow::{Result, bail};
 use asymptotic::Asymptotic;
 use critical::scaling::{

@@ -13,7 +13,7 @@ use super::{
 };
 use crate::headline::Headline;
 use crate::ladder::LadderData;
-use crate::refined_ladder::{Depth, Linked};
+use crate::refined_chain::{Depth, Linked};
 use analysis::same_load;
 use anyhow::Result;
 use critical::refined::Measured;
