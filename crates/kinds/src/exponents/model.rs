@@ -170,31 +170,14 @@ fn write_figure_flux(
     notes: &mut Vec<String>,
 ) -> Result<()> {
     let name = d.lattice.name();
-    // (depth, its curve, where the estimate's ladder took it over) per link drawn
-    let mut curves: Vec<(Depth, Vec<FluxPoint>, Option<f64>)> = Vec::new();
-    for link in chain {
-        let rpoints = link.data.points(Measured::Flux);
-        let junction = junctions
-            .iter()
-            .find(|(dp, _)| *dp == link.depth)
-            .map(|&(_, j)| j.abs());
-        let before = curves.last().map_or(uniform, |c| c.1.as_slice());
-        let refined_curve = refined_flux_curve(before, &rpoints, junction);
-        if !rpoints.is_empty() && refined_curve.is_empty() {
-            notes.push(format!(
-                "Figure 6: the {} flux shares no rung with the {} curve: not drawn",
-                link.depth.name(),
-                curves.last().map_or("uniform", |c| c.0.name())
-            ));
-        }
-        let drawn = !refined_curve.is_empty();
-        if drawn {
-            write_refined_flux_curve(out, name, link.depth, &refined_curve)?;
-        }
-        curves.push((link.depth, refined_curve, junction));
-        if !drawn {
-            // a later link cannot continue a curve that is not drawn
-            break;
+    let links: Vec<(Depth, Vec<analysis::ScalingPoint>)> = chain
+        .iter()
+        .map(|l| (l.depth, l.data.points(Measured::Flux)))
+        .collect();
+    let curves = chained_flux_curves(uniform, &links, junctions, notes);
+    for (depth, c, _) in &curves {
+        if !c.is_empty() {
+            write_refined_flux_curve(out, name, *depth, c)?;
         }
     }
     if beta.value.is_finite() && beta.l_min.is_finite() {
@@ -223,6 +206,41 @@ fn write_figure_flux(
         }
     }
     Ok(())
+}
+
+/// Per link of a chain (depth, flux points), its normalised flux curve continuing the curve
+/// before it ([`refined_flux_curve`]: the first link the uniform curve, each further one the
+/// previous link's, at the link's junction in `junctions` if it has one there, else at the
+/// largest shared distance), with that junction (|l|). A link whose curve is empty (no shared
+/// rung) ends the list (with a note; it is returned, empty): a later link could not continue it.
+pub fn chained_flux_curves(
+    uniform: &[FluxPoint],
+    links: &[(Depth, Vec<analysis::ScalingPoint>)],
+    junctions: &[(Depth, f64)],
+    notes: &mut Vec<String>,
+) -> Vec<(Depth, Vec<FluxPoint>, Option<f64>)> {
+    let mut curves: Vec<(Depth, Vec<FluxPoint>, Option<f64>)> = Vec::new();
+    for (depth, rpoints) in links {
+        let junction = junctions
+            .iter()
+            .find(|(dp, _)| dp == depth)
+            .map(|&(_, j)| j.abs());
+        let before = curves.last().map_or(uniform, |c| c.1.as_slice());
+        let curve = refined_flux_curve(before, rpoints, junction);
+        if !rpoints.is_empty() && curve.is_empty() {
+            notes.push(format!(
+                "Figure 6: the {} flux shares no rung with the {} curve: not drawn",
+                depth.name(),
+                curves.last().map_or("uniform", |c| c.0.name())
+            ));
+        }
+        let drawn = !curve.is_empty();
+        curves.push((*depth, curve, junction));
+        if !drawn {
+            break;
+        }
+    }
+    curves
 }
 
 /// The refined flux `refined` (l < 0, any order) as a normalised curve continuing `uniform`
@@ -354,5 +372,59 @@ mod tests {
         // a junction that is not shared falls back likewise; no shared rung: nothing
         assert_eq!(refined_flux_curve(&uniform, &refined, Some(3e-3)).len(), 6);
         assert!(refined_flux_curve(&uniform, &refined[..3], None).is_empty());
+    }
+
+    /// A chain: the refined flux (7 × the law) from 5e-3, a deep one (0.2 × the law) from
+    /// 5e-4; each continues the curve before it at its junction, so both equal the uniform
+    /// normalisation everywhere; a deep ladder sharing no rung with the refined curve is not
+    /// drawn (a note), and one after an undrawn link is not tried.
+    #[test]
+    fn the_deep_flux_continues_the_refined_curve() {
+        let q = |a: f64| a.powf(3.45);
+        let uniform: Vec<FluxPoint> = [2e-3, 5e-3, 1e-2, 2e-2]
+            .iter()
+            .map(|&a| FluxPoint {
+                distance: a,
+                flux: q(a) / q(2e-2),
+            })
+            .collect();
+        let law = |f: f64, ls: &[f64]| -> Vec<ScalingPoint> {
+            ls.iter()
+                .map(|&a| ScalingPoint::new(-a, f * q(a), 0.0))
+                .collect()
+        };
+        let refined = law(7.0, &[5e-4, 1e-3, 2e-3, 5e-3]);
+        let deep = law(0.2, &[5e-5, 1e-4, 2e-4, 5e-4]);
+        let links = vec![(Depth::Refined, refined.clone()), (Depth::Deep, deep)];
+        let junctions = [(Depth::Refined, -2e-3), (Depth::Deep, -5e-4)];
+        let mut notes = Vec::new();
+        let c = chained_flux_curves(&uniform, &links, &junctions, &mut notes);
+        assert!(notes.is_empty(), "{notes:?}");
+        assert_eq!(c.len(), 2);
+        assert_eq!((c[0].0, c[0].2), (Depth::Refined, Some(2e-3)));
+        assert_eq!((c[1].0, c[1].2), (Depth::Deep, Some(5e-4)));
+        assert_eq!(c[1].1.len(), 4);
+        // two rescalings (7 → 1, 0.2 → 1): the law to rounding
+        for p in c.iter().flat_map(|c| &c.1) {
+            let want = q(p.distance) / q(2e-2);
+            assert!((p.flux / want - 1.0).abs() < 1e-12, "{p:?}");
+        }
+        // a deep ladder below the refined curve's reach (no shared rung): not drawn, noted
+        let far = vec![
+            (Depth::Refined, refined.clone()),
+            (Depth::Deep, law(0.2, &[5e-5, 1e-4])),
+        ];
+        let c2 = chained_flux_curves(&uniform, &far, &junctions, &mut notes);
+        assert!(c2[1].1.is_empty());
+        assert!(notes[0].contains("refined_deep flux shares no rung with the refined curve"));
+        // an undrawn first link ends the chain
+        let lost = vec![
+            (Depth::Refined, law(7.0, &[1e-4, 5e-4])),
+            (Depth::Deep, law(0.2, &[5e-5, 1e-4])),
+        ];
+        assert_eq!(
+            chained_flux_curves(&uniform, &lost, &[], &mut notes).len(),
+            1
+        );
     }
 }
