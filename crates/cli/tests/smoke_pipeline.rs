@@ -373,6 +373,16 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
         .collect();
     assert_eq!(adh_grids, grids, "adhesive hysteresis jumps on both grids");
 
+    // 7b. the deep refined ladders (refined_deep_*) reach the tables as `refined_deep` rows
+    assert!(all.contains("refined_deep_square") && all.contains("refined_deep_triangular"));
+    for t in ["running_exponents", "refined_running", "refined_rungs"] {
+        let text = std::fs::read_to_string(root.join(format!("results/tables/{t}.csv"))).unwrap();
+        assert!(
+            text.contains(",refined_deep\n"),
+            "{t}.csv has no refined_deep row"
+        );
+    }
+
     // 8. unchanged rerun: nothing runs
     let events = run_smoke(root, &[]);
     assert!(stages_with(&events, "ran").is_empty(), "{events:?}");

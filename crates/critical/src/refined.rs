@@ -113,6 +113,13 @@
 //! a step. Stopping at the first flagged pair on either side is the uniform ladders' rule
 //! ([`analysis::grid_converged_rungs`]): grid errors grow towards p_c.
 //!
+//! A chain of refined ladders ([`chained_ladder`]; e.g. 256², k = 3, 4, then a finer base with
+//! a small window for the deepest rungs, whose window check flags the larger |l|), ordered by
+//! depth, continues the same way link by link: each from the previous part's last usable rung
+//! if the link has it (the junction), rescaled there, down to its own first flagged pair. A
+//! link without that rung, or flagged right after it, ends the chain (with a note saying which
+//! and why): the links below it would have no rung in common with the ladder.
+//!
 //! # Measurements (2026-11-25, `examples/refined_ladder.rs`)
 //! Square model, 256² base (2^8), margin 8, comparison margin 12; triangular likewise. Commands
 //! (in a scratch directory; `REFINED_*` see the example's docs):
@@ -1263,7 +1270,7 @@ pub struct LadderPair {
 pub enum Source {
     /// The uniform ladder's finest grid.
     Uniform,
-    /// The refined ladder's finest discretisation.
+    /// A refined ladder's finest discretisation (any link of [`chained_ladder`]'s chain).
     Refined,
 }
 
@@ -1277,17 +1284,36 @@ impl Source {
     }
 }
 
-/// The combined ladder of [`combined_ladder`].
+/// The combined ladder of [`combined_ladder`] and [`chained_ladder`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct CombinedLadder {
     /// Its rungs by descending |l|; the refined ones rescaled (module docs).
     pub points: Vec<ScalingPoint>,
     /// The source of each neighbouring pair (one fewer than `points`).
     pub sources: Vec<Source>,
-    /// The reduced load where the refined ladder takes over (None: uniform only).
+    /// Per neighbouring pair, the link of the chain it comes from (None: the uniform ladder;
+    /// `Some(i)`: `links[i]` of [`chained_ladder`], 0 for [`combined_ladder`]'s refined one).
+    pub links: Vec<Option<usize>>,
+    /// The reduced load where the refined ladder (the chain's first link used) takes over
+    /// (None: uniform only).
     pub junction: Option<f64>,
-    /// Why the refined ladder did not extend the uniform one, if it did not.
+    /// Every link that extended the ladder and where it took over (signed l), in chain order.
+    pub junctions: Vec<(usize, f64)>,
+    /// Why the refined ladder (the chain's link `note_link`) did not extend the ladder, if one
+    /// did not; it ends the chain there.
     pub note: Option<String>,
+    /// The link the note is about.
+    pub note_link: Option<usize>,
+}
+
+/// One link of [`chained_ladder`]: a refined ladder's points (any order) and its neighbouring
+/// pairs.
+#[derive(Clone, Copy, Debug)]
+pub struct Link<'a> {
+    /// Its rungs (signed l, the measured quantity).
+    pub points: &'a [ScalingPoint],
+    /// Its neighbouring pairs and whether each may be used.
+    pub pairs: &'a [LadderPair],
 }
 
 /// The ladder an asymptotic fit uses, pair by pair the best grid-converged value available
@@ -1299,20 +1325,61 @@ pub struct CombinedLadder {
 /// errors, ~1e-3, which a direct fit would otherwise read as a step). Without a usable uniform
 /// pair (no uniform points, or its first pair flagged), the refined ladder alone from its first
 /// usable pair. Pairs are matched by their loads to a relative 1e-9; the points of either
-/// ladder in any order.
+/// ladder in any order. [`chained_ladder`] with one link (none if `refined` is empty).
 pub fn combined_ladder(
     uniform: &[ScalingPoint],
     uniform_pairs: &[LadderPair],
     refined: &[ScalingPoint],
     refined_pairs: &[LadderPair],
 ) -> CombinedLadder {
+    let link = Link {
+        points: refined,
+        pairs: refined_pairs,
+    };
+    chained_ladder(uniform, uniform_pairs, &[link])
+}
+
+/// [`combined_ladder`] continued by a chain of refined ladders ordered by depth (module docs,
+/// "The combined ladder"): the uniform ladder down to its first unusable pair, then each link
+/// from the previous part's last rung (its junction: a rung of both, loads equal by
+/// [`same_load`]) down to its own first unusable pair, its values multiplied by
+/// y_previous/y_link at that junction (so by the product of the scales before it: each link
+/// keeps its local slopes and the ladder stays continuous). A link without the junction rung,
+/// or whose pair from the junction is flagged or missing, ends the chain there (`note`,
+/// `note_link`): a deeper link cannot skip it, since its rungs would have no rung in common
+/// with the ladder to be rescaled at. Links without points are left out (as if not given).
+/// Without a usable uniform pair, the first link alone from its first usable pair, then the
+/// others as above. With one link this is [`combined_ladder`] exactly (the same rungs, scales
+/// and notes).
+pub fn chained_ladder(
+    uniform: &[ScalingPoint],
+    uniform_pairs: &[LadderPair],
+    links: &[Link<'_>],
+) -> CombinedLadder {
     let at = |pts: &[ScalingPoint], l: f64| pts.iter().find(|p| same_load(p.l, l)).copied();
     let next = |pairs: &[LadderPair], l: f64| pairs.iter().find(|p| same_load(p.l_hi, l)).copied();
+    // the links given, by their index in `links`
+    let chain: Vec<(usize, &Link<'_>)> = links
+        .iter()
+        .enumerate()
+        .filter(|(_, k)| !k.points.is_empty())
+        .collect();
+    // the text of a note about link i (the one-link wording is combined_ladder's)
+    let about = |i: usize, what: String| {
+        if links.len() > 1 {
+            format!("refined link {} of {}: {what}", i + 1, links.len())
+        } else {
+            what
+        }
+    };
     let mut out = CombinedLadder {
         points: Vec::new(),
         sources: Vec::new(),
+        links: Vec::new(),
         junction: None,
+        junctions: Vec::new(),
         note: None,
+        note_link: None,
     };
     let top = |pts: &[ScalingPoint]| {
         pts.iter()
@@ -1331,56 +1398,69 @@ pub fn combined_ladder(
             cur = q.l;
         }
     }
-    let mut current = match uniform_chain.last() {
-        Some(&last) if uniform_chain.len() > 1 || refined.is_empty() => {
+    match uniform_chain.last() {
+        Some(_) if uniform_chain.len() > 1 || chain.is_empty() => {
             out.sources = vec![Source::Uniform; uniform_chain.len() - 1];
+            out.links = vec![None; uniform_chain.len() - 1];
             out.points = uniform_chain;
-            last.l
         }
         _ => {
-            // refined only (its own values: the scale below is 1), from the first usable pair
-            let mut v: Vec<&LadderPair> = refined_pairs.iter().filter(|p| p.usable).collect();
+            // the first link only (its own values: its scale below is 1), from its first
+            // usable pair
+            let Some(&(_, first)) = chain.first() else {
+                out.note = Some("no usable uniform or refined pair".into());
+                return out;
+            };
+            let mut v: Vec<&LadderPair> = first.pairs.iter().filter(|p| p.usable).collect();
             v.sort_by(|a, b| b.l_hi.abs().total_cmp(&a.l_hi.abs()));
-            match v.first().and_then(|p| at(refined, p.l_hi)) {
-                Some(p) => {
-                    out.points.push(p);
-                    p.l
-                }
+            match v.first().and_then(|p| at(first.points, p.l_hi)) {
+                Some(p) => out.points.push(p),
                 None => {
                     out.note = Some("no usable uniform or refined pair".into());
+                    out.note_link = Some(chain[0].0);
                     out.points = uniform_chain;
                     return out;
                 }
             }
         }
     };
-    if refined.is_empty() {
-        return out;
-    }
-    let Some(j) = at(refined, current) else {
-        out.note = Some(format!(
-            "the refined ladder has no rung at the junction l = {current:e}"
-        ));
-        return out;
-    };
-    let scale = out.points.last().map_or(1.0, |p| p.y / j.y);
-    let start = out.points.len();
-    while let Some(pair) = next(refined_pairs, current).filter(|p| p.usable) {
-        let Some(q) = at(refined, pair.l_lo) else {
+    for &(i, link) in &chain {
+        let last = *out.points.last().expect("the ladder has a rung here");
+        let mut current = last.l;
+        let Some(j) = at(link.points, current) else {
+            out.note = Some(about(
+                i,
+                format!("the refined ladder has no rung at the junction l = {current:e}"),
+            ));
+            out.note_link = Some(i);
             break;
         };
-        out.points
-            .push(ScalingPoint::new(q.l, q.y * scale, q.sigma * scale));
-        out.sources.push(Source::Refined);
-        current = q.l;
-    }
-    if out.points.len() > start {
-        out.junction = Some(out.points[start - 1].l);
-    } else {
-        out.note = Some(format!(
-            "the refined pair from l = {:e} is flagged or missing",
-            out.points[start - 1].l
-        ));
+        let scale = last.y / j.y;
+        let start = out.points.len();
+        while let Some(pair) = next(link.pairs, current).filter(|p| p.usable) {
+            let Some(q) = at(link.points, pair.l_lo) else {
+                break;
+            };
+            out.points
+                .push(ScalingPoint::new(q.l, q.y * scale, q.sigma * scale));
+            out.sources.push(Source::Refined);
+            out.links.push(Some(i));
+            current = q.l;
+        }
+        if out.points.len() > start {
+            out.junctions.push((i, last.l));
+            out.junction.get_or_insert(last.l);
+        } else {
+            out.note = Some(about(
+                i,
+                format!(
+                    "the refined pair from l = {:e} is flagged or missing",
+                    last.l
+                ),
+            ));
+            out.note_link = Some(i);
+            break;
+        }
     }
     out
 }

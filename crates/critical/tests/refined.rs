@@ -6,9 +6,9 @@ use contact::refinement::EdgeRuns;
 use critical::ladder::axis_saddle;
 use critical::ladder::extract_window;
 use critical::refined::{
-    Discretisation, LadderPair, Measured, PairFlag, RefinedOptions, RefinedRung, Refinement,
-    RungFlag, Search, Source, combined_ladder, find_closing_load, periodic_closing_load,
-    running_exponent, running_zeta,
+    Discretisation, LadderPair, Link, Measured, PairFlag, RefinedOptions, RefinedRung, Refinement,
+    RungFlag, Search, Source, chained_ladder, combined_ladder, find_closing_load,
+    periodic_closing_load, running_exponent, running_zeta,
 };
 use critical::scaling::{EdgeOptions, blocked_half_length, open_half_width};
 use surface::{Lattice, Surface};
@@ -361,6 +361,111 @@ fn combined_ladder_recovers_a_corrected_power_law_and_stops_at_a_flagged_refined
     assert_eq!(c5.sources, [Source::Refined; 6]);
     assert_eq!(c5.junction, Some(-1e-3));
     assert_eq!(c5.points[..], refined[1..]);
+}
+
+fn link<'a>(points: &'a [ScalingPoint], pairs: &'a [LadderPair]) -> Link<'a> {
+    Link { points, pairs }
+}
+
+/// A chain uniform → refined → deep: the uniform ladder usable down to 5e-4, a refined one
+/// (prefactor +0.2 %) from 2e-3 whose pairs are flagged below 1e-4 (its grid error grows), and
+/// a deep one (prefactor −0.2 %, another discretisation) from 1e-3 whose window check flags its
+/// pairs above 2e-4. The chain takes uniform down to 5e-4, refined from 5e-4 to 1e-4 and deep
+/// from 1e-4 to 1e-5, each rescaled at its junction, and recovers the exponent over the whole
+/// range. A deep ladder without the junction rung (a gap) or flagged right after it ends the
+/// chain at 1e-4 with a note naming the link; an empty link is left out.
+#[test]
+fn chained_ladder_continues_link_by_link_and_stops_at_a_gap_or_a_flagged_junction() {
+    let law = |a: f64, ls: &[f64]| -> Vec<ScalingPoint> {
+        ls.iter()
+            .map(|&x| ScalingPoint::new(-x, corrected(a, -x), 0.0))
+            .collect()
+    };
+    let uniform = law(0.3, &LS);
+    let up = pairs(&LS, |k| k <= 5);
+    // refined: 2e-3 … 1e-5, pairs 0 … 3 (2e-3→1e-3 … 2e-4→1e-4) usable
+    let rls = &LS[4..];
+    let refined = law(0.3006, rls);
+    let rp = pairs(rls, |k| k <= 3);
+    // deep: 1e-3 … 1e-5, pairs 0, 1 (1e-3→5e-4, 5e-4→2e-4) flagged by its window check
+    let dls = &LS[5..];
+    let deep = law(0.2994, dls);
+    let dp = pairs(dls, |k| k >= 2);
+    let c = chained_ladder(&uniform, &up, &[link(&refined, &rp), link(&deep, &dp)]);
+    assert_eq!(c.points.len(), 12, "{c:?}");
+    assert!(c.note.is_none() && c.note_link.is_none(), "{c:?}");
+    assert_eq!(c.junction, Some(-5e-4));
+    assert_eq!(c.junctions, [(0, -5e-4), (1, -1e-4)]);
+    assert_eq!(c.sources[..6], [Source::Uniform; 6]);
+    assert_eq!(c.sources[6..], [Source::Refined; 5]);
+    let want: Vec<Option<usize>> = [None; 6]
+        .into_iter()
+        .chain([Some(0); 2])
+        .chain([Some(1); 3])
+        .collect();
+    assert_eq!(c.links, want);
+    // rescaled twice (the deep values by 0.3/0.3006 × 0.3006/0.2994): the uniform law, to
+    // rounding (a few ulp per product)
+    for (p, &a) in c.points.iter().zip(&LS) {
+        assert!((p.y / corrected(0.3, -a) - 1.0).abs() < 1e-12, "{p:?}");
+    }
+    // unscaled, the deep prefactor would be a 0.4 % step at 1e-4: the test sees the scale
+    assert!((deep[3].y / corrected(0.3, -1e-4) - 0.998).abs() < 1e-9);
+    let e = asymptotic_estimate(&c.points, &AsymptoticOptions::default()).unwrap();
+    assert!((e.value - 1.2).abs() < 1e-6, "{e:?}");
+    assert_eq!(e.reference_fit().l_range.0, 1e-5);
+    // an empty link changes nothing (a model without that discretisation)
+    let c0 = chained_ladder(
+        &uniform,
+        &up,
+        &[link(&[], &[]), link(&refined, &rp), link(&deep, &dp)],
+    );
+    assert_eq!(c0.points, c.points);
+    assert_eq!(
+        c0.junctions,
+        [(1, -5e-4), (2, -1e-4)],
+        "indices are the links'"
+    );
+    // a gap: the deep ladder starts at 5e-5, below the refined one's last usable rung
+    let c1 = chained_ladder(
+        &uniform,
+        &up,
+        &[link(&refined, &rp), link(&deep[4..], &dp[4..])],
+    );
+    assert_eq!(c1.points.len(), 9);
+    assert_eq!(c1.points.last().unwrap().l, -1e-4);
+    assert_eq!(c1.junctions, [(0, -5e-4)]);
+    assert_eq!(c1.note_link, Some(1));
+    let n1 = c1.note.as_deref().unwrap();
+    assert!(
+        n1.starts_with("refined link 2 of 2: ") && n1.contains("no rung at the junction l = -1e-4"),
+        "{n1}"
+    );
+    // the deep pair at the junction (1e-4 → 5e-5, deep pair 3) flagged: the chain ends there
+    let dp2 = pairs(dls, |k| k >= 2 && k != 3);
+    let c2 = chained_ladder(&uniform, &up, &[link(&refined, &rp), link(&deep, &dp2)]);
+    assert_eq!(c2.points.len(), 9);
+    assert_eq!(c2.note_link, Some(1));
+    assert!(
+        c2.note
+            .as_deref()
+            .unwrap()
+            .contains("from l = -1e-4 is flagged")
+    );
+    // the deep ladder alone after the uniform one: flagged at the junction 5e-4 (its window
+    // check), so it does not extend it
+    let c3 = chained_ladder(&uniform, &up, &[link(&deep, &dp)]);
+    assert_eq!(c3.points.len(), 7);
+    assert!(
+        c3.note
+            .as_deref()
+            .unwrap()
+            .contains("from l = -5e-4 is flagged")
+    );
+    // one link: combined_ladder's ladder and note exactly
+    let one = chained_ladder(&uniform, &up, &[link(&refined, &rp)]);
+    assert_eq!(one, combined_ladder(&uniform, &up, &refined, &rp));
+    assert_eq!(one.points.len(), 9);
 }
 
 /// Refined υ and χ equal the uniform fine grid's: 32² base refined k = 2 (the fine spacing of

@@ -38,6 +38,7 @@ pub mod ladder;
 pub mod leakage;
 pub mod mock;
 pub mod record_table;
+pub mod refined_chain;
 pub mod refined_ladder;
 pub mod resolution;
 pub mod selfaffine;

@@ -23,7 +23,11 @@
 //! below p_c(D) that are unflagged and open, in the same per-model units (from the uniform
 //! fits where they exist, else the refined ladder's own power-law fits over its unflagged
 //! rungs, with a warning; l from the refined discretisation's own p_c): the collapse at the
-//! small |l| the uniform grids do not resolve. Panel (a) has no refined contact lines.
+//! small |l| the uniform grids do not resolve. Panel (a) has no refined contact lines. With
+//! `deep` inputs (the pipeline's `refined_deep_*`, chained below the refined ones) a model's
+//! chain ordered by depth (`kinds::refined_chain::chain_of`): each deeper ladder adds the same
+//! profiles at the rungs the ones before it do not give, in its own units (the same uniform fits
+//! where they exist), drawn and tabulated as refined.
 //!
 //! # Collapse quality (`fig5_collapse.csv`)
 //! In [`crate::fig5_collapse`].
@@ -41,6 +45,7 @@ pub use crate::fig5_collapse::{
     COLLAPSE_SAMPLES, ModelCurves, Spread, collapse_rms, collapse_table,
 };
 use crate::scene::{OutputSpec, Outputs, Scene};
+use analysis::same_load;
 use anyhow::Result;
 use critical::ladder::Window;
 use critical::refined::Measured;
@@ -49,11 +54,13 @@ use figures::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
 use figures::style::Model;
 use kinds::exponents::{self, ModelExponents, NAMES};
 use kinds::ladder::LadderData;
-use kinds::refined_ladder::{RefinedData, read_profiles};
+use kinds::refined_chain::{Linked, chain_of, read_linked};
+use kinds::refined_ladder::{RefinedData, RefinedProfile, read_profiles};
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{Params, StageContext};
 use store::ArtefactReader;
 use store::ArtefactWriter;
+use surface::Lattice;
 use tables::Table;
 
 /// Inputs of the `fig5` scene.
@@ -64,6 +71,9 @@ pub fn inputs() -> Vec<InputSpec> {
         InputSpec::many("refined", &["refined_ladder"])
             .optional()
             .doc("one `refined_ladder` stage per model (optional): its finest axis-gap profiles (l < 0, unflagged) join panel (b) and fig5_collapse.csv as `refined`"),
+        InputSpec::many("deep", &["refined_ladder"])
+            .optional()
+            .doc("one deeper `refined_ladder` stage per model (optional; the pipeline's `refined_deep_*`): its profiles at the rungs the `refined` one lacks join the refined ones"),
     ]
 }
 
@@ -292,28 +302,58 @@ fn refined_curves(
     warn: &mut Vec<String>,
 ) -> Result<Vec<ModelCurves>> {
     let mut out: Vec<ModelCurves> = Vec::new();
-    let mut data = Vec::new();
-    for r in inputs.all("refined") {
-        data.push((RefinedData::read(r)?, read_profiles(r)?));
-    }
-    data.sort_by_key(|(rd, _)| {
-        Model::ALL
-            .iter()
-            .position(|m| m.name() == rd.lattice.name())
-    });
-    for (rd, profiles) in data {
-        let name = rd.lattice.name();
-        if out.iter().any(|m| m.0 == name) {
-            anyhow::bail!("two `refined` inputs for the {name} model; give one per model");
+    let linked = read_linked(inputs)?;
+    let profiles_of: Vec<Vec<RefinedProfile>> = linked
+        .iter()
+        .map(|(_, r)| read_profiles(r))
+        .collect::<Result<_>>()?;
+    let all: Vec<Linked> = linked.into_iter().map(|(l, _)| l).collect();
+    let mut lattices: Vec<Lattice> = Vec::new();
+    for l in &all {
+        if !lattices.contains(&l.data.lattice) {
+            lattices.push(l.data.lattice);
         }
+    }
+    lattices.sort_by_key(|lat| Model::ALL.iter().position(|m| m.name() == lat.name()));
+    for lattice in lattices {
+        let name = lattice.name();
+        let mut mine = Vec::new();
+        // the model's chain by depth: a deeper link adds the rungs the ones before it lack
+        for link in chain_of(&all, lattice) {
+            let k = all
+                .iter()
+                .position(|x| std::ptr::eq(x, link))
+                .expect("a link of `all`");
+            let taken: Vec<f64> = mine.iter().map(|(l, _, _)| *l).collect();
+            refined_link_curves(&link.data, &profiles_of[k], ex, taken, d, warn, &mut mine)?;
+        }
+        out.push((name.to_string(), mine));
+    }
+    Ok(out)
+}
+
+/// One refined ladder's profiles (module docs) for [`refined_curves`]: its unflagged open rungs
+/// below p_c(D) whose l is not in `taken` (an earlier link of the chain has it), rescaled in its
+/// units, appended to `mine` and (thinned) to `d.refined_profiles`.
+fn refined_link_curves(
+    rd: &RefinedData,
+    profiles: &[RefinedProfile],
+    ex: &[ModelExponents],
+    taken: Vec<f64>,
+    d: &mut Fig5Data,
+    warn: &mut Vec<String>,
+    mine: &mut Vec<(f64, Vec<f64>, Vec<f64>)>,
+) -> Result<()> {
+    {
+        let name = rd.lattice.name();
         if profiles.is_empty() {
             warn.push(format!(
                 "{name}: the refined ladder stores no axis-gap profiles (written before kinds::refined_ladder CODE_VERSION 6); left out of Figure 5"
             ));
-            continue;
+            return Ok(());
         }
-        let Some(u) = refined_units(&rd, ex.iter().find(|e| e.lattice == name), warn) else {
-            continue;
+        let Some(u) = refined_units(rd, ex.iter().find(|e| e.lattice == name), warn) else {
+            return Ok(());
         };
         let usable = |l: f64| {
             rd.finest().is_some_and(|f| {
@@ -322,9 +362,8 @@ fn refined_curves(
                     .any(|(r, flag)| r.l == l && flag.is_empty() && r.saddle_gap > 0.0)
             })
         };
-        let mut mine = Vec::new();
-        for (l, dist, gap) in profiles {
-            if l >= 0.0 || !usable(l) {
+        for (l, dist, gap) in profiles.iter().cloned() {
+            if l >= 0.0 || !usable(l) || taken.iter().any(|&t| same_load(t, l)) {
                 continue;
             }
             let (sx, sg) = (u.a_c * l.abs().powf(u.chi), u.a_z * l.abs().powf(u.zeta));
@@ -339,9 +378,8 @@ fn refined_curves(
             });
             mine.push((l, x, y));
         }
-        out.push((name.to_string(), mine));
     }
-    Ok(out)
+    Ok(())
 }
 
 /// A model's units from its fits of ζ, υ, χ; `None` (with warnings) without all three.

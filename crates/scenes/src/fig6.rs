@@ -21,7 +21,9 @@
 //!   that carries `beta` and `beta_prefactor`. Optional, from a run with refined ladders
 //!   ([`exponents::read_refined_flux_curve`], [`exponents::read_asymptotic_slope`]): per model
 //!   `ladder/<lattice>/refined/{distance, flux}` (the refined ladder's flux in the same
-//!   normalisation, drawn as filled diamonds) and the attributes `beta_asymptotic`,
+//!   normalisation, drawn as filled diamonds), likewise `ladder/<lattice>/refined_deep/*` (a
+//!   deeper refined ladder chained below it, continuing its curve: drawn the same way, filled
+//!   diamonds, one curve of the model's points) and the attributes `beta_asymptotic`,
 //!   `beta_asymptotic_error`, `beta_asymptotic_distance`, `beta_asymptotic_flux` on
 //!   `ladder/<lattice>` (the asymptotic β drawn as a dashed line in the model's colour through
 //!   that point, over the whole range drawn).
@@ -34,6 +36,7 @@ use figures::scenes::fig6::{
 use figures::style::Model;
 use kinds::exponents;
 use kinds::flow::FlowData;
+use kinds::refined_chain::Depth;
 use kinds::sweep::Branch as PathBranch;
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{ParamSpec, ParamType, Params, StageContext};
@@ -81,9 +84,11 @@ pub fn read_ladder(inputs: &Inputs) -> Result<LadderPanel> {
     for r in inputs.all("ladder") {
         let file = r.path().display();
         for m in Model::ALL {
-            if let Some(c) = exponents::read_refined_flux_curve(r, m.name())? {
-                let g = format!("ladder/{}/refined", m.name());
-                refined.push(log_log_flux(&file, &g, m, &c, None)?);
+            for depth in Depth::ALL {
+                if let Some(c) = exponents::read_refined_flux_curve(r, m.name(), depth)? {
+                    let g = format!("ladder/{}/{}", m.name(), depth.name());
+                    refined.push(log_log_flux(&file, &g, m, &c, None)?);
+                }
             }
             if let Some(s) = exponents::read_asymptotic_slope(r, m.name())? {
                 slopes.push(SlopeLine {

@@ -1,8 +1,11 @@
 //! The refined ladder (scene `refined`): the running exponents ζ_eff (saddle gap), υ_eff (open
 //! half-width), χ_eff (blocked half-length, l > 0) and β_eff (flux, `critical::refined_flow`)
 //! below the uniform grids' reach, from one
-//! `refined_ladder` stage per model (`kinds::refined_ladder`, `critical::refined`). The same
-//! pairs enter `running_exponents.csv` (scene `running`, `method` = `refined`).
+//! `refined_ladder` stage per model (`kinds::refined_ladder`, `critical::refined`) and, optional,
+//! one deeper one per model (input `deep`, the pipeline's `refined_deep_*`: chained below the
+//! first, README "Near-critical exponents"). The same pairs enter `running_exponents.csv`
+//! (scene `running`, `method` = `refined` or `refined_deep`). Both tables end in a `method`
+//! column: `refined` or `refined_deep`, the input the row comes from (rows of `refined` first).
 //!
 //! Outputs (`results/tables/`):
 //! - `refined_running.csv`: per model and neighbouring pair of rungs of the finest
@@ -27,6 +30,7 @@
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
+use kinds::refined_chain::{Linked, read_linked};
 use kinds::refined_ladder::{RefinedData, RefinedPair};
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
@@ -36,10 +40,10 @@ use tables::Table;
 pub struct Refined;
 
 /// `refined_running.csv` (module docs).
-pub fn running_table(data: &[RefinedData]) -> Table {
+pub fn running_table(data: &[Linked]) -> Table {
     let pairs = || {
         data.iter()
-            .flat_map(|d| d.running.iter().map(move |p| (d, p)))
+            .flat_map(|l| l.data.running.iter().map(move |p| (&l.data, p)))
     };
     let f =
         |g: fn(&(&RefinedData, &RefinedPair)) -> f64| pairs().map(|p| g(&p)).collect::<Vec<f64>>();
@@ -55,16 +59,31 @@ pub fn running_table(data: &[RefinedData]) -> Table {
         .with_f64("error_levels", f(|(_, p)| p.row.error_levels))
         .with_f64("error_margin", f(|(_, p)| p.row.error_margin))
         .with_str("flag", pairs().map(|(_, p)| p.flag.clone()))
+        .with_str(
+            "method",
+            data.iter()
+                .flat_map(|l| l.data.running.iter().map(move |_| l.depth.name())),
+        )
 }
 
 /// `refined_rungs.csv` (module docs).
-pub fn rungs_table(data: &[RefinedData]) -> Table {
+pub fn rungs_table(data: &[Linked]) -> Table {
     let rows: Vec<_> = data
         .iter()
-        .flat_map(|d| {
-            d.levels
+        .flat_map(|l| {
+            l.data
+                .levels
                 .iter()
-                .flat_map(move |lv| lv.rungs.iter().map(move |r| (d, lv, r)))
+                .flat_map(move |lv| lv.rungs.iter().map(move |r| (&l.data, lv, r)))
+        })
+        .collect();
+    let methods: Vec<&str> = data
+        .iter()
+        .flat_map(|l| {
+            l.data
+                .levels
+                .iter()
+                .flat_map(move |lv| lv.rungs.iter().map(move |_| l.depth.name()))
         })
         .collect();
     let f = |g: &dyn Fn(&(_, _, _)) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
@@ -92,6 +111,7 @@ pub fn rungs_table(data: &[RefinedData]) -> Table {
         .with_f64("half_length_error", f(&|(_, _, r)| r.0.half_length_error))
         .with_f64("conductance", f(&|(_, _, r)| r.0.conductance))
         .with_f64("conductance_error", f(&|(_, _, r)| r.0.conductance_error))
+        .with_str("method", methods)
 }
 
 impl Scene for Refined {
@@ -102,12 +122,15 @@ impl Scene for Refined {
         "the running ζ, υ, χ, β below the uniform grids' reach from locally refined ladders (tables refined_running.csv and refined_rungs.csv)"
     }
     fn code_version(&self) -> u64 {
-        3
+        4
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
             InputSpec::many("refined", &["refined_ladder"])
                 .doc("one `refined_ladder` stage per model"),
+            InputSpec::many("deep", &["refined_ladder"])
+                .optional()
+                .doc("one deeper `refined_ladder` stage per model (optional; the pipeline's `refined_deep_*`): `method` = `refined_deep`"),
         ]
     }
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
@@ -123,14 +146,10 @@ impl Scene for Refined {
         inputs: &Inputs,
         _out: &mut ArtefactWriter,
     ) -> Result<Outputs> {
-        let data = inputs
-            .all("refined")
-            .iter()
-            .map(RefinedData::read)
-            .collect::<Result<Vec<_>>>()?;
+        let data: Vec<Linked> = read_linked(inputs)?.into_iter().map(|(l, _)| l).collect();
         let flagged = data
             .iter()
-            .flat_map(|d| &d.running)
+            .flat_map(|l| &l.data.running)
             .filter(|p| !p.flag.is_empty())
             .count();
         if flagged > 0 {

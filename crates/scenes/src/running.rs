@@ -6,12 +6,13 @@
 //! shows pair by pair.
 //!
 //! Inputs `ladder`: one `ladder` stage per model (two or more levels each give grid errors; one
-//! level flags every pair as "grid error unknown"); optional `refined`: `refined_ladder` stages
-//! (`kinds::refined_ladder`, one per model; a preset without them gives the uniform rows only),
-//! whose running ζ, υ, χ and β pairs are added as rows of their own.
+//! level flags every pair as "grid error unknown"); optional `refined` and `deep`:
+//! `refined_ladder` stages (`kinds::refined_ladder`, at most one of each per model; a preset
+//! without them gives the uniform rows only), whose running ζ, υ, χ and β pairs are added as
+//! rows of their own.
 //!
 //! Output `running_exponents.csv`, one row per model, exponent, neighbouring pair of rungs and
-//! method (uniform rows first, then the refined ones):
+//! method (uniform rows first, then the refined ones, then the deep ones):
 //! `model`, `exponent`, `l_hi` (the rung farther from L_c, signed), `l_lo` (the nearer one),
 //! `value`, `grid_error` (|value − value on the next coarser level|, NaN if unknown; for β the
 //! larger of that and |value − the same slope of the conductivity across|, the isotropy check
@@ -20,7 +21,9 @@
 //! `critical::running::RunningRecord::COLUMNS` — and `flag` (empty, or why the value must not be
 //! used silently: grid error above 0.005, or unknown; β: along and across differ by more than
 //! 0.005, or the flow across was not measured), and `method`: `uniform` (the ladder's finest
-//! grid, as above) or `refined` (the refined ladder's finest discretisation: `resolution` its
+//! grid, as above), `refined` (input `refined`) or `refined_deep` (input `deep`, the
+//! pipeline's deeper `refined_deep_*` stages, README "Near-critical exponents": the same
+//! columns) (a refined ladder's finest discretisation: `resolution` its
 //! finest fine spacing, λ; `grid_error` the larger of the change from the discretisation with
 //! one level fewer and from the margin check, NaN if either is unknown; `fit_error` for ζ the
 //! solver tolerance `tol_gap` as the 1σ of each saddle gap (a node value: no fit), relative to
@@ -37,7 +40,8 @@
 //! Output figure `running_exponents` (PNG, SVG; `figures::scenes::running`): one panel per
 //! exponent, the local slope against the pair's geometric-mean |l| (log axis), the three models,
 //! error bars grid error ⊕ fit error (an unknown grid error counts as 0 in the bar: those pairs
-//! are flagged), the refined pairs as diamonds in the model's colour, flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
+//! are flagged), the refined pairs as diamonds in the model's colour (the deep ones too, joined
+//! by a dotted line, "(deep)" in the legend), flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
 //! gives no error), the conjecture as a dotted line.
 //!
 //! Measurements that fail on a rung (a closed saddle node, an unresolved edge) are left out and
@@ -52,10 +56,10 @@ use figures::style::Model;
 use kinds::exponents::asymptotic::{GRID_BOUND, resolutions};
 use kinds::exponents::{CONJECTURED, PAPER, symbol};
 use kinds::ladder::LadderData;
+use kinds::refined_chain::{Depth, read_linked};
 use kinds::refined_ladder::RefinedData;
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
-use surface::Lattice;
 use tables::{ColumnData, Table};
 
 /// The `running` scene.
@@ -89,8 +93,9 @@ pub struct Row {
     pub rec: RunningRecord,
     /// Why the value must not be used silently (empty: usable).
     pub flag: String,
-    /// Which ladder it comes from.
-    pub method: Source,
+    /// Which ladder it comes from: `uniform`, or the refined input's
+    /// [`kinds::refined_chain::Depth::name`] (`refined`, `refined_deep`).
+    pub method: &'static str,
 }
 
 impl From<RunningRecord> for Row {
@@ -99,13 +104,13 @@ impl From<RunningRecord> for Row {
         Row {
             rec,
             flag,
-            method: Source::Uniform,
+            method: Source::Uniform.name(),
         }
     }
 }
 
-/// The running pairs of one refined ladder as rows (module docs).
-pub fn refined_rows(d: &RefinedData) -> Vec<Row> {
+/// The running pairs of one refined ladder as rows (module docs), `method` its input's name.
+pub fn refined_rows(d: &RefinedData, depth: Depth) -> Vec<Row> {
     d.running
         .iter()
         .map(|p| Row {
@@ -126,7 +131,7 @@ pub fn refined_rows(d: &RefinedData) -> Vec<Row> {
                 flag: None,
             },
             flag: p.flag.clone(),
-            method: Source::Refined,
+            method: depth.name(),
         })
         .collect()
 }
@@ -162,7 +167,7 @@ pub fn table(rows: &[Row]) -> Result<Table> {
     )?;
     t.push(
         "method",
-        ColumnData::Str(rows.iter().map(|r| r.method.name().to_string()).collect()),
+        ColumnData::Str(rows.iter().map(|r| r.method.to_string()).collect()),
     )?;
     Ok(t)
 }
@@ -175,7 +180,14 @@ pub fn figure_data(rows: &[Row]) -> RunningData {
         .map(|(k, &e)| {
             let curves = Model::ALL
                 .iter()
-                .flat_map(|&m| [(m, Source::Uniform), (m, Source::Refined)])
+                .flat_map(|&m| {
+                    [
+                        Source::Uniform.name(),
+                        Depth::Refined.name(),
+                        Depth::Deep.name(),
+                    ]
+                    .map(|method| (m, method))
+                })
                 .filter_map(|(m, method)| {
                     let points: Vec<RunningPoint> = rows
                         .iter()
@@ -202,7 +214,8 @@ pub fn figure_data(rows: &[Row]) -> RunningData {
                         .collect();
                     (!points.is_empty()).then_some(RunningCurve {
                         model: m,
-                        refined: method == Source::Refined,
+                        refined: method != Source::Uniform.name(),
+                        deep: method == Depth::Deep.name(),
                         points,
                     })
                 })
@@ -226,7 +239,7 @@ impl Scene for Running {
         "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors, from the uniform ladders and (optional) the refined ones (table and figure)"
     }
     fn code_version(&self) -> u64 {
-        4
+        5
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
@@ -234,6 +247,9 @@ impl Scene for Running {
             InputSpec::many("refined", &["refined_ladder"])
                 .optional()
                 .doc("one `refined_ladder` stage per model (optional): its running ζ, υ, χ, β as `refined` rows"),
+            InputSpec::many("deep", &["refined_ladder"])
+                .optional()
+                .doc("one deeper `refined_ladder` stage per model (optional; the pipeline's `refined_deep_*`): its running ζ, υ, χ, β as `refined_deep` rows"),
         ]
     }
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
@@ -255,17 +271,8 @@ impl Scene for Running {
             let d = LadderData::read(r)?;
             rows.extend(records(&d, &mut notes)?.into_iter().map(Row::from));
         }
-        let mut refined_models: Vec<Lattice> = Vec::new();
-        for r in inputs.all("refined") {
-            let d = RefinedData::read(r)?;
-            if refined_models.contains(&d.lattice) {
-                anyhow::bail!(
-                    "two `refined` inputs for the {} model; give one per model",
-                    d.lattice.name()
-                );
-            }
-            refined_models.push(d.lattice);
-            rows.extend(refined_rows(&d));
+        for (l, _) in read_linked(inputs)? {
+            rows.extend(refined_rows(&l.data, l.depth));
         }
         for n in notes {
             ctx.warn(n);

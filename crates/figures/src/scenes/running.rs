@@ -1,7 +1,8 @@
 //! The running-exponent figure: one panel per exponent (ζ, υ, χ, β in a 2 × 2 grid), the local
 //! slope between neighbouring ladder rungs against |l| (log axis, the pair's geometric mean),
 //! one colour and marker per model (the refined ladder's pairs: diamonds in the model's colour,
-//! joined by a dashed line), error bars grid error ⊕ fit error, flagged pairs (grid error above
+//! joined by a dashed line; a deeper refined ladder's, chained below it: diamonds joined by a
+//! dotted line, "(deep)" in the legend), error bars grid error ⊕ fit error, flagged pairs (grid error above
 //! the bound or unknown) drawn hollow, the paper's value as a grey band (its error;
 //! a dashed line when it gives none) and the conjecture as a dotted black line.
 
@@ -38,6 +39,9 @@ pub struct RunningCurve {
     pub model: Model,
     /// From the refined ladder: diamonds and a dashed line instead of the model's marker.
     pub refined: bool,
+    /// From a deeper refined ladder (the pipeline's `refined_deep_*`, chained below the refined
+    /// one): diamonds too (with `refined`), a dotted line, "(deep)" in the legend.
+    pub deep: bool,
     /// Its pairs (any order; drawn by ascending |l|).
     pub points: Vec<RunningPoint>,
 }
@@ -114,7 +118,9 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
         p.series.push(Series::line(
             x,
             y,
-            if c.refined {
+            if c.deep {
+                Stroke::dotted(line_col).width(0.8)
+            } else if c.refined {
                 Stroke::dashed(line_col).width(0.8)
             } else {
                 Stroke::solid(line_col).width(0.8)
@@ -134,7 +140,9 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
             )
             .y_err(sel.iter().map(|p| p.error).collect());
             if !flagged {
-                s = s.label(&if c.refined {
+                s = s.label(&if c.deep {
+                    format!("{} (deep)", c.model.title())
+                } else if c.refined {
                     format!("{} (refined)", c.model.title())
                 } else {
                     c.model.title().to_string()
@@ -220,12 +228,20 @@ mod tests {
                         RunningCurve {
                             model: Model::Square,
                             refined: false,
+                            deep: false,
                             points: vec![pt(0.03, 1.22, false), pt(1e-3, 1.18, true)],
                         },
                         RunningCurve {
                             model: Model::Square,
                             refined: true,
+                            deep: false,
                             points: vec![pt(2e-4, 1.165, false), pt(1.4e-5, 1.155, true)],
+                        },
+                        RunningCurve {
+                            model: Model::Square,
+                            refined: true,
+                            deep: true,
+                            points: vec![pt(3e-5, 1.154, false), pt(1.4e-5, 1.153, false)],
                         },
                     ],
                 },

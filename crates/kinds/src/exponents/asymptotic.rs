@@ -15,7 +15,9 @@
 //! [`analysis::verdict`]).
 //!
 //! # The combined ladder ([`estimate_combined`])
-//! With a `refined_ladder` of the same model (ζ, υ, χ, and β from its flux), the fit
+//! With a `refined_ladder` of the same model (ζ, υ, χ, and β from its flux; several: a chain
+//! ordered by depth, inputs `refined` and `deep`, each link continuing the previous one the same
+//! way, `critical::refined::chained_ladder`), the fit
 //! takes, pair by pair, the best grid-converged value available
 //! (`critical::refined::combined_ladder`): the uniform finest grid's rungs from the largest |l|
 //! down to the first flagged pair (grid error, unknown grid error or anisotropy, as above),
@@ -52,10 +54,10 @@
 //! The text states the σ either way so that the reader can judge.
 
 use crate::ladder::{LadderData, LadderLevel};
-use crate::refined_ladder::RefinedData;
+use crate::refined_chain::Linked;
 use analysis::{AsymptoticEstimate, AsymptoticOptions, Estimate, ScalingPoint};
 use critical::ladder::Rung;
-use critical::refined::{LadderPair, Measured, Source, combined_ladder};
+use critical::refined::{LadderPair, Link, Measured, Source, chained_ladder};
 use critical::running::{
     Exponent as Which, MeasureOptions, Resolution, asymptotic, measure, running_records,
 };
@@ -245,25 +247,32 @@ pub fn refined_measure(e: Which) -> Option<Measured> {
 /// What [`estimate_combined`] used.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Combined {
-    /// `uniform`, `uniform+refined below |l| = <junction>`, or `refined from |l| = <first>`
-    /// (no usable uniform pair).
+    /// `uniform`, `uniform+<name> below |l| = <junction>`, or `<name> from |l| = <first>`
+    /// (no usable uniform pair), `name` the first link's input
+    /// ([`crate::refined_chain::Depth::name`]: `refined`, `refined_deep`); each further link
+    /// of the chain appends `+<name> below |l| = <junction>` (e.g.
+    /// `uniform+refined below |l| = 5e-4+refined_deep below |l| = 1e-4`).
     pub method: String,
-    /// Why the refined ladder did not extend the uniform one, if given and it did not.
+    /// Why a refined ladder of the chain did not extend the ladder, if given and one did not
+    /// (naming its input when the chain has more than one link).
     pub note: Option<String>,
-    /// Rungs of the combined ladder (uniform, refined).
+    /// Rungs of the combined ladder (uniform, refined: all links).
     pub rungs: (usize, usize),
-    /// Where the refined ladder took over (signed l), if it did.
+    /// Where the first refined ladder took over (signed l), if one did.
     pub junction: Option<f64>,
+    /// Every link that extended the ladder: its depth and where it took over (signed l).
+    pub junctions: Vec<(crate::refined_chain::Depth, f64)>,
 }
 
 /// The asymptotic estimate of exponent `e` of `model` from the combined ladder (module docs):
-/// the uniform levels and, if given, the model's refined ladder. The estimate or why none, and
-/// what was used.
+/// the uniform levels and the model's chain of refined ladders (ordered by depth,
+/// [`crate::refined_chain::chain_of`]; empty: the uniform ladder alone). The estimate or why
+/// none, and what was used.
 pub fn estimate_combined(
     model: Lattice,
     e: Which,
     levels: &[Resolution],
-    refined: Option<&RefinedData>,
+    chain: &[&Linked],
 ) -> (Result<Asymptotic, String>, Combined) {
     let mut order: Vec<&Resolution> = levels.iter().collect();
     order.sort_by(|a, b| a.spacing.total_cmp(&b.spacing));
@@ -285,29 +294,50 @@ pub fn estimate_combined(
                     note: None,
                     rungs: (0, 0),
                     junction: None,
+                    junctions: Vec::new(),
                 };
                 return (Err(err.to_string()), c);
             }
         },
         None => (Vec::new(), Vec::new()),
     };
-    let (rpoints, rpairs): (Vec<ScalingPoint>, Vec<LadderPair>) =
-        match (refined, refined_measure(e)) {
-            (Some(d), Some(m)) => (d.points(m), d.pairs(m)),
-            _ => (Vec::new(), Vec::new()),
-        };
-    let c = combined_ladder(&upoints, &upairs, &rpoints, &rpairs);
+    let data: Vec<(Vec<ScalingPoint>, Vec<LadderPair>)> = match refined_measure(e) {
+        Some(m) => chain
+            .iter()
+            .map(|x| (x.data.points(m), x.data.pairs(m)))
+            .collect(),
+        None => Vec::new(),
+    };
+    let links: Vec<Link<'_>> = data
+        .iter()
+        .map(|(points, pairs)| Link { points, pairs })
+        .collect();
+    let c = chained_ladder(&upoints, &upairs, &links);
     let nref = c.sources.iter().filter(|s| **s == Source::Refined).count();
-    let method = match c.junction {
-        Some(j) if nref == c.sources.len() => format!("refined from |l| = {:e}", j.abs()),
-        Some(j) => format!("uniform+refined below |l| = {:e}", j.abs()),
+    let name = |i: usize| chain[i].depth.name();
+    let mut method = match c.junctions.first() {
+        Some(&(i, j)) if nref == c.sources.len() => format!("{} from |l| = {:e}", name(i), j.abs()),
+        Some(&(i, j)) => format!("uniform+{} below |l| = {:e}", name(i), j.abs()),
         None => "uniform".into(),
     };
+    for &(i, j) in c.junctions.iter().skip(1) {
+        method += &format!("+{} below |l| = {:e}", name(i), j.abs());
+    }
+    let any_points = links.iter().any(|l| !l.points.is_empty());
+    let note = c.note.clone().map(|n| match c.note_link {
+        Some(i) if chain.len() > 1 => format!("{}: {n}", chain[i].depth.name()),
+        _ => n,
+    });
     let info = Combined {
         method,
-        note: (!rpoints.is_empty()).then_some(c.note.clone()).flatten(),
+        note: any_points.then_some(note).flatten(),
         rungs: (c.points.len() - nref, nref),
         junction: c.junction,
+        junctions: c
+            .junctions
+            .iter()
+            .map(|&(i, j)| (chain[i].depth, j))
+            .collect(),
     };
     let est = analysis::asymptotic_estimate(&c.points, &AsymptoticOptions::default())
         .map(|a| from_estimate(&a))
@@ -489,7 +519,10 @@ mod tests {
     /// the factor).
     #[test]
     fn combined_estimate_uses_the_refined_ladder_below_the_uniform_one() {
-        use crate::refined_ladder::{RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow};
+        use crate::refined_chain::{Depth, Linked, chain_of};
+        use crate::refined_ladder::{
+            RefinedData, RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow,
+        };
         let (ls, g) = (LS, corrected);
         let levels = [level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)];
         let rls = &ls[4..];
@@ -551,22 +584,24 @@ mod tests {
                 })
                 .collect(),
         };
+        let link = |flagged: usize| Linked {
+            depth: Depth::Refined,
+            data: refined(flagged),
+        };
         let uniform = estimate(&levels).unwrap();
         assert_eq!(uniform.l_min, 1e-3);
-        let (est, how) =
-            estimate_combined(Lattice::Square, Which::Zeta, &levels, Some(&refined(99)));
+        let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, &[&link(99)]);
         let a = est.unwrap();
         // exact data, rescaled at the junction: the direct fit's tolerance (1e-8) and rounding
         assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
         assert_eq!(a.l_min, 1e-5);
         assert_eq!(how.method, "uniform+refined below |l| = 1e-3");
         assert_eq!(how.rungs, (6, 6));
-        let (est, how) =
-            estimate_combined(Lattice::Square, Which::Zeta, &levels, Some(&refined(5)));
+        let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, &[&link(5)]);
         assert_eq!(est.unwrap().l_min, 5e-5);
         assert_eq!(how.rungs, (6, 4));
         // without a refined ladder: the uniform estimate, exactly
-        let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, None);
+        let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, &[]);
         assert_eq!(est.unwrap(), uniform);
         assert_eq!(how.method, "uniform");
         // β: the uniform flux converged to 1e-3, the refined conductance below it
@@ -576,28 +611,67 @@ mod tests {
         ];
         let uniform_beta = estimate(&flux_levels).unwrap();
         assert_eq!(uniform_beta.l_min, 1e-3);
-        let (est, how) = estimate_combined(
-            Lattice::Square,
-            Which::Beta,
-            &flux_levels,
-            Some(&refined(99)),
-        );
+        let (est, how) =
+            estimate_combined(Lattice::Square, Which::Beta, &flux_levels, &[&link(99)]);
         let b = est.unwrap();
         // exact data: the direct fit's tolerance, as for ζ
         assert!((b.value - 3.45).abs() < 1e-6, "{b:?}");
         assert_eq!(b.l_min, 1e-5);
         assert_eq!(how.method, "uniform+refined below |l| = 1e-3");
         assert_eq!(how.rungs, (6, 6));
-        let (est, how) = estimate_combined(
-            Lattice::Square,
-            Which::Beta,
-            &flux_levels,
-            Some(&refined(5)),
-        );
+        let (est, how) = estimate_combined(Lattice::Square, Which::Beta, &flux_levels, &[&link(5)]);
         assert_eq!(est.unwrap().l_min, 5e-5);
         assert_eq!(how.rungs, (6, 4));
-        let (est, _) = estimate_combined(Lattice::Square, Which::Beta, &flux_levels, None);
+        let (est, _) = estimate_combined(Lattice::Square, Which::Beta, &flux_levels, &[]);
         assert_eq!(est.unwrap(), uniform_beta);
+        // a chain: the refined ladder flagged at 5e-5 → 2e-5, a deep one (finer spacing; given
+        // first, ordered by depth) continues from 5e-5 to 1e-5
+        let deep = Linked {
+            depth: Depth::Deep,
+            data: RefinedData {
+                spacing: 1.0 / 16384.0,
+                ..refined(0)
+            },
+        };
+        let all = [deep, link(5)];
+        let chain = chain_of(&all, Lattice::Square);
+        assert_eq!(chain[0].depth, Depth::Refined);
+        let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, &chain);
+        let a = est.unwrap();
+        assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
+        assert_eq!(a.l_min, 1e-5);
+        assert_eq!(
+            how.method,
+            "uniform+refined below |l| = 1e-3+refined_deep below |l| = 5e-5"
+        );
+        assert_eq!(how.rungs, (6, 6));
+        assert_eq!(
+            how.junctions,
+            [(Depth::Refined, -1e-3), (Depth::Deep, -5e-5)]
+        );
+        assert!(how.note.is_none());
+        // the deep ladder flagged at its pair from 5e-5 (index 5): the chain ends there, and
+        // the note names it
+        let all = [
+            link(5),
+            Linked {
+                depth: Depth::Deep,
+                ..link(5)
+            },
+        ];
+        let (est, how) = estimate_combined(
+            Lattice::Square,
+            Which::Zeta,
+            &levels,
+            &chain_of(&all, Lattice::Square),
+        );
+        assert_eq!(est.unwrap().l_min, 5e-5);
+        assert_eq!(how.method, "uniform+refined below |l| = 1e-3");
+        let note = how.note.unwrap();
+        assert!(
+            note.starts_with("refined_deep: refined link 2 of 2: ") && note.contains("flagged"),
+            "{note}"
+        );
     }
 
     #[test]

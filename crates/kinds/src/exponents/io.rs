@@ -4,6 +4,7 @@
 
 use super::asymptotic::Asymptotic;
 use super::{Exponent, LevelMeasure, ModelExponents, NAMES};
+use crate::refined_chain::Depth;
 use anyhow::{Result, bail};
 use critical::scaling::ExponentFit;
 use formats::records::{Record, read_in};
@@ -212,27 +213,31 @@ pub fn read_flux_curve(r: &ArtefactReader, lattice: &str) -> Result<Option<FluxC
     Ok(Some(FluxCurve { points, flux_err }))
 }
 
-/// The group of a model's refined flux curve.
-fn refined_flux_group(lattice: &str) -> String {
-    format!("ladder/{lattice}/refined")
+/// The group of a model's refined flux curve of one link of the chain
+/// (`ladder/<lattice>/refined`, `ladder/<lattice>/refined_deep`).
+fn refined_flux_group(lattice: &str, depth: Depth) -> String {
+    format!("ladder/{lattice}/{}", depth.name())
 }
 
-/// The refined ladder's flux of one model, normalised to continue its uniform curve
-/// (`ladder/<lattice>/refined/*`, module docs of [`super`]).
+/// A refined ladder's flux of one model, normalised to continue the curve before it in the
+/// chain (`ladder/<lattice>/<depth>/*`, module docs of [`super`]).
 pub(super) fn write_refined_flux_curve(
     out: &mut ArtefactWriter,
     lattice: &str,
+    depth: Depth,
     points: &[FluxPoint],
 ) -> Result<()> {
-    FluxPoint::write(points, out, &refined_flux_group(lattice))
+    FluxPoint::write(points, out, &refined_flux_group(lattice, depth))
 }
 
-/// The refined flux curve of model `lattice` (`None` if the artefact has none for it).
+/// The refined flux curve of model `lattice` from the input `depth` (`None` if the artefact
+/// has none for it).
 pub fn read_refined_flux_curve(
     r: &ArtefactReader,
     lattice: &str,
+    depth: Depth,
 ) -> Result<Option<Vec<FluxPoint>>> {
-    let g = refined_flux_group(lattice);
+    let g = refined_flux_group(lattice, depth);
     if !r.has_dataset(&format!("{g}/distance")) {
         return Ok(None);
     }

@@ -51,7 +51,9 @@
 //! `critical::refined_flow`, rungs below l = 0 with a flux, normalised to continue the uniform
 //! curve: multiplied so that it equals the uniform normalised flux at the combined ladder's
 //! junction, or, without one, at the largest distance both share; not written without a
-//! common rung), and per model with an asymptotic β the attributes `beta_asymptotic`,
+//! common rung); with a deep refined ladder chained below it (input `deep`),
+//! `ladder/<lattice>/refined_deep/{distance, flux}` likewise continuing the refined curve at the
+//! deep ladder's junction), and per model with an asymptotic β the attributes `beta_asymptotic`,
 //! `beta_asymptotic_error`, `beta_asymptotic_distance`, `beta_asymptotic_flux` on
 //! `ladder/<lattice>` (the slope and the point of the drawn curves at the estimate's smallest
 //! distance, through which Figure 6 draws it).
@@ -68,7 +70,7 @@ pub use io::{
 };
 
 use crate::ladder::{LadderData, LadderLevel};
-use crate::refined_ladder::RefinedData;
+use crate::refined_chain::{Linked, chain_of, read_linked};
 use anyhow::{Result, bail};
 use asymptotic::Asymptotic;
 use critical::scaling::{
@@ -421,6 +423,9 @@ impl TypedKind for ExponentsKind {
             InputSpec::many("refined", &["refined_ladder"])
                 .optional()
                 .doc("at most one `refined_ladder` stage per model (optional): extends the asymptotic fits of ζ, υ, χ, β below the uniform grids' reach"),
+            InputSpec::many("deep", &["refined_ladder"])
+                .optional()
+                .doc("at most one deeper `refined_ladder` stage per model (optional; the pipeline's `refined_deep_*`): chained below the `refined` one, ordered by depth (finest spacing)"),
         ]
     }
     fn cost(&self, _params: &ExponentsParams) -> f64 {
@@ -441,17 +446,7 @@ impl TypedKind for ExponentsKind {
         let mut flux_points = Vec::new();
         let mut heads = Vec::new();
         let mut summary = serde_json::Map::new();
-        let mut refined: Vec<RefinedData> = Vec::new();
-        for r in inputs.all("refined") {
-            let d = RefinedData::read(r)?;
-            if refined.iter().any(|x| x.lattice == d.lattice) {
-                bail!(
-                    "two `refined` inputs for the {} model; give at most one per model",
-                    d.lattice.name()
-                );
-            }
-            refined.push(d);
-        }
+        let refined: Vec<Linked> = read_linked(inputs)?.into_iter().map(|(l, _)| l).collect();
         for r in inputs.all("ladder") {
             let d = LadderData::read(r)?;
             let name = d.lattice.name();
@@ -459,8 +454,9 @@ impl TypedKind for ExponentsKind {
                 bail!("two `ladder` inputs for the {name} model; give one per model");
             }
             models.push(name);
-            let rd = refined.iter().find(|x| x.lattice == d.lattice);
-            let stats = model::run_model(ctx, out, &d, rd, &opts, &mut heads, &mut flux_points)?;
+            let chain = chain_of(&refined, d.lattice);
+            let stats =
+                model::run_model(ctx, out, &d, &chain, &opts, &mut heads, &mut flux_points)?;
             summary.insert(name.to_string(), stats);
         }
         if models.is_empty() {

@@ -13,7 +13,7 @@ use super::{
 };
 use crate::headline::Headline;
 use crate::ladder::LadderData;
-use crate::refined_ladder::RefinedData;
+use crate::refined_chain::{Depth, Linked};
 use analysis::same_load;
 use anyhow::Result;
 use critical::refined::Measured;
@@ -32,7 +32,7 @@ pub(super) fn run_model(
     ctx: &mut StageContext,
     out: &mut ArtefactWriter,
     d: &LadderData,
-    refined: Option<&RefinedData>,
+    chain: &[&Linked],
     opts: &EdgeOptions,
     heads: &mut Vec<Headline>,
     flux_points: &mut Vec<(Vec<f64>, Vec<f64>)>,
@@ -48,8 +48,8 @@ pub(super) fn run_model(
         let (pv, pe) = PAPER[k];
         heads.push(Headline::new(format!("{} {name}", NAMES[k]), e.value, e.error).paper(pv, pe));
     }
-    let (asy, uni, junctions) = asymptotics(out, &at, d, refined, &mut notes)?;
-    write_figure_flux(out, d, refined, &curve, junctions[3], &asy[3], &mut notes)?;
+    let (asy, uni, junctions) = asymptotics(out, &at, d, chain, &mut notes)?;
+    write_figure_flux(out, d, chain, &curve, &junctions[3], &asy[3], &mut notes)?;
     let asy_identity = asymptotic::identity(&asy[0], &asy[1], &asy[2]);
     asy_identity.write(out, &at, "beta_identity")?;
     asymptotic::identity(&uni[0], &uni[1], &uni[2]).write(out, &at, "beta_identity_uniform")?;
@@ -156,27 +156,29 @@ fn write_flux(
     Ok(points)
 }
 
-/// Figure 6's extended flux panel (module docs of [`super`]): the refined flux continuing the
-/// uniform curve (`ladder/<name>/refined/*`) and the asymptotic β's slope.
+/// Figure 6's extended flux panel (module docs of [`super`]): each refined ladder's flux of the
+/// chain continuing the curve before it (`ladder/<name>/<depth>/*`: the first link the uniform
+/// curve at its junction, each further one the previous link's curve at its own) and the
+/// asymptotic β's slope.
 fn write_figure_flux(
     out: &mut ArtefactWriter,
     d: &LadderData,
-    refined: Option<&RefinedData>,
+    chain: &[&Linked],
     uniform: &[FluxPoint],
-    junction: Option<f64>,
+    junctions: &[(Depth, f64)],
     beta: &Asymptotic,
     notes: &mut Vec<String>,
 ) -> Result<()> {
     let name = d.lattice.name();
-    let rpoints = refined.map_or(Vec::new(), |r| r.points(Measured::Flux));
-    let refined_curve = refined_flux_curve(uniform, &rpoints, junction.map(f64::abs));
-    if !rpoints.is_empty() && refined_curve.is_empty() {
-        notes.push(
-            "Figure 6: the refined flux shares no rung with the uniform curve: not drawn".into(),
-        );
-    }
-    if !refined_curve.is_empty() {
-        write_refined_flux_curve(out, name, &refined_curve)?;
+    let links: Vec<(Depth, Vec<analysis::ScalingPoint>)> = chain
+        .iter()
+        .map(|l| (l.depth, l.data.points(Measured::Flux)))
+        .collect();
+    let curves = chained_flux_curves(uniform, &links, junctions, notes);
+    for (depth, c, _) in &curves {
+        if !c.is_empty() {
+            write_refined_flux_curve(out, name, *depth, c)?;
+        }
     }
     if beta.value.is_finite() && beta.l_min.is_finite() {
         let at = |c: &[FluxPoint]| {
@@ -184,12 +186,12 @@ fn write_figure_flux(
                 .find(|p| same_load(p.distance, beta.l_min))
                 .copied()
         };
-        // below the junction the estimate used the refined rungs
-        let below = junction.is_some_and(|j| beta.l_min < j.abs() * (1.0 - 1e-9));
-        let p = if below {
-            at(&refined_curve)
-        } else {
-            at(uniform)
+        // the deepest link whose part of the estimate's ladder holds l_min (below its
+        // junction); else the uniform curve
+        let below = |j: Option<f64>| j.is_some_and(|j| beta.l_min < j * (1.0 - 1e-9));
+        let p = match curves.iter().rev().find(|c| below(c.2)) {
+            Some(c) => at(&c.1),
+            None => at(uniform),
         };
         if let Some(p) = p {
             write_asymptotic_slope(
@@ -204,6 +206,41 @@ fn write_figure_flux(
         }
     }
     Ok(())
+}
+
+/// Per link of a chain (depth, flux points), its normalised flux curve continuing the curve
+/// before it ([`refined_flux_curve`]: the first link the uniform curve, each further one the
+/// previous link's, at the link's junction in `junctions` if it has one there, else at the
+/// largest shared distance), with that junction (|l|). A link whose curve is empty (no shared
+/// rung) ends the list (with a note; it is returned, empty): a later link could not continue it.
+pub fn chained_flux_curves(
+    uniform: &[FluxPoint],
+    links: &[(Depth, Vec<analysis::ScalingPoint>)],
+    junctions: &[(Depth, f64)],
+    notes: &mut Vec<String>,
+) -> Vec<(Depth, Vec<FluxPoint>, Option<f64>)> {
+    let mut curves: Vec<(Depth, Vec<FluxPoint>, Option<f64>)> = Vec::new();
+    for (depth, rpoints) in links {
+        let junction = junctions
+            .iter()
+            .find(|(dp, _)| dp == depth)
+            .map(|&(_, j)| j.abs());
+        let before = curves.last().map_or(uniform, |c| c.1.as_slice());
+        let curve = refined_flux_curve(before, rpoints, junction);
+        if !rpoints.is_empty() && curve.is_empty() {
+            notes.push(format!(
+                "Figure 6: the {} flux shares no rung with the {} curve: not drawn",
+                depth.name(),
+                curves.last().map_or("uniform", |c| c.0.name())
+            ));
+        }
+        let drawn = !curve.is_empty();
+        curves.push((*depth, curve, junction));
+        if !drawn {
+            break;
+        }
+    }
+    curves
 }
 
 /// The refined flux `refined` (l < 0, any order) as a normalised curve continuing `uniform`
@@ -255,27 +292,27 @@ fn write_exponents(out: &mut ArtefactWriter, at: &str, ex: &[Exponent]) -> Resul
     Ok(())
 }
 
-/// Per exponent: the combined estimate, the uniform-only one, the combined ladder's junction.
-type Asymptotics = ([Asymptotic; 4], [Asymptotic; 4], [Option<f64>; 4]);
+/// Per exponent: the combined estimate, the uniform-only one, the combined ladder's junctions.
+type Asymptotics = ([Asymptotic; 4], [Asymptotic; 4], [Vec<(Depth, f64)>; 4]);
 
 /// The asymptotic estimates from the combined ladder and from the uniform one alone (written
 /// under `at` as `<e>_asymptotic_*`, `<e>_uniform_asymptotic_*` and `<e>_asymptotic_method`);
-/// a failed one is NONE with a note. Also where each combined ladder's refined part began.
+/// a failed one is NONE with a note. Also where each link of each combined ladder took over.
 fn asymptotics(
     out: &mut ArtefactWriter,
     at: &str,
     d: &LadderData,
-    refined: Option<&RefinedData>,
+    chain: &[&Linked],
     notes: &mut Vec<String>,
 ) -> Result<Asymptotics> {
     let mut asy = [Asymptotic::NONE; 4];
     let mut uni = [Asymptotic::NONE; 4];
-    let mut junctions = [None; 4];
+    let mut junctions: [Vec<(Depth, f64)>; 4] = Default::default();
     for k in 0..4 {
         let e = asymptotic::which(k);
         let levels = asymptotic::resolutions(d, e, notes);
         let uniform = asymptotic::estimate(&levels);
-        let (est, how) = asymptotic::estimate_combined(d.lattice, e, &levels, refined);
+        let (est, how) = asymptotic::estimate_combined(d.lattice, e, &levels, chain);
         match (&est, &uniform) {
             (Err(why), _) => notes.push(format!("no asymptotic {}: {why}", symbol(NAMES[k]))),
             (Ok(_), Err(why)) if how.rungs.1 > 0 => notes.push(format!(
@@ -294,7 +331,7 @@ fn asymptotics(
         }
         asy[k].write(out, at, NAMES[k])?;
         uni[k].write(out, at, &format!("{}_uniform", NAMES[k]))?;
-        junctions[k] = how.junction;
+        junctions[k] = how.junctions.clone();
         out.set_attr_at(at, &format!("{}_asymptotic_method", NAMES[k]), how.method)?;
     }
     Ok((asy, uni, junctions))
@@ -335,5 +372,59 @@ mod tests {
         // a junction that is not shared falls back likewise; no shared rung: nothing
         assert_eq!(refined_flux_curve(&uniform, &refined, Some(3e-3)).len(), 6);
         assert!(refined_flux_curve(&uniform, &refined[..3], None).is_empty());
+    }
+
+    /// A chain: the refined flux (7 × the law) from 5e-3, a deep one (0.2 × the law) from
+    /// 5e-4; each continues the curve before it at its junction, so both equal the uniform
+    /// normalisation everywhere; a deep ladder sharing no rung with the refined curve is not
+    /// drawn (a note), and one after an undrawn link is not tried.
+    #[test]
+    fn the_deep_flux_continues_the_refined_curve() {
+        let q = |a: f64| a.powf(3.45);
+        let uniform: Vec<FluxPoint> = [2e-3, 5e-3, 1e-2, 2e-2]
+            .iter()
+            .map(|&a| FluxPoint {
+                distance: a,
+                flux: q(a) / q(2e-2),
+            })
+            .collect();
+        let law = |f: f64, ls: &[f64]| -> Vec<ScalingPoint> {
+            ls.iter()
+                .map(|&a| ScalingPoint::new(-a, f * q(a), 0.0))
+                .collect()
+        };
+        let refined = law(7.0, &[5e-4, 1e-3, 2e-3, 5e-3]);
+        let deep = law(0.2, &[5e-5, 1e-4, 2e-4, 5e-4]);
+        let links = vec![(Depth::Refined, refined.clone()), (Depth::Deep, deep)];
+        let junctions = [(Depth::Refined, -2e-3), (Depth::Deep, -5e-4)];
+        let mut notes = Vec::new();
+        let c = chained_flux_curves(&uniform, &links, &junctions, &mut notes);
+        assert!(notes.is_empty(), "{notes:?}");
+        assert_eq!(c.len(), 2);
+        assert_eq!((c[0].0, c[0].2), (Depth::Refined, Some(2e-3)));
+        assert_eq!((c[1].0, c[1].2), (Depth::Deep, Some(5e-4)));
+        assert_eq!(c[1].1.len(), 4);
+        // two rescalings (7 → 1, 0.2 → 1): the law to rounding
+        for p in c.iter().flat_map(|c| &c.1) {
+            let want = q(p.distance) / q(2e-2);
+            assert!((p.flux / want - 1.0).abs() < 1e-12, "{p:?}");
+        }
+        // a deep ladder below the refined curve's reach (no shared rung): not drawn, noted
+        let far = vec![
+            (Depth::Refined, refined.clone()),
+            (Depth::Deep, law(0.2, &[5e-5, 1e-4])),
+        ];
+        let c2 = chained_flux_curves(&uniform, &far, &junctions, &mut notes);
+        assert!(c2[1].1.is_empty());
+        assert!(notes[0].contains("refined_deep flux shares no rung with the refined curve"));
+        // an undrawn first link ends the chain
+        let lost = vec![
+            (Depth::Refined, law(7.0, &[1e-4, 5e-4])),
+            (Depth::Deep, law(0.2, &[5e-5, 1e-4])),
+        ];
+        assert_eq!(
+            chained_flux_curves(&uniform, &lost, &[], &mut notes).len(),
+            1
+        );
     }
 }

@@ -13,7 +13,8 @@
 //! `asymptotic_sigma` ((asymptotic − conjecture)/asymptotic error) and `verdict` (the rule in
 //! [`super::asymptotic`]); then (appended, issue 13's refined ladder) `asymptotic_method`
 //! (which ladder the asymptotic estimate used: `uniform`, or `uniform+refined below |l| = …`
-//! where the model's refined ladder took over, [`super::asymptotic::estimate_combined`]) and
+//! where the model's refined ladder took over, and `+refined_deep below |l| = …` where a deep
+//! refined ladder chained below it took over, [`super::asymptotic::estimate_combined`]) and
 //! the uniform-only estimate as it was before the refined ladder fed the fit:
 //! `uniform_asymptotic_value`, `uniform_asymptotic_error`, `uniform_asymptotic_l_min`.
 

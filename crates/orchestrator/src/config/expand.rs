@@ -529,7 +529,9 @@ fn matrix_axes(
 }
 
 /// The values of matrix variable `var` of template `tname`, written `"$name"` at `at`: the
-/// setting `name`, which must be a non-empty list. `Ok(None)`: pending (see [`MatrixSettings`]).
+/// setting `name`, which must be a list; an empty one gives the template no instances (a preset
+/// that opts out; a required list input then says it needs one). `Ok(None)`: pending (see
+/// [`MatrixSettings`]).
 fn setting_axis(
     tname: &str,
     var: &str,
@@ -558,16 +560,14 @@ fn setting_axis(
         ));
     };
     match &v.value {
-        Value::Array(a) if !a.is_empty() => {
-            Ok(Some(a.iter().map(|x| json_node(x, &v.origin)).collect()))
-        }
+        Value::Array(a) => Ok(Some(a.iter().map(|x| json_node(x, &v.origin)).collect())),
         other => Err(ConfigError::at(
             &v.origin,
             format!(
-                "setting `{name}` = {other}: template `{tname}` (at {}) takes it as the values of its matrix variable `{var}`, so it must be a non-empty list (like [1, 2, 3] or {{ from = 1, to = 8 }}), found {}",
+                "setting `{name}` = {other}: template `{tname}` (at {}) takes it as the values of its matrix variable `{var}`, so it must be a list (like [1, 2, 3] or {{ from = 1, to = 8 }}; [] for none), found {}",
                 at.origin,
                 match other {
-                    Value::Array(_) => "an empty list",
+                    Value::Array(_) => unreachable!("a list is accepted above"),
                     Value::Object(_) => "a table",
                     Value::String(_) => "a string",
                     Value::Bool(_) => "a boolean",
