@@ -716,9 +716,10 @@ impl Scene for Fig3 {
                     e.finest.map_or(f64::NAN, |f| f.value),
                     e.error(),
                     e.n,
-                    match e.paper {
-                        Some(p) => format!("{p} {} the error band", e.paper_verdict()),
-                        None => "not stated".into(),
+                    match (e.paper, e.paper_verdict()) {
+                        (None, _) => "not stated".to_string(),
+                        (Some(p), v @ ("inside" | "outside")) => format!("{p} {v} the error band"),
+                        (Some(p), v) => format!("{p} ({v})"),
                     }
                 ));
             }
