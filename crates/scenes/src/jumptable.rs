@@ -22,6 +22,9 @@ pub struct GridSweep {
     pub rho: f64,
     /// Grid spacing (λ).
     pub dx: f64,
+    /// The force-residual tolerance the sweep was solved to (E* h0/λ; its `tol_force`
+    /// parameter from the artefact's provenance), NaN if the artefact does not say.
+    pub tol_force: f64,
 }
 
 impl GridSweep {
@@ -31,6 +34,11 @@ impl GridSweep {
             data: SweepData::read(r)?,
             rho: r.attr_f64("rho")?,
             dx: r.attr_f64("dx")?,
+            tol_force: r
+                .provenance()
+                .ok()
+                .and_then(|p| p.params.get("tol_force").and_then(|v| v.as_f64()))
+                .unwrap_or(f64::NAN),
         })
     }
 
@@ -283,6 +291,7 @@ mod tests {
             },
             rho: 0.04,
             dx: 1.0 / (1 << n) as f64,
+            tol_force: 1e-8,
         }
     }
 
