@@ -342,16 +342,26 @@ mod tests {
     use super::*;
     use analysis::ScalingPoint;
 
-    #[test]
-    fn the_refined_flux_continues_the_uniform_curve() {
-        let q = |a: f64| a.powf(3.45);
-        let uniform: Vec<FluxPoint> = [2e-3, 5e-3, 1e-2, 2e-2]
+    /// The synthetic flux law of these tests, |l|^3.45.
+    fn law_3_45(a: f64) -> f64 {
+        a.powf(3.45)
+    }
+
+    /// The uniform flux curve of the law at 2e-3 … 2e-2, normalised at 2e-2.
+    fn uniform_flux() -> Vec<FluxPoint> {
+        [2e-3, 5e-3, 1e-2, 2e-2]
             .iter()
             .map(|&a| FluxPoint {
                 distance: a,
-                flux: q(a) / q(2e-2),
+                flux: law_3_45(a) / law_3_45(2e-2),
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn the_refined_flux_continues_the_uniform_curve() {
+        let q = law_3_45;
+        let uniform = uniform_flux();
         // another quantity with the same law (2.5 × 0.9 ...), and a rung at l > 0 (left out)
         let refined: Vec<ScalingPoint> = [1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3]
             .iter()
@@ -380,14 +390,8 @@ mod tests {
     /// drawn (a note), and one after an undrawn link is not tried.
     #[test]
     fn the_deep_flux_continues_the_refined_curve() {
-        let q = |a: f64| a.powf(3.45);
-        let uniform: Vec<FluxPoint> = [2e-3, 5e-3, 1e-2, 2e-2]
-            .iter()
-            .map(|&a| FluxPoint {
-                distance: a,
-                flux: q(a) / q(2e-2),
-            })
-            .collect();
+        let q = law_3_45;
+        let uniform = uniform_flux();
         let law = |f: f64, ls: &[f64]| -> Vec<ScalingPoint> {
             ls.iter()
                 .map(|&a| ScalingPoint::new(-a, f * q(a), 0.0))
