@@ -1199,8 +1199,9 @@ pub fn running_zeta(
 
 /// Running exponent of `m` (ζ, υ or χ) between neighbouring rungs of the finest D that measure
 /// it, with grid errors from D with k − 1 levels (`coarser`) and from D with another margin
-/// (`margin`) for the same pair of loads; flagged above `bound`, when unknown, when a rung is
-/// flagged or the window's contact set did not change (module docs). `sigma_gap`: 1σ of a
+/// (`margin`; None: no margin comparison, the grid error is the level change alone) for the
+/// same pair of loads; flagged above `bound`, when unknown, when a rung is flagged or the
+/// window's contact set did not change (module docs). `sigma_gap`: 1σ of a
 /// saddle gap (ζ); υ and χ take their edge fits' 1σ.
 pub fn running_exponent(
     m: Measured,
@@ -1224,10 +1225,12 @@ pub fn running_exponent(
         .map(|(hi, lo, v, fit_error, flag)| {
             let el = other(coarser, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
             let em = other(margin, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
-            let grid_error = if el.is_nan() || em.is_nan() {
+            // No margin comparison asked for (`margin` None): the level change alone (its
+            // error_margin stays NaN: not measured); asked for but missing: unknown.
+            let grid_error = if el.is_nan() || (margin.is_some() && em.is_nan()) {
                 f64::NAN
             } else {
-                el.max(em)
+                el.max(if em.is_nan() { 0.0 } else { em })
             };
             let flag = flag.or(if grid_error.is_nan() {
                 Some(PairFlag::Unknown)

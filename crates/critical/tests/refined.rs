@@ -270,6 +270,14 @@ fn running_zeta_of_known_data() {
     // the bound: 0.003 > 0.002 flags
     let z = running_zeta(&fine, Some(&coarser), Some(&coarser), 0.002, 1e-13);
     assert!(matches!(z[0].flag, Some(PairFlag::GridError { .. })));
+    // no margin comparison asked for (margin_check = 0): the level change alone, every pair
+    // (the frozen margin pair above is not in play); no level comparison: unknown
+    let z = running_zeta(&fine, Some(&coarser), None, 0.0035, 1e-13);
+    assert!(z.iter().all(|s| s.error_margin.is_nan()
+        && (s.grid_error - 0.003).abs() < 1e-12
+        && s.flag.is_none()));
+    let z = running_zeta(&fine, None, None, 0.0035, 1e-13);
+    assert!(z.iter().all(|s| s.flag == Some(PairFlag::Unknown)));
 }
 
 /// The 1-2-5 ladder |l| = 5e-2 … 1e-5.

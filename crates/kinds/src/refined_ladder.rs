@@ -32,7 +32,7 @@
 //! # Parameters
 //! `lattice`, `base` (base grid exponent), `levels` (ascending k, 1..=6; two or more give the
 //! level error), `window` (base cells), `margin` (base cells of exact near field around the
-//! window), `margin_check` (0: none), `ls` (reduced loads ≠ 0; > 0 give χ only), `tol_gap` (h0; the composite
+//! window), `margin_check` (0: none: grid error = level change alone), `ls` (reduced loads ≠ 0; > 0 give χ only), `tol_gap` (h0; the composite
 //! solve stagnates near p_c below ~1e-13 at k = 3, 1e-12 at k = 4, 5e-12 at k = 5), `max_iter`.
 //!
 //! # Artefact
@@ -158,7 +158,7 @@ impl TypedKind for RefinedLadderKind {
                 .doc("near field computed exactly around the window (base cells; at least ORDER/2 + 1 = 5, and window + 2 margin + 2 ≤ 2^base); the far field beyond is interpolated"),
             ParamSpec::new("margin_check", ParamType::int_range(0, 64))
                 .default(0)
-                .doc("a second margin for the finest level, whose change is part of the grid error (0: none)"),
+                .doc("a second margin for the finest level, whose change is part of the grid error (0: none: the grid error is then the level change alone)"),
             ParamSpec::new(
                 "ls",
                 ParamType::Array {
