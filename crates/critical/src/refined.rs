@@ -282,6 +282,11 @@ impl Discretisation {
     pub fn with_margin(self, margin: usize) -> Self {
         Discretisation { margin, ..self }
     }
+    /// The same D with `window` replaced (the window check's comparison: the contact lines
+    /// outside the window are the base grid's, which neither k nor the margin changes).
+    pub fn with_window(self, window: usize) -> Self {
+        Discretisation { window, ..self }
+    }
     /// Fine spacing (λ along x).
     pub fn spacing(&self) -> f64 {
         self.lattice.cell().0 / ((1usize << (self.base_log2 + self.levels)) as f64)
