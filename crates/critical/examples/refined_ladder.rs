@@ -14,8 +14,14 @@
 //! search from (width 2e-5). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
 //! default 1e-13) and iteration cap per attempt (default `RefinedOptions`'s, 2000). `REFINED_EDGE_DUMP` (any value):
 //! print the runs of each rung's outermost ring of fine nodes (`edge,…` rows, see `dump_edge`).
+//! `REFINED_DWINDOW=<Δw>`: also solve D(k) with the window widened by Δw base cells (or read
+//! its rows, `fine` or `window`, from `REFINED_WINDOW_CSV`) and print each pair's change
+//! (`zeta_window,…`): the window error, which neither Δk nor Δmargin sees (the contact lines
+//! outside the window are the base grid's in all three).
 //! `REFINED_PC`: p_c/p_fc of every D (no search: the rungs' reduced loads from it; for timing
-//! rungs of a D whose p_c is known or close to another D's).
+//! rungs of a D whose p_c is known or close to another D's). With `REFINED_PC_GUESS` or
+//! `REFINED_PC` set, the periodic base grid's own p_c search is skipped (and D(k − 1) starts
+//! from the guess too).
 use critical::refined::{
     Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, base_guess, default_ls,
     running_zeta,
@@ -161,16 +167,22 @@ fn main() {
     println!(
         "rung,name,model,base_log2,k,window,margin,l,load,saddle_gap,iterations,wall_s,crossings,narrowest_open,narrowest_contact,window_contact,neck_nodes,flag,load_average,raw_crossings,slivers"
     );
-    // a guess from the periodic base grid alone
-    let t = Instant::now();
-    let (base, _) = base_guess(d, &opts).expect("base p_c");
-    println!(
-        "# periodic base grid 2^{base_log2}: p_c/p_fc {:.10} ({} probes, {:.1} s)",
-        base.p_c() / lattice_p_fc(lattice, base_log2),
-        base.probes,
-        t.elapsed().as_secs_f64()
-    );
-    let mut guess = base.p_c();
+    // a guess from the periodic base grid alone (skipped when REFINED_PC_GUESS or REFINED_PC
+    // gives one: on a 1024² base that search costs minutes and its p_c is ~1e-5 off p_c(D))
+    let mut guess = std::env::var("REFINED_PC_GUESS").map_or(f64::NAN, |v| {
+        v.parse::<f64>().expect("REFINED_PC_GUESS (p_c/p_fc)") * lattice_p_fc(lattice, base_log2)
+    });
+    if std::env::var("REFINED_PC_GUESS").is_err() && std::env::var("REFINED_PC").is_err() {
+        let t = Instant::now();
+        let (base, _) = base_guess(d, &opts).expect("base p_c");
+        println!(
+            "# periodic base grid 2^{base_log2}: p_c/p_fc {:.10} ({} probes, {:.1} s)",
+            base.p_c() / lattice_p_fc(lattice, base_log2),
+            base.probes,
+            t.elapsed().as_secs_f64()
+        );
+        guess = base.p_c();
+    }
     let mut coarser = None;
     if let Ok(path) = std::env::var("REFINED_COARSER_CSV") {
         let (pc, rungs) = read_rungs(&path, levels - 1, margin);
@@ -216,6 +228,38 @@ fn main() {
         );
         other = Some(rungs);
     }
+    // REFINED_DWINDOW: the window error, from D(k) with the window widened (or the rows of
+    // REFINED_WINDOW_CSV, an earlier run's `fine` rows of that window)
+    let window_rungs = match (
+        std::env::var("REFINED_DWINDOW")
+            .ok()
+            .map(|v| v.parse::<usize>().expect("REFINED_DWINDOW (base cells)")),
+        std::env::var("REFINED_WINDOW_CSV"),
+    ) {
+        (Some(dw), Ok(path)) => Some(read_rungs_of(&path, levels, margin, Some(window + dw)).1),
+        (Some(dw), Err(_)) => {
+            Some(run("window", d.with_window(window + dw), pc, 2e-5, &ls, &opts).1)
+        }
+        _ => None,
+    };
+    if let Some(w) = &window_rungs {
+        println!("zeta_window,l_hi,l_lo,value_wider,change");
+        let wider = running_zeta(w, None, None, 0.005, opts.tol_gap);
+        for z in running_zeta(&fine, None, None, 0.005, opts.tol_gap) {
+            if let Some(zw) = wider
+                .iter()
+                .find(|zw| zw.l_hi == z.l_hi && zw.l_lo == z.l_lo)
+            {
+                println!(
+                    "zeta_window,{:e},{:e},{:.5},{:.2e}",
+                    z.l_hi,
+                    z.l_lo,
+                    zw.value,
+                    (zw.value - z.value).abs()
+                );
+            }
+        }
+    }
     println!("zeta,l_hi,l_lo,value,error_levels,error_margin,grid_error,fit_error,flag");
     for z in running_zeta(
         &fine,
@@ -242,13 +286,24 @@ fn main() {
 
 /// The `fine` or `margin` rungs of `levels` and `margin` of an earlier run and its p_c (E* h0/λ).
 fn read_rungs(path: &str, levels: u32, margin: usize) -> (f64, Vec<RefinedRung>) {
+    read_rungs_of(path, levels, margin, None)
+}
+
+/// [`read_rungs`], also the `window` rows, of one window if given.
+fn read_rungs_of(
+    path: &str,
+    levels: u32,
+    margin: usize,
+    window: Option<usize>,
+) -> (f64, Vec<RefinedRung>) {
     let text = std::fs::read_to_string(path).expect("REFINED_COARSER_CSV readable");
     let mut pc = f64::NAN;
     let mut rungs = Vec::new();
     for line in text.lines() {
         let c: Vec<&str> = line.split(',').collect();
         if c.len() < 7
-            || !(c[1] == "fine" || c[1] == "margin")
+            || !(c[1] == "fine" || c[1] == "margin" || c[1] == "window")
+            || window.is_some_and(|w| c[5].parse::<usize>().ok() != Some(w))
             || c[4].parse::<u32>().ok() != Some(levels)
             || c[6].parse::<usize>().ok() != Some(margin)
         {

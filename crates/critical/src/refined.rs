@@ -256,6 +256,25 @@
 //!   l by ~1e-8 … 8e-8; triangular k = 4: 8.1e-3 (~1e-7). Use margin ≥ 12 at k ≥ 4 (16 for
 //!   |l| ≤ 2e-5), and compare levels at the same margin.
 //!
+//! # Zoom discretisations (2026-11-26, session #7; README "Zoom discretisations")
+//! A finer base with a small window: 1024² base (2^10), k = 3, 4, window 16 or 32 base cells,
+//! margin 12; box (w + 26)·2^k fine nodes per side (336–928) against 1344 for 256², k = 5.
+//! Square, `REFINED_TOL_GAP=5e-12` (commands in the README):
+//! - the margin error vanishes on this base: margin 12 → 16 changes ζ_eff by 3.8e-7 … 3.3e-6
+//!   (k = 3, window 16; 256², k = 5: 1.9e-4 … 1.7e-3), so the far-field error is a base
+//!   resolution effect;
+//! - a **window error** that neither Δk nor Δmargin sees (the contact lines outside the window
+//!   are the base grid's in all three D's): window 16 → 32 at k = 3 changes ζ_eff by 9.9e-4,
+//!   5.4e-3, 2.0e-3, 6.2e-4 (2e-4→1e-4 … 2e-5→1e-5), although window 16 passes the window
+//!   check from −2e-4 on. The example measures it with `REFINED_DWINDOW`; the grid error of
+//!   [`running_zeta`] does not include it;
+//! - window 32 agrees with 256², k = 5 (margin 12) within 8e-4, 9e-4, 1.3e-3 down to
+//!   5e-5→2e-5; p_c(D)/p_fc 0.2286048 against 0.2286051;
+//! - k = 4, window 32 (the fine spacing of 16384²): ζ_eff 1.1604, 1.1559, 1.1522, 1.1491 for
+//!   2e-4→1e-4 … 2e-5→1e-5, Δk (k = 3 → 4) 1.6e-4, 7.1e-4, 1.8e-3, 3.4e-3: level-converged
+//!   to 1e-5, still falling. Cost 429 CPU-s (setup 63 s wall: the alias sums scale with the
+//!   fine lattice, f² N_base; p_c search 590 s wall, 14 probes; rungs 50–77 s at load ~9), 505 MB.
+//!
 use crate::CriticalError;
 use crate::ladder::{SaddleFrame, Window as SaddleWindow, axis_saddle};
 use crate::scaling::{EdgeOptions, blocked_half_length, open_half_width};
@@ -288,6 +307,11 @@ impl Discretisation {
     /// The same D with `margin` replaced.
     pub fn with_margin(self, margin: usize) -> Self {
         Discretisation { margin, ..self }
+    }
+    /// The same D with `window` replaced (the window check's comparison: the contact lines
+    /// outside the window are the base grid's, which neither k nor the margin changes).
+    pub fn with_window(self, window: usize) -> Self {
+        Discretisation { window, ..self }
     }
     /// Fine spacing (λ along x).
     pub fn spacing(&self) -> f64 {
