@@ -678,22 +678,20 @@ pub(crate) fn percolating(
     which: &'static str,
     r: Result<FlowResult, reynolds::FlowError>,
 ) -> Result<FlowResult, WindowFlowError> {
-    let r = r.map_err(|e| WindowFlowError::Flow {
-        which,
-        detail: e.to_string(),
-    })?;
-    if !r.converged || !r.percolating || r.flux <= 0.0 {
+    let r = usable(which, r)?;
+    if !r.percolating || r.flux <= 0.0 {
         return Err(WindowFlowError::Flow {
             which,
             detail: format!(
-                "not usable: percolating {}, converged {} ({:?}), flux {:e}",
-                r.percolating, r.converged, r.termination, r.flux
+                "not usable: percolating {}, flux {:e}",
+                r.percolating, r.flux
             ),
         });
     }
     Ok(r)
 }
 
+/// A flow result that converged (else an error naming `which` problem and why).
 fn usable(
     which: &'static str,
     r: Result<FlowResult, reynolds::FlowError>,
