@@ -84,6 +84,19 @@ pub use pressure_drop::{
 };
 use std::time::Instant;
 
+/// A deterministic uniform generator on [0, 1) for the unit tests: a 64-bit linear
+/// congruential sequence, its top 53 bits.
+#[cfg(test)]
+pub(crate) fn test_uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+}
+
 /// The axis along which the pressure drops (the flow direction).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FlowAxis {
@@ -597,20 +610,21 @@ impl Setup {
             pcg::Stop::Stagnation | pcg::Stop::Growth => ev.residual_norm <= ev.rounding_floor,
             _ => false,
         };
+        let start = Refined {
+            outcome,
+            ev,
+            split: None,
+            rounds: 0,
+        };
         let Refined {
             outcome,
             ev,
             split,
             rounds: refinement_rounds,
         } = if needs_refinement {
-            refine(asm, mg, &u, dp, options, outcome, ev)
+            refine(asm, mg, &u, dp, bnorm, options, start)
         } else {
-            Refined {
-                outcome,
-                ev,
-                split: None,
-                rounds: 0,
-            }
+            start
         };
         let unknown = match &split {
             Some((hi, lo)) => finite_volume::Unknown::split(hi, lo),
@@ -693,7 +707,8 @@ struct Refined {
     rounds: usize,
 }
 
-/// Iterative refinement of a solution `u` that double precision alone could not resolve.
+/// Iterative refinement of a solution `u` that double precision alone could not resolve
+/// (`bnorm` = ‖b‖₂ of the system; `start`: u's outcome and evaluation, no rounds yet).
 ///
 /// Near a closing constriction the ponds' pressures are of order ΔP while the flux is carried
 /// by pressure differences far below their rounding (`Termination::RoundoffLimited`). The
@@ -709,23 +724,14 @@ fn refine(
     mg: &mut multigrid::Multigrid,
     u: &[f64],
     dp: f64,
+    bnorm: f64,
     options: &FlowOptions,
-    outcome: pcg::Outcome,
-    ev: finite_volume::Evaluation,
+    start: Refined,
 ) -> Refined {
     let n = u.len();
-    let bnorm = {
-        let b = asm.rhs(dp);
-        stencil::dot(&b, &b).sqrt()
-    };
     let mut hi = u.to_vec();
     let mut lo = vec![0.0; n];
-    let mut best = Refined {
-        outcome,
-        ev,
-        split: None,
-        rounds: 0,
-    };
+    let mut best = start;
     let mut iterations = best.outcome.iterations;
     for round in 1..=REFINEMENT_ROUNDS {
         // r = b − A(hi + lo) = −(net outflow)
