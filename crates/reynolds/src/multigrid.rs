@@ -612,13 +612,7 @@ mod tests {
     #[test]
     fn galerkin_matches_dense_triple_product_and_restriction_is_transpose() {
         let (nx, ny) = (16, 24);
-        let mut state = 99u64;
-        let mut rnd = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / ((1u64 << 53) as f64)
-        };
+        let mut rnd = crate::test_uniform(99);
         // Coefficients spanning 12 decades, with some zero faces.
         let mut coef = |_: ()| -> Vec<f64> {
             (0..nx * ny)
@@ -722,13 +716,7 @@ mod tests {
     #[test]
     fn coarse_operators_have_non_negative_couplings_and_the_cycle_is_positive() {
         let (nx, ny) = (64, 64);
-        let mut state = 7u64;
-        let mut rnd = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / ((1u64 << 53) as f64)
-        };
+        let mut rnd = crate::test_uniform(7);
         let mut coef = || -> Vec<f64> {
             (0..nx * ny)
                 .map(|_| {

@@ -297,13 +297,7 @@ mod tests {
         let north = (0..n * n)
             .map(|k| harmonic(g3(k / n, k % n), g3(k / n, k % n + 1)))
             .collect();
-        let mut state = seed;
-        let mut rnd = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / ((1u64 << 53) as f64)
-        };
+        let mut rnd = crate::test_uniform(seed);
         let mut b: Vec<f64> = (0..n * n).map(|_| rnd() - 0.5).collect();
         let mean = b.iter().sum::<f64>() / b.len() as f64;
         b.iter_mut().for_each(|v| *v -= mean);

@@ -485,13 +485,7 @@ mod tests {
     use super::*;
 
     fn random_stencil(nx: usize, ny: usize, nine: bool, seed: u64) -> Stencil {
-        let mut state = seed;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / ((1u64 << 53) as f64)
-        };
+        let mut next = crate::test_uniform(seed);
         let mut gen_vec = |_: ()| (0..nx * ny).map(|_| next()).collect::<Vec<f64>>();
         let e = gen_vec(());
         let n = gen_vec(());
