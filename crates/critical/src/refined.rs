@@ -13,7 +13,8 @@
 //! representation outside the window (see `contact::refinement`, ~1e-7 … 1e-5 relative), and
 //! from the continuum's by more; the ladder's reduced loads l = p/p_c(D) − 1 are measured from
 //! D's own p_c, so that a p_c shift common to all rungs does not masquerade as a change of the
-//! exponent (README, "L_c matters more than the grid"). Only the axis saddle is refined: in the
+//! exponent (docs/near-critical.md, "L_c: each grid's bisected L_c"). Only the axis saddle is
+//! refined: in the
 //! hexagonal and triangular cells the other critical saddles stay on the coarse base grid, so
 //! the percolation load of the whole cell is not p_c(D); p_c(D) is the closing load of the
 //! refined saddle alone (by symmetry every saddle closes at the same load in the continuum).
@@ -150,7 +151,7 @@
 //! 12| (in the "Δk, Δm (12)" column: k − 1 at margin 12, and margin 16), same window; the grid
 //! error is the larger):
 //!
-//! | pair | uniform 2048² (README) | k = 3, w 32 | Δk, Δm | k = 4, w 16 | Δk, Δm | k = 5, w 16 | Δk, Δm | k = 5, margin 12 | Δk, Δm (12) | k = 5, margin 16 | neck (k = 5) |
+//! | pair | uniform 2048² (docs/near-critical.md) | k = 3, w 32 | Δk, Δm | k = 4, w 16 | Δk, Δm | k = 5, w 16 | Δk, Δm | k = 5, margin 12 | Δk, Δm (12) | k = 5, margin 16 | neck (k = 5) |
 //! |---|---|---|---|---|---|---|---|---|---|---|---|
 //! | 0.05→0.02 | 1.2240 | 1.2240* | – | 1.2237* | – | 1.2237* | – | – | – | – | 513→513 |
 //! | 0.02→0.01 | 1.2063 | 1.2069 | 1.5e-4, 1e-7 | 1.2075* | – | 1.2075* | – | – | – | – | |
@@ -171,8 +172,9 @@
 //! at margin 12; the margin-16 ladder has rungs −5e-4 … −1e-5, p_c/p_fc 0.2286051253. Costs of
 //! the k = 5 margin 12 and 16 runs: 693 and 979 CPU-s, 363 and 469 MB peak.) Check against uniform 2048² (same fine spacing as k = 3): k = 3 (window 32) is
 //! within 9e-4 of it at every pair 0.02→0.01 … 2e-4→1e-4 (+6e-4, +4.5e-4, −9e-4, −5e-4,
-//! +1.2e-4, +3.6e-4, −1.4e-4), and its grid error against k = 2 (1024²) reproduces the README's
-//! 1024²-vs-2048² grid errors (6.3e-3 vs 7.0e-3 at 5e-4→2e-4, 9.4e-3 vs 9.5e-3 at 2e-4→1e-4).
+//! +1.2e-4, +3.6e-4, −1.4e-4), and its grid error against k = 2 (1024²) reproduces the uniform
+//! 1024²-vs-2048² grid errors of docs/near-critical.md (6.3e-3 vs 7.0e-3 at 5e-4→2e-4, 9.4e-3
+//! vs 9.5e-3 at 2e-4→1e-4).
 //! The window: at k = 3, window 16 differs from window 32 by ≤ 1.2e-4 from 0.001→5e-4 down,
 //! by 2e-3 at 0.005→0.002 (the window's edge then lies 8 base cells from the saddle, near the
 //! contact lines). Windows of 16 base cells are flagged above |l| ≈ 5e-3 (no contact line
@@ -191,7 +193,7 @@
 //! at 0.7119860 p_fc, 2.8e-5 above p_c(D), so they are open at every rung, and their coarse
 //! contact lines enter the refined gap only through the far field, like the margin error):
 //!
-//! | pair | uniform 2048² (README) | k = 3, w 32 | k = 4, w 16 | Δk, Δm (k = 4) |
+//! | pair | uniform 2048² (docs/near-critical.md) | k = 3, w 32 | k = 4, w 16 | Δk, Δm (k = 4) |
 //! |---|---|---|---|---|
 //! | 0.05→0.02 | 1.3117 | 1.3120* | 1.3121* | – |
 //! | 0.02→0.01 | 1.2848 | 1.2836* | 1.2844 | 2.4e-6, 1.6e-5 |
@@ -243,8 +245,8 @@
 //! - The two models approach each other: 0.088 apart at 0.05→0.02, 0.047 at 5e-4→2e-4, ~0.04
 //!   at 2e-4→1e-4 (triangular not converged there). Neither has a plateau at 6/5; the square
 //!   one stays 0.035–0.045 below it from 2e-4 to 1e-5.
-//! - Hexagonal (2026-11-26, window 16; README "The window check; triangular flags;
-//!   hexagonal"): the ladder runs (4 crossings at every rung, margin changes ≤ 3.4e-4) but the
+//! - Hexagonal (2026-11-26, window 16; docs/near-critical.md, "Refined ladders on a 256²
+//!   base"): the ladder runs (4 crossings at every rung, margin changes ≤ 3.4e-4) but the
 //!   neck is narrow (at k = 4: 29, 21, 13, 9 fine nodes at l = −1e-3, −5e-4, −2e-4, −1e-4, the
 //!   square's at ten times smaller |l|), so k = 3 vs 4 on 256² differ by 3.4e-3, 7.5e-3,
 //!   1.6e-2, 2.2e-2, 4.0e-2 from 5e-3→2e-3 to 2e-4→1e-4 (ζ_eff at k = 4: 1.1554, 1.1528,
@@ -256,10 +258,10 @@
 //!   l by ~1e-8 … 8e-8; triangular k = 4: 8.1e-3 (~1e-7). Use margin ≥ 12 at k ≥ 4 (16 for
 //!   |l| ≤ 2e-5), and compare levels at the same margin.
 //!
-//! # Zoom discretisations (2026-11-26, session #7; README "Zoom discretisations")
+//! # Zoom discretisations (2026-11-26, session #7; docs/near-critical.md)
 //! A finer base with a small window: 1024² base (2^10), k = 3, 4, window 16 or 32 base cells,
 //! margin 12; box (w + 26)·2^k fine nodes per side (336–928) against 1344 for 256², k = 5.
-//! Square, `REFINED_TOL_GAP=5e-12` (commands in the README):
+//! Square, `REFINED_TOL_GAP=5e-12` (commands in docs/near-critical.md):
 //! - the margin error vanishes on this base: margin 12 → 16 changes ζ_eff by 3.8e-7 … 3.3e-6
 //!   (k = 3, window 16; 256², k = 5: 1.9e-4 … 1.7e-3), so the far-field error is a base
 //!   resolution effect;

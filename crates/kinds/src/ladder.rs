@@ -12,7 +12,7 @@
 //! choice matters below |l| ≈ 1e-3: on 2^10 and 2^11 the sub-grid L_c lies ≈ 1e-4 (relative)
 //! above the load at which the grid's saddle closes, and a bias δ in L_c turns the local slope
 //! of the saddle gap into ζ ln((|l₁|−δ)/(|l₂|−δ)) / ln(|l₁|/|l₂|): shared by both grids, it
-//! is invisible to the grid error (README "Near-critical exponents").
+//! is invisible to the grid error (docs/near-critical.md, "L_c: each grid's bisected L_c").
 //!
 //! # Parameters
 //! `ns` (ascending grid exponents), `ls` (reduced loads, default the paper's ±0.002, ±0.005,

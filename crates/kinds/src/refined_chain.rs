@@ -2,7 +2,8 @@
 //! scenes `running`, `refined`, `fig6` through `exponents`): each model's `refined_ladder`
 //! artefacts from the inputs `refined` (the pipeline's `refined_ladder_*`) and `deep` (its
 //! `refined_deep_*`: a second discretisation per model for the deepest rungs), ordered by depth
-//! for `critical::refined::chained_ladder` (README "Near-critical exponents", "The chain").
+//! for `critical::refined::chained_ladder` (docs/near-critical.md, "The chain of refined
+//! ladders").
 //! Kept apart from `refined_ladder` so that its compute kind's code identity stays that of the
 //! ladder itself.
 
@@ -14,7 +15,7 @@ use surface::Lattice;
 /// Which input of the stages that read refined ladders (`exponents`, scenes `running`,
 /// `refined`, `fig5`) a ladder came from: `refined` (the pipeline's `refined_ladder_*` stages)
 /// or `deep` (its `refined_deep_*` stages: a second discretisation per model for the deepest
-/// rungs, chained below the first; README "Near-critical exponents"). Tables name it in their
+/// rungs, chained below the first; docs/near-critical.md). Tables name it in their
 /// `method` column ([`Depth::name`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Depth {

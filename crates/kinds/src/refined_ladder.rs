@@ -3,7 +3,7 @@
 //! discretisations (`critical::refined`: a window of `window` base cells around the axis saddle
 //! refined 2^k times, the rest of the periodic cell on the base grid), and their running
 //! exponents ζ_eff, υ_eff, β_eff (l < 0) and χ_eff (l > 0) with grid errors. This is where the
-//! near-critical ladder goes below the uniform grids' reach (README "Near-critical exponents").
+//! near-critical ladder goes below the uniform grids' reach (docs/near-critical.md).
 //!
 //! # What is computed
 //! For every k of `levels` (ascending) a discretisation D(k) = (model, base 2^`base`, k,

@@ -3,7 +3,7 @@
 //! below the uniform grids' reach, from one
 //! `refined_ladder` stage per model (`kinds::refined_ladder`, `critical::refined`) and, optional,
 //! one deeper one per model (input `deep`, the pipeline's `refined_deep_*`: chained below the
-//! first, README "Near-critical exponents"). The same pairs enter `running_exponents.csv`
+//! first, docs/near-critical.md). The same pairs enter `running_exponents.csv`
 //! (scene `running`, `method` = `refined` or `refined_deep`). Both tables end in a `method`
 //! column: `refined` or `refined_deep`, the input the row comes from (rows of `refined` first).
 //!

@@ -22,7 +22,7 @@
 //! used silently: grid error above 0.005, or unknown; β: along and across differ by more than
 //! 0.005, or the flow across was not measured), and `method`: `uniform` (the ladder's finest
 //! grid, as above), `refined` (input `refined`) or `refined_deep` (input `deep`, the
-//! pipeline's deeper `refined_deep_*` stages, README "Near-critical exponents": the same
+//! pipeline's deeper `refined_deep_*` stages, docs/near-critical.md: the same
 //! columns) (a refined ladder's finest discretisation: `resolution` its
 //! finest fine spacing, λ; `grid_error` the larger of the change from the discretisation with
 //! one level fewer and from the margin check, NaN if either is unknown; `fit_error` for ζ the
