@@ -40,6 +40,7 @@ pub mod mock;
 pub mod record_table;
 pub mod refined_chain;
 pub mod refined_ladder;
+pub mod refined_window;
 pub mod resolution;
 pub mod selfaffine;
 pub mod solver;
@@ -62,6 +63,7 @@ pub fn register(r: &mut Registry) {
     r.register(Typed(resolution::ResolutionKind));
     r.register(Typed(ladder::LadderKind));
     r.register(Typed(refined_ladder::RefinedLadderKind));
+    r.register(Typed(refined_window::RefinedWindowKind));
     r.register(Typed(exponents::ExponentsKind));
     r.register(Typed(extremes::ExtremesKind));
     r.register(Typed(mock::MockKind));

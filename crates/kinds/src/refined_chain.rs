@@ -6,8 +6,14 @@
 //! ladders").
 //! Kept apart from `refined_ladder` so that its compute kind's code identity stays that of the
 //! ladder itself.
+//!
+//! The input `window` (the pipeline's `refined_deep_window_*`, `crate::refined_window`) holds
+//! window checks: each is applied to the ladder it checks (same model, base, window, and a
+//! discretisation at its level and margin), whose running pairs then carry the window change
+//! in their grid error and flag ([`Linked::window_change`]).
 
 use crate::refined_ladder::RefinedData;
+use crate::refined_window::{WindowCheck, apply};
 use anyhow::{Result, anyhow};
 use store::ArtefactReader;
 use surface::Lattice;
@@ -51,12 +57,33 @@ impl Depth {
 pub struct Linked {
     /// Its input.
     pub depth: Depth,
-    /// The ladder.
+    /// The ladder (with a window check, its running pairs' grid errors and flags include the
+    /// window change: `crate::refined_window::apply`).
     pub data: RefinedData,
+    /// Per pair of `data.running`: the window change Δw (the running exponent at the check's
+    /// level with the larger window minus with the ladder's; NaN: unknown or not checked).
+    pub window_change: Vec<f64>,
+    /// The check's window (base cells), if a window check was applied.
+    pub window_check: Option<u32>,
+}
+
+impl Linked {
+    /// A ladder from `depth` without a window check.
+    pub fn new(depth: Depth, data: RefinedData) -> Self {
+        let window_change = vec![f64::NAN; data.running.len()];
+        Linked {
+            depth,
+            data,
+            window_change,
+            window_check: None,
+        }
+    }
 }
 
 /// The `refined` and then the `deep` inputs (either may be absent), at most one of each per
-/// model; the artefacts as read, in input order.
+/// model; the artefacts as read, in input order. Each window check of the input `window`
+/// (optional) is applied to every ladder it checks (`crate::refined_window::apply`); a check
+/// that matches no ladder, or two checks of one ladder, are errors.
 pub fn read_linked(inputs: &orchestrator::Inputs) -> Result<Vec<(Linked, &ArtefactReader)>> {
     let mut out: Vec<(Linked, &ArtefactReader)> = Vec::new();
     for depth in Depth::ALL {
@@ -72,7 +99,39 @@ pub fn read_linked(inputs: &orchestrator::Inputs) -> Result<Vec<(Linked, &Artefa
                     data.lattice.name()
                 ));
             }
-            out.push((Linked { depth, data }, r));
+            out.push((Linked::new(depth, data), r));
+        }
+    }
+    for w in inputs.all("window") {
+        let check = WindowCheck::read(w)?;
+        let mut matched = false;
+        for (link, r) in out.iter_mut() {
+            let base = r.attr_i64("base")? as u32;
+            if !check.checks(&link.data, base) {
+                continue;
+            }
+            if let Some(other) = link.window_check {
+                return Err(anyhow!(
+                    "{}: the {} `{}` ladder already has a window check (window {other}); give at most one per ladder",
+                    check.describe(),
+                    link.data.lattice.name(),
+                    link.depth.input()
+                ));
+            }
+            link.window_change = apply(&mut link.data, &check)?;
+            link.window_check = Some(check.window_check);
+            matched = true;
+        }
+        if !matched {
+            return Err(anyhow!(
+                "{} ({}): checks no `refined` or `deep` input (none of that model with base 2^{}, window {} and a discretisation at k = {} with margin {}); the window check's keys must be the checked ladder's",
+                check.describe(),
+                w.path().display(),
+                check.base,
+                check.window,
+                check.level,
+                check.margin
+            ));
         }
     }
     Ok(out)

@@ -10,13 +10,16 @@
 //! Outputs (`results/tables/`):
 //! - `refined_running.csv`: per model and neighbouring pair of rungs of the finest
 //!   discretisation: `model`, `exponent` ("zeta", "upsilon", "chi", "beta"), `l_hi`, `l_lo` (signed; from that
-//!   discretisation's own p_c), `value`, `grid_error` (the larger of `error_levels`, the change
-//!   from the next coarser level, and `error_margin`, the change from the margin check; NaN if
-//!   either is unknown), `fit_error`, `resolution` (finest fine spacing, λ), `error_levels`,
+//!   discretisation's own p_c), `value`, `grid_error` (the largest of `error_levels`, the change
+//!   from the next coarser level, `error_margin`, the change from the margin check, and, with a
+//!   window check, |`window_change`|; NaN if one of them is unknown), `fit_error`, `resolution` (finest fine spacing, λ), `error_levels`,
 //!   `error_margin`, `flag` (empty, or why the value must not be used silently: grid error above
 //!   0.005 or unknown, a rung whose window is too small or whose solve did not converge, a pair
-//!   over which the window's contact set did not change). The first eight columns are those of
-//!   `running_exponents.csv`.
+//!   over which the window's contact set did not change, a window change above 0.005 or unknown),
+//!   `window_change` (with a window check, input `window`, `kinds::refined_window`: Δw, the
+//!   running exponent at the check's level with the check's larger window minus with the
+//!   ladder's, signed; its magnitude is part of `grid_error`; NaN if unknown or not checked),
+//!   `method`. The first eight columns are those of `running_exponents.csv`.
 //! - `refined_rungs.csv`: every rung of every discretisation: `model`, `levels` (k), `margin`,
 //!   `spacing` (λ), `p_c_over_p_fc` (the discretisation's own p_c over the base grid's p_fc),
 //!   `l`, `saddle_gap` (h0), `contact_area`, `neck_nodes` (open fine nodes across the channel
@@ -59,6 +62,12 @@ pub fn running_table(data: &[Linked]) -> Table {
         .with_f64("error_levels", f(|(_, p)| p.row.error_levels))
         .with_f64("error_margin", f(|(_, p)| p.row.error_margin))
         .with_str("flag", pairs().map(|(_, p)| p.flag.clone()))
+        .with_f64(
+            "window_change",
+            data.iter()
+                .flat_map(|l| l.window_change.iter().copied())
+                .collect::<Vec<f64>>(),
+        )
         .with_str(
             "method",
             data.iter()
@@ -131,6 +140,9 @@ impl Scene for Refined {
             InputSpec::many("deep", &["refined_ladder"])
                 .optional()
                 .doc("one deeper `refined_ladder` stage per model (optional; the pipeline's `refined_deep_*`): `method` = `refined_deep`"),
+            InputSpec::many("window", &["refined_window"])
+                .optional()
+                .doc("window checks (optional; the pipeline's `refined_deep_window_*`): each folds its window change into the grid error and flags of the ladder it checks (kinds::refined_window)"),
         ]
     }
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {

@@ -9,7 +9,8 @@
 //! level flags every pair as "grid error unknown"); optional `refined` and `deep`:
 //! `refined_ladder` stages (`kinds::refined_ladder`, at most one of each per model; a preset
 //! without them gives the uniform rows only), whose running ζ, υ, χ and β pairs are added as
-//! rows of their own.
+//! rows of their own; optional `window`: `refined_window` stages, each folded into the ladder
+//! it checks (`kinds::refined_chain::read_linked`).
 //!
 //! Output `running_exponents.csv`, one row per model, exponent, neighbouring pair of rungs and
 //! method (uniform rows first, then the refined ones, then the deep ones):
@@ -24,14 +25,16 @@
 //! grid, as above), `refined` (input `refined`) or `refined_deep` (input `deep`, the
 //! pipeline's deeper `refined_deep_*` stages, docs/near-critical.md: the same
 //! columns) (a refined ladder's finest discretisation: `resolution` its
-//! finest fine spacing, λ; `grid_error` the larger of the change from the discretisation with
-//! one level fewer and from the margin check, NaN if either is unknown; `fit_error` for ζ the
+//! finest fine spacing, λ; `grid_error` the largest of the change from the discretisation with
+//! one level fewer, from the margin check and, with a window check (input `window`,
+//! `kinds::refined_window`), from the larger window at the check's level, NaN if one of them
+//! is unknown; `fit_error` for ζ the
 //! solver tolerance `tol_gap` as the 1σ of each saddle gap (a node value: no fit), relative to
 //! g_s and propagated to the slope, for υ and χ the edge fits' 1σ propagated likewise, for β
 //! the solver tolerance propagated to the flux (σ_K/K = 3 tol_gap/g_s); `flag` as
 //! the refined kind gives it: grid error above 0.005 or unknown, a rung whose window is too
 //! small or whose solve did not converge, a pair over which the window's contact set did not
-//! change). The refined pairs' l are measured from the refined discretisation's own p_c. The
+//! change; with a window check also a window change above 0.005 or unknown). The refined pairs' l are measured from the refined discretisation's own p_c. The
 //! refined β is the slope of the refined ladder's flux (`critical::refined_flow`): the square
 //! cell's conductivity along the channel, the triangular and hexagonal refined saddle's own
 //! two-terminal conductance (one refined window cannot give their cell's K; the neck's
@@ -250,6 +253,9 @@ impl Scene for Running {
             InputSpec::many("deep", &["refined_ladder"])
                 .optional()
                 .doc("one deeper `refined_ladder` stage per model (optional; the pipeline's `refined_deep_*`): its running ζ, υ, χ, β as `refined_deep` rows"),
+            InputSpec::many("window", &["refined_window"])
+                .optional()
+                .doc("window checks (optional; the pipeline's `refined_deep_window_*`): each folds its window change into the grid error and flags of the ladder it checks (kinds::refined_window)"),
         ]
     }
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {

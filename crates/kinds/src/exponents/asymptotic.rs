@@ -584,10 +584,7 @@ mod tests {
                 })
                 .collect(),
         };
-        let link = |flagged: usize| Linked {
-            depth: Depth::Refined,
-            data: refined(flagged),
-        };
+        let link = |flagged: usize| Linked::new(Depth::Refined, refined(flagged));
         let uniform = estimate(&levels).unwrap();
         assert_eq!(uniform.l_min, 1e-3);
         let (est, how) = estimate_combined(Lattice::Square, Which::Zeta, &levels, &[&link(99)]);
@@ -626,13 +623,13 @@ mod tests {
         assert_eq!(est.unwrap(), uniform_beta);
         // a chain: the refined ladder flagged at 5e-5 → 2e-5, a deep one (finer spacing; given
         // first, ordered by depth) continues from 5e-5 to 1e-5
-        let deep = Linked {
-            depth: Depth::Deep,
-            data: RefinedData {
+        let deep = Linked::new(
+            Depth::Deep,
+            RefinedData {
                 spacing: 1.0 / 16384.0,
                 ..refined(0)
             },
-        };
+        );
         let all = [deep, link(5)];
         let chain = chain_of(&all, Lattice::Square);
         assert_eq!(chain[0].depth, Depth::Refined);

@@ -426,6 +426,9 @@ impl TypedKind for ExponentsKind {
             InputSpec::many("deep", &["refined_ladder"])
                 .optional()
                 .doc("at most one deeper `refined_ladder` stage per model (optional; the pipeline's `refined_deep_*`): chained below the `refined` one, ordered by depth (finest spacing)"),
+            InputSpec::many("window", &["refined_window"])
+                .optional()
+                .doc("window checks (optional; the pipeline's `refined_deep_window_*`): each folds its window change into the grid error and flags of the ladder it checks (kinds::refined_window)"),
         ]
     }
     fn cost(&self, _params: &ExponentsParams) -> f64 {
