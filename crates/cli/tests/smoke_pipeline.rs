@@ -382,6 +382,61 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
             "{t}.csv has no refined_deep row"
         );
     }
+    // 7c. the deep ladders' window checks (refined_deep_window_*, kinds::refined_window): every
+    // deep pair gets a window change (the smoke loads give every pair on both windows) or is
+    // flagged for it, folded into its grid error; the refined (unchecked) pairs have none
+    assert!(
+        all.contains("refined_deep_window_square")
+            && all.contains("refined_deep_window_triangular")
+    );
+    let rr = tables::read_csv(
+        &root.join("results/tables/refined_running.csv"),
+        &[
+            ("grid_error", ColumnType::F64),
+            ("flag", ColumnType::Str),
+            ("window_change", ColumnType::F64),
+            ("method", ColumnType::Str),
+        ],
+    )
+    .unwrap();
+    let (ge, fl, wc, me) = (
+        rr.f64("grid_error").unwrap(),
+        rr.str("flag").unwrap(),
+        rr.f64("window_change").unwrap(),
+        rr.str("method").unwrap(),
+    );
+    let mut checked = 0;
+    for k in 0..rr.n_rows() {
+        if me[k] == "refined" {
+            assert!(
+                wc[k].is_nan(),
+                "row {k}: an unchecked pair has no window change"
+            );
+            continue;
+        }
+        if wc[k].is_nan() {
+            assert!(
+                !fl[k].is_empty(),
+                "row {k}: an unknown window change is flagged"
+            );
+            assert!(ge[k].is_nan(), "row {k}: … and its grid error unknown");
+            continue;
+        }
+        checked += 1;
+        assert!(
+            ge[k].is_nan() || ge[k] >= wc[k].abs(),
+            "row {k}: grid error {} includes the window change {}",
+            ge[k],
+            wc[k]
+        );
+        if wc[k].abs() > 0.005 {
+            assert!(
+                !fl[k].is_empty(),
+                "row {k}: a window change above 0.005 is flagged"
+            );
+        }
+    }
+    assert!(checked > 0, "no deep pair has a window change");
 
     // 8. unchanged rerun: nothing runs
     let events = run_smoke(root, &[]);

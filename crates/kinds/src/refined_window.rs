@@ -14,8 +14,8 @@
 //!
 //! # What it measures, and why a separate stage
 //! The contact lines outside the refined window are the base grid's, in D(k − 1), D(k) and
-//! D(k, other margin) alike: neither the level change nor the margin change sees them (README
-//! "Zoom discretisations": square, 1024², k = 3, window 16 passes the rung-level window check
+//! D(k, other margin) alike: neither the level change nor the margin change sees them
+//! (docs/near-critical.md, "Zoom discretisations on a 1024² base": square, 1024², k = 3, window 16 passes the rung-level window check
 //! from −2e-4 on and has level and margin changes ≤ 3.8e-3, yet its 1e-4→5e-5 ζ_eff is 5.4e-3
 //! off window 32's). The rung-level window check of `critical::refined` (a rung is flagged when
 //! the neck's structure reaches the window's edge: fewer than 4 contact-line crossings or a run

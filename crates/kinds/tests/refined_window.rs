@@ -26,7 +26,7 @@ fn slope(l_hi: f64, l_lo: f64, value: f64, flag: &str) -> Slope {
 /// window change above the bound or unknown flags an unflagged pair; an existing flag stays.
 #[test]
 fn fold_flags_a_too_small_window_and_never_takes_unknown_for_zero() {
-    // too small: |Δw| = 5.4e-3 > 5e-3 (README: window 16 → 32 at 1e-4→5e-5)
+    // too small: |Δw| = 5.4e-3 > 5e-3 (docs/near-critical.md: window 16 → 32 at 1e-4→5e-5)
     let (g, f) = fold(2.9e-3, "", 5.4e-3, BOUND);
     assert_eq!(g, 5.4e-3);
     assert!(f.starts_with("window change 5.40e-3"), "{f}");
