@@ -31,8 +31,13 @@
 //! Δw is measured at one level (`level`; 0: the coarser of the checked ladder's two finest
 //! levels, the cheaper one) and applied to the pairs of the checked ladder's finest level.
 //! This is an assumption, not a theorem: a finer level resolves the neck inside the window
-//! better, which can change how strongly the outside matters. Measured on a tiny grid in
-//! `tests/refined_window.rs` (Δw at k = 1 and k = 2 of the same windows).
+//! better, which can change how strongly the outside matters. On a tiny grid it does not hold
+//! (square, 64² base, margin 5, window 8 → 16, pairs 2e-2→1e-2 … 2e-3→1e-3: Δw = +2.5e-3,
+//! −6.1e-4, +1.4e-3, +1.3e-3 at k = 1 against −2.2e-4, −5.4e-4, −7.7e-3, +4.1e-4 at k = 2;
+//! window 12 → 24: ≤ 1.7e-3 at both levels; `tests/refined_window.rs`), so a Δw measured at
+//! the coarser level bounds the finest level's window error only as far as the two levels'
+//! window errors agree, which the pipeline does not measure (a second check at the finest
+//! level, `level` = the finest, would; it costs about as much as the deep ladder's finest D).
 //!
 //! # Cost
 //! One discretisation: a p_c search from the periodic base grid's closing load, then the
@@ -147,7 +152,7 @@ impl TypedKind for RefinedWindowKind {
             .filter_map(|v| v.as_i64())
             .collect();
         let level = match params.i64("level").unwrap_or(0) {
-            0 => *levels.get(levels.len().checked_sub(2).unwrap_or(0))?,
+            0 => *levels.get(levels.len().saturating_sub(2))?,
             k => k,
         };
         let side = ((params.i64("window_check").ok()? + 2 * params.i64("margin").ok()? + 2) as u64)
