@@ -171,6 +171,7 @@ fn tol_gap_is_declared_once() {
             "ladder",
             "leakage",
             "refined_ladder",
+            "refined_window",
             "sweep"
         ],
         "kinds with tol_gap"
