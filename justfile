@@ -18,15 +18,19 @@ default:
 build:
     cargo build --release -p saddleflow
 
+# After the run's own summary (stages run/cached, summed stage time, the most expensive), `draft`
+# and `paper` print the preset's five costliest stages, its critical path and per-scene costs
+# (`saddleflow status --params ...` shows every stage's cache state).
+
 # Main job: every scene at draft fidelity (minutes on 2 cores).
 draft *ARGS: build
     {{bin}} run --params params/draft.toml -j {{jobs}} {{ARGS}}
-    {{bin}} status
+    {{bin}} status --params params/draft.toml --costs --top 5
 
 # Every scene at the paper's fidelity.
 paper *ARGS: build
     {{bin}} run --params params/paper.toml -j {{jobs}} {{ARGS}}
-    {{bin}} status
+    {{bin}} status --params params/paper.toml --costs --top 5
 
 # The random-surface ensembles at 32 seeds per spectrum (params/ensemble.toml): about 1–3 h on two
 # cores, minutes on a cluster (ARGS e.g. `--executor slurm -j 64 --slurm-partition compute`).

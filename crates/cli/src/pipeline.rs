@@ -179,7 +179,11 @@ pub fn run(cmd: Command) -> Result<()> {
             );
             let _ = to_run;
             eprintln!("{}", hashing_line(&summary));
-            if let Some(line) = expensive_line(&summary) {
+            // the stages ran in this process only with the local executor
+            let cpu_s = matches!(opts.executor, orchestrator::Executor::Local)
+                .then(process_cpu_s)
+                .flatten();
+            if let Some(line) = expensive_line(&summary, cpu_s) {
                 eprintln!("{line}");
             }
             // the summary first: a warning such as a full disk comes after the counts and
@@ -440,8 +444,31 @@ fn print_decisions(plan: &Plan, decisions: &[orchestrator::Decision]) {
 
 /// One line on the cost of verification: hashing time (summed over threads) against the
 /// summed compute time of the stages that ran.
-/// The stages that ran, most expensive first (at most three), for the run's summary.
-fn expensive_line(summary: &orchestrator::RunSummary) -> Option<String> {
+/// The processor time (user + system, every thread, finished ones included) this process has
+/// used so far, in seconds, from `/proc/self/stat`; `None` where that is not readable (not
+/// Linux). On a machine shared with other work the stages' wall times grow with the load, this
+/// much less: it is the figure to compare runs by there.
+fn process_cpu_s() -> Option<f64> {
+    cpu_s_of_stat(&std::fs::read_to_string("/proc/self/stat").ok()?)
+}
+
+/// utime + stime (fields 14 and 15 of proc(5)'s `/proc/<pid>/stat`, after the command name in
+/// parentheses, which may itself hold spaces and parentheses) in seconds. The kernel reports
+/// them in USER_HZ ticks, 100 per second on every architecture Linux supports (the
+/// user-visible clock_t unit is fixed by the ABI, whatever the kernel's own tick rate).
+fn cpu_s_of_stat(stat: &str) -> Option<f64> {
+    const USER_HZ: f64 = 100.0;
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    // after ")": field 3 (state) is fields[0], so field k is fields[k − 3]
+    let utime: u64 = fields.get(14 - 3)?.parse().ok()?;
+    let stime: u64 = fields.get(15 - 3)?.parse().ok()?;
+    Some((utime + stime) as f64 / USER_HZ)
+}
+
+/// The stages that ran, most expensive first (at most three), for the run's summary, with the
+/// process's processor time `cpu_s` if known.
+fn expensive_line(summary: &orchestrator::RunSummary, cpu_s: Option<f64>) -> Option<String> {
     let mut ran: Vec<(&str, f64)> = summary
         .events
         .iter()
@@ -459,8 +486,11 @@ fn expensive_line(summary: &orchestrator::RunSummary) -> Option<String> {
         .take(3)
         .map(|(n, t)| format!("{n} {}", human_duration(*t)))
         .collect();
+    let cpu = cpu_s.map_or(String::new(), |c| {
+        format!(" (processor time of the run: {})", human_duration(c))
+    });
     Some(format!(
-        "summed stage time {}; most expensive: {} (`saddleflow status --costs` lists all)",
+        "summed stage time {}{cpu}; most expensive: {} (`saddleflow status --costs` lists all)",
         human_duration(summary.stage_s),
         top.join(", ")
     ))
@@ -572,7 +602,28 @@ fn hashing_line(summary: &orchestrator::RunSummary) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::column_width;
+    use super::{column_width, cpu_s_of_stat};
+
+    #[test]
+    fn processor_time_is_utime_plus_stime_after_the_command_name() {
+        // a command name with a space and a parenthesis must not shift the fields; utime 250,
+        // stime 75 ticks (fields 14 and 15) = 3.25 s at 100 ticks per second
+        let stat = "4242 (sf (x) y) R 1 4242 4242 0 -1 4194304 100 0 0 0 250 75 0 0 20 0 3 0";
+        assert_eq!(cpu_s_of_stat(stat), Some(3.25));
+        // truncated or malformed: unknown, not zero
+        assert_eq!(cpu_s_of_stat("4242 (sf) R 1 4242"), None);
+        assert_eq!(cpu_s_of_stat("4242 sf R 1"), None);
+        assert_eq!(cpu_s_of_stat("1 (a) R 1 1 1 0 -1 0 0 0 0 0 x 75 0"), None);
+    }
+
+    #[test]
+    fn this_process_has_a_processor_time() {
+        // Linux only (the project's platform): the test binary itself has used some time
+        if cfg!(target_os = "linux") {
+            let t = super::process_cpu_s().expect("/proc/self/stat is readable on Linux");
+            assert!(t.is_finite() && t >= 0.0, "{t}");
+        }
+    }
 
     #[test]
     fn columns_are_as_wide_as_their_widest_entry_or_header() {
