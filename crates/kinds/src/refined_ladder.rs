@@ -77,6 +77,76 @@ pub const CODE_VERSION: u64 = 6;
 /// The running exponents' grid-error bound (as the uniform ladders', issue 13).
 pub const GRID_BOUND: f64 = 0.005;
 
+/// Lower bound of a refined stage's memory: the base grid's fields and one real field on the
+/// box of the blockwise operator ((window + 2 margin + 2) 2^k fine nodes per side). Shared by
+/// `refined_ladder` and `refined_window`.
+pub(crate) fn box_memory(base: i64, window: i64, margin: i64, k: i64) -> u64 {
+    let side = ((window + 2 * margin + 2) as u64) << k.clamp(0, 6);
+    4 * crate::surface::field_bytes(base) + 8 * side * side
+}
+
+/// The `levels` parameter of the refined kinds (refinement levels, strictly ascending).
+pub(crate) fn levels_spec(doc: &str) -> ParamSpec {
+    ParamSpec::new(
+        "levels",
+        ParamType::Array {
+            elem: Box::new(ParamType::int_range(1, 6)),
+            min_len: 1,
+            max_len: Some(6),
+        },
+    )
+    .doc(doc)
+}
+
+/// The `ls` parameter of the refined kinds (reduced loads; its default and doc are the kind's).
+pub(crate) fn ls_spec() -> ParamSpec {
+    ParamSpec::new(
+        "ls",
+        ParamType::Array {
+            elem: Box::new(ParamType::float_range(-0.5, 0.5)),
+            min_len: 2,
+            max_len: Some(64),
+        },
+    )
+}
+
+/// The `max_iter` parameter of the refined kinds.
+pub(crate) fn max_iter_spec() -> ParamSpec {
+    ParamSpec::new("max_iter", ParamType::int_range(10, 1_000_000))
+        .default(2000)
+        .doc("iteration cap per solve attempt")
+}
+
+/// `levels` strictly ascending.
+pub(crate) fn check_levels(levels: &[u32]) -> Result<(), ParamIssue> {
+    if levels.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(ParamIssue::new(
+            "levels",
+            format!("{levels:?}: allowed a strictly ascending list of refinement levels"),
+        ));
+    }
+    Ok(())
+}
+
+/// `ls` distinct and none at p_c itself.
+pub(crate) fn check_ls(ls: &[f64]) -> Result<(), ParamIssue> {
+    if let Some(l) = ls.iter().find(|l| l.abs() < 1e-12) {
+        return Err(ParamIssue::new(
+            "ls",
+            format!("{l}: allowed reduced loads with |l| ≥ 1e-12 (p_c itself measures nothing)"),
+        ));
+    }
+    let mut ls = ls.to_vec();
+    ls.sort_by(f64::total_cmp);
+    if ls.windows(2).any(|w| w[1] == w[0]) {
+        return Err(ParamIssue::new(
+            "ls",
+            format!("{ls:?}: allowed distinct reduced loads"),
+        ));
+    }
+    Ok(())
+}
+
 /// The `refined_ladder` kind's parameters.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -124,8 +194,7 @@ impl TypedKind for RefinedLadderKind {
             .i64("margin")
             .ok()?
             .max(params.i64("margin_check").unwrap_or(0));
-        let side = ((params.i64("window").ok()? + 2 * margin + 2) as u64) << k.clamp(0, 6);
-        Some(4 * crate::surface::field_bytes(base) + 8 * side * side)
+        Some(box_memory(base, params.i64("window").ok()?, margin, k))
     }
     fn name(&self) -> &str {
         "refined_ladder"
@@ -141,15 +210,7 @@ impl TypedKind for RefinedLadderKind {
             lattice_spec(),
             ParamSpec::new("base", ParamType::int_range(4, 11))
                 .doc("base grid exponent: 2^base × 2^base periodic nodes"),
-            ParamSpec::new(
-                "levels",
-                ParamType::Array {
-                    elem: Box::new(ParamType::int_range(1, 6)),
-                    min_len: 1,
-                    max_len: Some(6),
-                },
-            )
-            .doc("refinement levels k (fine spacing = base spacing / 2^k), strictly ascending; the finest gives the values, the next its level error"),
+            levels_spec("refinement levels k (fine spacing = base spacing / 2^k), strictly ascending; the finest gives the values, the next its level error"),
             ParamSpec::new("window", ParamType::int_range(2, 512))
                 .default(16)
                 .doc("side of the refined window around the axis saddle (base cells)"),
@@ -159,32 +220,15 @@ impl TypedKind for RefinedLadderKind {
             ParamSpec::new("margin_check", ParamType::int_range(0, 64))
                 .default(0)
                 .doc("a second margin for the finest level, whose change is part of the grid error (0: none: the grid error is then the level change alone)"),
-            ParamSpec::new(
-                "ls",
-                ParamType::Array {
-                    elem: Box::new(ParamType::float_range(-0.5, 0.5)),
-                    min_len: 2,
-                    max_len: Some(64),
-                },
-            )
+            ls_spec()
             .default(json!(critical::refined::default_ls()))
             .doc("reduced loads (L − L_c)/L_c ≠ 0, distinct: those < 0 give ζ and υ, those > 0 χ"),
             crate::solver::tol_gap_spec(),
-            ParamSpec::new("max_iter", ParamType::int_range(10, 1_000_000))
-                .default(2000)
-                .doc("iteration cap per solve attempt"),
+            max_iter_spec(),
         ]
     }
     fn check(&self, params: &RefinedLadderParams) -> Result<(), ParamIssue> {
-        if params.levels.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(ParamIssue::new(
-                "levels",
-                format!(
-                    "{:?}: allowed a strictly ascending list of refinement levels",
-                    params.levels
-                ),
-            ));
-        }
+        check_levels(&params.levels)?;
         if params.margin_check != 0 && params.margin_check < 5 {
             return Err(ParamIssue::new(
                 "margin_check",
@@ -203,23 +247,7 @@ impl TypedKind for RefinedLadderKind {
                 ),
             ));
         }
-        if let Some(l) = params.ls.iter().find(|l| l.abs() < 1e-12) {
-            return Err(ParamIssue::new(
-                "ls",
-                format!(
-                    "{l}: allowed reduced loads with |l| ≥ 1e-12 (p_c itself measures nothing)"
-                ),
-            ));
-        }
-        let mut ls = params.ls.clone();
-        ls.sort_by(f64::total_cmp);
-        if ls.windows(2).any(|w| w[1] == w[0]) {
-            return Err(ParamIssue::new(
-                "ls",
-                format!("{ls:?}: allowed distinct reduced loads"),
-            ));
-        }
-        Ok(())
+        check_ls(&params.ls)
     }
     fn inputs(&self, _params: &RefinedLadderParams) -> Vec<InputSpec> {
         Vec::new()

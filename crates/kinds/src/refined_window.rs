@@ -60,7 +60,10 @@
 //! ([`WindowPairRow`]: `l_hi`, `l_lo`, `value`) with `flag` (the pair's own flag: a flagged
 //! rung, or a window contact set unchanged between the two rungs; empty if usable).
 
-use crate::refined_ladder::{GRID_BOUND, RefinedData, RefinedPair, RefinedRungRow};
+use crate::refined_ladder::{
+    GRID_BOUND, RefinedData, RefinedPair, RefinedRungRow, box_memory, check_levels, check_ls,
+    levels_spec, ls_spec, max_iter_spec,
+};
 use crate::surface::lattice_spec;
 use analysis::same_load;
 use anyhow::{Result, anyhow};
@@ -157,9 +160,12 @@ impl TypedKind for RefinedWindowKind {
             0 => *levels.get(levels.len().saturating_sub(2))?,
             k => k,
         };
-        let side = ((params.i64("window_check").ok()? + 2 * params.i64("margin").ok()? + 2) as u64)
-            << level.clamp(0, 6);
-        Some(4 * crate::surface::field_bytes(base) + 8 * side * side)
+        Some(box_memory(
+            base,
+            params.i64("window_check").ok()?,
+            params.i64("margin").ok()?,
+            level,
+        ))
     }
     fn name(&self) -> &str {
         "refined_window"
@@ -175,15 +181,7 @@ impl TypedKind for RefinedWindowKind {
             lattice_spec(),
             ParamSpec::new("base", ParamType::int_range(4, 11))
                 .doc("base grid exponent of the checked ladder"),
-            ParamSpec::new(
-                "levels",
-                ParamType::Array {
-                    elem: Box::new(ParamType::int_range(1, 6)),
-                    min_len: 1,
-                    max_len: Some(6),
-                },
-            )
-            .doc("the checked ladder's refinement levels k, strictly ascending"),
+            levels_spec("the checked ladder's refinement levels k, strictly ascending"),
             ParamSpec::new("level", ParamType::int_range(0, 6))
                 .default(0)
                 .doc("the level k of the check, one of `levels` (0: the coarser of the two finest of `levels`, or the only one; the window error comes from the base grid outside the window, which every level shares)"),
@@ -194,31 +192,14 @@ impl TypedKind for RefinedWindowKind {
             ParamSpec::new("margin", ParamType::int_range(5, 64))
                 .default(12)
                 .doc("the checked ladder's margin (base cells; window_check + 2 margin + 2 ≤ 2^base)"),
-            ParamSpec::new(
-                "ls",
-                ParamType::Array {
-                    elem: Box::new(ParamType::float_range(-0.5, 0.5)),
-                    min_len: 2,
-                    max_len: Some(64),
-                },
-            )
+            ls_spec()
             .doc("the checked ladder's reduced loads (≠ 0, distinct), from the check's own p_c"),
             crate::solver::tol_gap_spec(),
-            ParamSpec::new("max_iter", ParamType::int_range(10, 1_000_000))
-                .default(2000)
-                .doc("iteration cap per solve attempt"),
+            max_iter_spec(),
         ]
     }
     fn check(&self, params: &RefinedWindowParams) -> Result<(), ParamIssue> {
-        if params.levels.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(ParamIssue::new(
-                "levels",
-                format!(
-                    "{:?}: allowed a strictly ascending list of refinement levels",
-                    params.levels
-                ),
-            ));
-        }
+        check_levels(&params.levels)?;
         if params.level != 0 && !params.levels.contains(&params.level) {
             return Err(ParamIssue::new(
                 "level",
@@ -249,23 +230,7 @@ impl TypedKind for RefinedWindowKind {
                 ),
             ));
         }
-        if let Some(l) = params.ls.iter().find(|l| l.abs() < 1e-12) {
-            return Err(ParamIssue::new(
-                "ls",
-                format!(
-                    "{l}: allowed reduced loads with |l| ≥ 1e-12 (p_c itself measures nothing)"
-                ),
-            ));
-        }
-        let mut ls = params.ls.clone();
-        ls.sort_by(f64::total_cmp);
-        if ls.windows(2).any(|w| w[1] == w[0]) {
-            return Err(ParamIssue::new(
-                "ls",
-                format!("{ls:?}: allowed distinct reduced loads"),
-            ));
-        }
-        Ok(())
+        check_ls(&params.ls)
     }
     fn inputs(&self, _params: &RefinedWindowParams) -> Vec<InputSpec> {
         Vec::new()
