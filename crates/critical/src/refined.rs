@@ -1165,22 +1165,37 @@ impl Measured {
     /// takes every rung below p_c(D) (a closed one is flagged); υ and χ only those whose edge
     /// fit succeeded (a failed fit widens the pair, as on the uniform ladders).
     pub fn point(self, r: &RefinedRung, sigma_gap: f64) -> Option<ScalingPoint> {
+        self.select(
+            r.l,
+            (r.saddle_gap, sigma_gap),
+            r.half_width,
+            r.half_length,
+            r.flux,
+        )
+    }
+
+    /// [`Measured::point`] from a rung's stored values (value, 1σ each; `saddle_gap`'s σ is the
+    /// solver tolerance): for readers of a stored ladder, which has no [`RefinedRung`].
+    pub fn select(
+        self,
+        l: f64,
+        saddle_gap: (f64, f64),
+        half_width: (f64, f64),
+        half_length: (f64, f64),
+        flux: (f64, f64),
+    ) -> Option<ScalingPoint> {
         let (y, s) = match self {
-            Measured::SaddleGap if r.l < 0.0 => (r.saddle_gap, sigma_gap),
-            Measured::OpenHalfWidth if r.l < 0.0 => r.half_width,
-            Measured::BlockedHalfLength if r.l > 0.0 => r.half_length,
-            Measured::Flux if r.l < 0.0 => r.flux,
+            Measured::SaddleGap if l < 0.0 => saddle_gap,
+            Measured::OpenHalfWidth if l < 0.0 => half_width,
+            Measured::BlockedHalfLength if l > 0.0 => half_length,
+            Measured::Flux if l < 0.0 => flux,
             _ => return None,
         };
         if self != Measured::SaddleGap && !(y.is_finite() && y > 0.0) {
             return None;
         }
         // a fit with no degree of freedom has no error: σ = 0 (as critical::running::measure)
-        Some(ScalingPoint::new(
-            r.l,
-            y,
-            if s.is_finite() { s } else { 0.0 },
-        ))
+        Some(ScalingPoint::new(l, y, if s.is_finite() { s } else { 0.0 }))
     }
 }
 

@@ -392,6 +392,39 @@ pub fn running_group(m: Measured) -> &'static str {
     }
 }
 
+/// A rung as the refined kinds store it.
+pub fn rung_row(r: &RefinedRung) -> RefinedRungRow {
+    RefinedRungRow {
+        l: r.l,
+        load: r.load,
+        saddle_gap: r.saddle_gap,
+        contact_area: r.contact_area,
+        iterations: r.iterations,
+        wall_s: r.wall_s,
+        neck_nodes: r.neck_nodes,
+        flagged: r.flag.is_some(),
+        half_width: r.half_width.0,
+        half_width_error: r.half_width.1,
+        half_length: r.half_length.0,
+        half_length_error: r.half_length.1,
+        conductance: r.flux.0,
+        conductance_error: r.flux.1,
+    }
+}
+
+/// Rungs as `<at>/*` ([`RefinedRungRow`]) with their flags as `<at>/flag` (empty: unflagged);
+/// shared by `refined_ladder` (each `d/<i>`) and `refined_window` (`rungs`).
+pub fn write_rungs(out: &mut ArtefactWriter, at: &str, rungs: &[RefinedRung]) -> Result<()> {
+    let rows: Vec<RefinedRungRow> = rungs.iter().map(rung_row).collect();
+    RefinedRungRow::write(&rows, out, at)?;
+    let flags: Vec<String> = rungs
+        .iter()
+        .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string()))
+        .collect();
+    out.write_strings(&format!("{at}/flag"), &flags)?;
+    Ok(())
+}
+
 /// One discretisation's p_c and rungs (`<at>/*`).
 fn write_discretisation(
     out: &mut ArtefactWriter,
@@ -402,31 +435,7 @@ fn write_discretisation(
     wall: f64,
     iterations: usize,
 ) -> Result<()> {
-    let rows: Vec<RefinedRungRow> = rungs
-        .iter()
-        .map(|r| RefinedRungRow {
-            l: r.l,
-            load: r.load,
-            saddle_gap: r.saddle_gap,
-            contact_area: r.contact_area,
-            iterations: r.iterations,
-            wall_s: r.wall_s,
-            neck_nodes: r.neck_nodes,
-            flagged: r.flag.is_some(),
-            half_width: r.half_width.0,
-            half_width_error: r.half_width.1,
-            half_length: r.half_length.0,
-            half_length_error: r.half_length.1,
-            conductance: r.flux.0,
-            conductance_error: r.flux.1,
-        })
-        .collect();
-    RefinedRungRow::write(&rows, out, at)?;
-    let flags: Vec<String> = rungs
-        .iter()
-        .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string()))
-        .collect();
-    out.write_strings(&format!("{at}/flag"), &flags)?;
+    write_rungs(out, at, rungs)?;
     let notes: Vec<String> = rungs
         .iter()
         .map(|r| r.edge_note.clone().unwrap_or_default())

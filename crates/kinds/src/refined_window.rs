@@ -60,9 +60,10 @@
 //! ([`WindowPairRow`]: `l_hi`, `l_lo`, `value`) with `flag` (the pair's own flag: a flagged
 //! rung, or a window contact set unchanged between the two rungs; empty if usable).
 
+pub use crate::refined_ladder::rung_row;
 use crate::refined_ladder::{
     GRID_BOUND, RefinedData, RefinedPair, RefinedRungRow, box_memory, check_levels, check_ls,
-    levels_spec, ls_spec, max_iter_spec,
+    levels_spec, ls_spec, max_iter_spec, write_rungs,
 };
 use crate::surface::lattice_spec;
 use analysis::same_load;
@@ -269,13 +270,7 @@ impl TypedKind for RefinedWindowKind {
         let (rungs, _fluxes) =
             ladder_with_flux(&mut r, c.p_c(), &params.ls, method, &mut |_, _, _| {})?;
         let wall = t.elapsed().as_secs_f64();
-        let rows: Vec<RefinedRungRow> = rungs.iter().map(rung_row).collect();
-        RefinedRungRow::write(&rows, out, "rungs")?;
-        let flags: Vec<String> = rungs
-            .iter()
-            .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string()))
-            .collect();
-        out.write_strings("rungs/flag", &flags)?;
+        write_rungs(out, "rungs", &rungs)?;
         let mut npairs = 0;
         for m in Measured::ALL {
             let pairs = own_pairs(m, &rungs, opts.tol_gap);
@@ -315,7 +310,7 @@ impl TypedKind for RefinedWindowKind {
         Ok(StageReport::with_stats(json!({
             "p_c_over_p_fc": c.p_c() / p_fc,
             "pairs": npairs,
-            "flagged_rungs": flags.iter().filter(|f| !f.is_empty()).count(),
+            "flagged_rungs": rungs.iter().filter(|r| r.flag.is_some()).count(),
         })))
     }
 }
@@ -323,26 +318,6 @@ impl TypedKind for RefinedWindowKind {
 /// The artefact group of the check's running pairs of `m` (`pairs_zeta`, …).
 fn pairs_group(m: Measured) -> String {
     format!("pairs_{}", m.name())
-}
-
-/// A rung as `refined_ladder` stores it ([`RefinedRungRow`]).
-pub fn rung_row(r: &RefinedRung) -> RefinedRungRow {
-    RefinedRungRow {
-        l: r.l,
-        load: r.load,
-        saddle_gap: r.saddle_gap,
-        contact_area: r.contact_area,
-        iterations: r.iterations,
-        wall_s: r.wall_s,
-        neck_nodes: r.neck_nodes,
-        flagged: r.flag.is_some(),
-        half_width: r.half_width.0,
-        half_width_error: r.half_width.1,
-        half_length: r.half_length.0,
-        half_length_error: r.half_length.1,
-        conductance: r.flux.0,
-        conductance_error: r.flux.1,
-    }
 }
 
 /// One running pair of one discretisation at one level: its loads, its value and its own
@@ -394,16 +369,15 @@ pub fn level_slopes(rungs: &[(RefinedRungRow, String)], m: Measured) -> Vec<Slop
     let mut pts: Vec<(f64, f64, &str)> = rungs
         .iter()
         .filter_map(|(r, flag)| {
-            let y = match m {
-                Measured::SaddleGap if r.l < 0.0 => {
-                    return Some((r.l, r.saddle_gap, flag.as_str()));
-                }
-                Measured::OpenHalfWidth if r.l < 0.0 => r.half_width,
-                Measured::BlockedHalfLength if r.l > 0.0 => r.half_length,
-                Measured::Flux if r.l < 0.0 => r.conductance,
-                _ => return None,
-            };
-            (y.is_finite() && y > 0.0).then_some((r.l, y, flag.as_str()))
+            // the σ do not enter a slope's value: the rung's own ones, the gap's unused
+            m.select(
+                r.l,
+                (r.saddle_gap, 0.0),
+                (r.half_width, r.half_width_error),
+                (r.half_length, r.half_length_error),
+                (r.conductance, r.conductance_error),
+            )
+            .map(|p| (r.l, p.y, flag.as_str()))
         })
         .collect();
     pts.sort_by(|a, b| b.0.abs().total_cmp(&a.0.abs()));
