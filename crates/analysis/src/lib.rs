@@ -22,10 +22,12 @@
 //! - Near-critical asymptotics: running (local) exponents with grid errors ([`running`]),
 //!   corrections-to-scaling fits and asymptotic estimates with range/form spreads
 //!   ([`corrections`]), verdicts against conjectured values and error propagation through the
-//!   identity β = 3ζ + υ − χ ([`mod@verdict`]).
+//!   identity β = 3ζ + υ − χ ([`mod@verdict`]); whether the difference between two models'
+//!   running exponents vanishes as |l| → 0 ([`difference`]).
 
 pub mod collapse;
 pub mod corrections;
+pub mod difference;
 mod error;
 pub mod extrapolate;
 mod fit;
@@ -45,6 +47,9 @@ pub use collapse::{
 pub use corrections::{
     AsymptoticError, AsymptoticEstimate, AsymptoticOptions, CorrectedFit, Form, Omega, Variant,
     WindowIssue, asymptotic_estimate, fit_corrected_power_law, fit_running_exponent,
+};
+pub use difference::{
+    DiffOptions, DiffPoint, DiffVerdict, DifferenceScaling, RangeFit, difference_scaling,
 };
 pub use error::{FitError, Result};
 pub use extrapolate::{

@@ -438,6 +438,122 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
     }
     assert!(checked > 0, "no deep pair has a window change");
 
+    // 7d. between the models (scene running, kinds of analysis::difference): each row of
+    // model_differences.csv is model_b's running exponent minus model_a's at a pair both
+    // measured unflagged, from each model's deepest ladder with that pair
+    let re = tables::read_csv(
+        &root.join("results/tables/running_exponents.csv"),
+        &[
+            ("model", ColumnType::Str),
+            ("exponent", ColumnType::Str),
+            ("l_hi", ColumnType::F64),
+            ("l_lo", ColumnType::F64),
+            ("value", ColumnType::F64),
+            ("flag", ColumnType::Str),
+            ("method", ColumnType::Str),
+        ],
+    )
+    .unwrap();
+    // the pairs every two models both measured unflagged, counted here from running_exponents
+    let mut expected = 0;
+    let (rm, rx, rh, rl, rf) = (
+        re.str("model").unwrap(),
+        re.str("exponent").unwrap(),
+        re.f64("l_hi").unwrap(),
+        re.f64("l_lo").unwrap(),
+        re.str("flag").unwrap(),
+    );
+    let models = ["square", "triangular", "hexagonal"];
+    for e in ["zeta", "upsilon", "chi", "beta"] {
+        for (i, a) in models.iter().enumerate() {
+            for b in &models[i + 1..] {
+                let pairs = |m: &str| -> BTreeSet<(i64, i64)> {
+                    (0..re.n_rows())
+                        .filter(|&k| rm[k] == m && rx[k] == e && rf[k].is_empty())
+                        .map(|k| ((rh[k] * 1e9).round() as i64, (rl[k] * 1e9).round() as i64))
+                        .collect()
+                };
+                expected += pairs(a).intersection(&pairs(b)).count();
+            }
+        }
+    }
+    let md_path = root.join("results/tables/model_differences.csv");
+    if expected == 0 {
+        let text = std::fs::read_to_string(&md_path).unwrap();
+        assert_eq!(text.lines().count(), 1, "no common pair: the header alone");
+    }
+    if expected > 0 {
+        let md = tables::read_csv(
+            &md_path,
+            &[
+                ("exponent", ColumnType::Str),
+                ("model_a", ColumnType::Str),
+                ("model_b", ColumnType::Str),
+                ("l_hi", ColumnType::F64),
+                ("l_lo", ColumnType::F64),
+                ("difference", ColumnType::F64),
+                ("method_a", ColumnType::Str),
+                ("method_b", ColumnType::Str),
+            ],
+        )
+        .unwrap();
+        let depth = |m: &str| {
+            ["uniform", "refined", "refined_deep"]
+                .iter()
+                .position(|d| *d == m)
+        };
+        let value_of = |model: &str, e: &str, hi: f64, lo: f64| -> Option<(f64, String)> {
+            (0..re.n_rows())
+                .filter(|&k| {
+                    re.str("model").unwrap()[k] == model
+                        && re.str("exponent").unwrap()[k] == e
+                        && re.str("flag").unwrap()[k].is_empty()
+                        && (re.f64("l_hi").unwrap()[k] - hi).abs() <= 1e-9 * hi.abs()
+                        && (re.f64("l_lo").unwrap()[k] - lo).abs() <= 1e-9 * lo.abs()
+                })
+                .max_by_key(|&k| depth(&re.str("method").unwrap()[k]))
+                .map(|k| {
+                    (
+                        re.f64("value").unwrap()[k],
+                        re.str("method").unwrap()[k].clone(),
+                    )
+                })
+        };
+        for k in 0..md.n_rows() {
+            let (e, a, b) = (
+                &md.str("exponent").unwrap()[k],
+                &md.str("model_a").unwrap()[k],
+                &md.str("model_b").unwrap()[k],
+            );
+            let (hi, lo) = (md.f64("l_hi").unwrap()[k], md.f64("l_lo").unwrap()[k]);
+            let (va, ma) = value_of(a, e, hi, lo).expect("model_a measured the pair unflagged");
+            let (vb, mb) = value_of(b, e, hi, lo).expect("model_b measured the pair unflagged");
+            assert!(
+                (md.f64("difference").unwrap()[k] - (vb - va)).abs() <= 1e-12,
+                "row {k}: difference is b − a"
+            );
+            assert_eq!(
+                (&ma, &mb),
+                (
+                    &md.str("method_a").unwrap()[k],
+                    &md.str("method_b").unwrap()[k]
+                )
+            );
+        }
+        assert_eq!(md.n_rows(), expected, "one row per common pair");
+    }
+    let un = tables::read_csv(
+        &root.join("results/tables/universality.csv"),
+        &[("verdict", ColumnType::Str)],
+    )
+    .unwrap();
+    // a row per model pair and fit range where the pair has common pairs, none otherwise
+    assert_eq!(un.n_rows() > 0, expected > 0);
+    assert!(
+        un.str("verdict").unwrap().iter().all(|v| !v.is_empty()),
+        "every universality row has a verdict"
+    );
+
     // 8. unchanged rerun: nothing runs
     let events = run_smoke(root, &[]);
     assert!(stages_with(&events, "ran").is_empty(), "{events:?}");

@@ -47,8 +47,15 @@
 //! by a dotted line, "(deep)" in the legend), flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
 //! gives no error), the conjecture as a dotted line.
 //!
+//! Between the models ([`differences`]): `model_differences.csv` (the difference of two models'
+//! running exponents at every pair both measured usably, and its own local slope) and
+//! `universality.csv` (whether that difference vanishes as |l| → 0: fits Δ = c|l|^ω against
+//! Δ = Δ∞ + c|l|^ω over every range of the smallest-|l| pairs, `analysis::difference`).
+//!
 //! Measurements that fail on a rung (a closed saddle node, an unresolved edge) are left out and
 //! reported as stage warnings.
+
+pub mod differences;
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Context, Result};
@@ -242,7 +249,7 @@ impl Scene for Running {
         "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors, from the uniform ladders and (optional) the refined ones (table and figure)"
     }
     fn code_version(&self) -> u64 {
-        5
+        6
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
@@ -261,6 +268,8 @@ impl Scene for Running {
     fn outputs(&self, _params: &Params) -> Vec<OutputSpec> {
         vec![
             OutputSpec::table("running", "running_exponents.csv"),
+            OutputSpec::table("differences", "model_differences.csv"),
+            OutputSpec::table("universality", "universality.csv"),
             OutputSpec::figure("figure", "running_exponents"),
         ]
     }
@@ -283,7 +292,11 @@ impl Scene for Running {
         for n in notes {
             ctx.warn(n);
         }
-        let mut out = Outputs::new().table("running", table(&rows)?);
+        let pairs = differences::analyse(&rows)?;
+        let mut out = Outputs::new()
+            .table("running", table(&rows)?)
+            .table("differences", differences::differences_table(&pairs)?)
+            .table("universality", differences::universality_table(&pairs)?);
         if rows.is_empty() {
             ctx.warn("no running exponent on any ladder: figure running_exponents not drawn");
         } else {

@@ -281,28 +281,37 @@ pub fn module_identities(
                 .unwrap_or_default()
                 .to_string_lossy()
                 .into_owned();
-            // a module is a file `src/m.rs` or a folder `src/m/` with `mod.rs`: a folder's
-            // source is all of its files (sorted, each under its relative path), so an edit to
-            // any of them changes the module's identity
-            let source = if p.extension().is_some_and(|x| x == "rs") && stem != "lib" {
-                Some((std::fs::read_to_string(&p)?, format!("{mc}/src/{stem}.rs")))
-            } else if p.is_dir() && p.join("mod.rs").is_file() {
+            // a module is a file `src/m.rs` (with its submodules in `src/m/`, if any) or a
+            // folder `src/m/` with `mod.rs`: a module's source is all of its files (sorted, each
+            // under its relative path), so an edit to any of them changes its identity
+            let folder = |dir: &Path, text: &mut String| -> io::Result<()> {
                 let mut files = Vec::new();
-                files_under(&p, false, &mut files)?;
+                files_under(dir, false, &mut files)?;
                 files.sort();
-                let mut text = String::new();
                 for f in files
                     .iter()
                     .filter(|f| f.extension().is_some_and(|x| x == "rs"))
                 {
                     let rel = f
-                        .strip_prefix(&p)
+                        .strip_prefix(dir)
                         .unwrap_or(f)
                         .to_string_lossy()
                         .replace('\\', "/");
                     text.push_str(&format!("// file {rel}\n"));
                     text.push_str(&std::fs::read_to_string(f)?);
                 }
+                Ok(())
+            };
+            let source = if p.extension().is_some_and(|x| x == "rs") && stem != "lib" {
+                let mut text = std::fs::read_to_string(&p)?;
+                let sub = p.with_extension("");
+                if sub.is_dir() {
+                    folder(&sub, &mut text)?;
+                }
+                Some((text, format!("{mc}/src/{stem}.rs")))
+            } else if p.is_dir() && p.join("mod.rs").is_file() {
+                let mut text = String::new();
+                folder(&p, &mut text)?;
                 Some((text, format!("{mc}/src/{stem}/")))
             } else {
                 None

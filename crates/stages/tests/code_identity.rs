@@ -143,6 +143,29 @@ fn a_module_folder_is_one_module_whose_every_file_counts() {
     assert_eq!(changed(&before, &after), users);
 }
 
+/// A module `m.rs` with its submodules in `m/` (the layout without `mod.rs`: the running
+/// scene's `running.rs` and `running/differences.rs`): an edit to a submodule file changes the
+/// module's identity, labelled by `m.rs`.
+#[test]
+fn a_modules_submodule_folder_counts_as_part_of_the_module() {
+    let dir = workspace_copy();
+    let before = ids(dir.path(), "");
+    let sub = dir.path().join("crates/scenes/src/running/differences.rs");
+    assert!(
+        sub.is_file(),
+        "the running scene keeps a submodule in running/"
+    );
+    append(&sub, "\n// an edit\n");
+    let after = ids(dir.path(), "");
+    let users: BTreeSet<String> = before
+        .iter()
+        .filter(|(_, parts)| parts.contains_key("scenes/src/running.rs"))
+        .map(|(m, _)| m.clone())
+        .collect();
+    assert!(users.contains("running"), "{users:?}");
+    assert_eq!(changed(&before, &after), users);
+}
+
 /// A folder module's part is labelled by its folder (`kinds/src/exponents/`), not as a file
 /// that does not exist, and an override names it by that label.
 #[test]
