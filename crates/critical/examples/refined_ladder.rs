@@ -69,6 +69,32 @@ fn run(
                 probes: 0,
             }
         }
+        Err(_) if std::env::var("REFINED_PC_TRACE").is_ok() => {
+            // what `critical_load` does (a fresh D: the warm-up solve below the bracket), with
+            // every probe printed: `probe,<name>,k,#,load/p_fc,gap,iterations,wall_s`
+            let p_fc = r.p_fc();
+            r.solve(guess * (1.0 - width.max(1e-2))).expect("warm-up solve");
+            let mut n = 0;
+            let label = format!("{name},{}", d.levels);
+            critical::refined::find_closing_load(
+                &mut |p| {
+                    let t = Instant::now();
+                    let (s, it) = r.solve(p)?;
+                    let g = r.saddle_gap(&s);
+                    n += 1;
+                    println!(
+                        "probe,{label},{n},{:.15e},{g:.6e},{it},{:.2}",
+                        p / p_fc,
+                        t.elapsed().as_secs_f64()
+                    );
+                    Ok(g)
+                },
+                guess,
+                width,
+                opts,
+            )
+            .expect("p_c")
+        }
         Err(_) => r.critical_load(Some(guess), width).expect("p_c"),
     };
     let pc = c.p_c();
