@@ -324,8 +324,13 @@ impl Discretisation {
 /// How [`find_closing_load`] searches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Search {
-    /// Secant on g^(1/ζ0), aimed below, safeguarded by the bracket (module docs).
+    /// Secant on g^(1/a) (a fitted to three open probes), aimed below the zero by the change of
+    /// the zero between steps; seeded with solves done before the search; bisection within a
+    /// probe budget (module docs, "The p_c search").
     #[default]
+    Aimed,
+    /// The first secant search (until 2026-11-26): aimed a fixed fraction `aim_below` of the
+    /// predicted distance below the zero; ignores seeds.
     Secant,
     /// Plain bisection of the bracket.
     Bisection,
@@ -360,7 +365,7 @@ impl Default for RefinedOptions {
             rel_tol: 1e-11,
             zeta0: 1.0,
             aim_below: 0.02,
-            search: Search::Secant,
+            search: Search::Aimed,
             min_edge_cells: 2.0,
         }
     }
@@ -437,12 +442,28 @@ pub fn find_closing_load(
     width: f64,
     opts: &RefinedOptions,
 ) -> Result<ClosingLoad, CriticalError> {
+    find_closing_load_seeded(probe, guess, width, &[], opts)
+}
+
+/// [`find_closing_load`] with `seed`, loads solved before the search and their gaps (p, g)
+/// (e.g. the warm-up solve below the bracket): [`Search::Aimed`] uses them as probes (not
+/// counted in `probes`); the other searches ignore them.
+pub fn find_closing_load_seeded(
+    probe: &mut dyn FnMut(f64) -> Result<f64, CriticalError>,
+    guess: f64,
+    width: f64,
+    seed: &[(f64, f64)],
+    opts: &RefinedOptions,
+) -> Result<ClosingLoad, CriticalError> {
     opts.validate()?;
     if !(guess.is_finite() && guess > 0.0) {
         return Err(CriticalError::param("guess", guess, "finite and > 0"));
     }
     if !(width.is_finite() && width > 0.0 && width < 0.5) {
         return Err(CriticalError::param("width", width, "0 < width < 0.5"));
+    }
+    if opts.search == Search::Aimed {
+        return search_aimed(probe, guess, width, seed, opts);
     }
     let mut probes = 0usize;
     let mut open: Vec<(f64, f64)> = Vec::new(); // (p, g), ascending p
@@ -500,15 +521,15 @@ pub fn find_closing_load(
                 }
                 bisect(hi)
             }
-            (Search::Secant, 1) => match hi {
+            (_, 1) => match hi {
                 Some(h) => 0.5 * (lo + h),
                 None => lo * (1.0 + 0.5 * w),
             },
-            (Search::Secant, _) if slow >= 2 => {
+            (_, _) if slow >= 2 => {
                 slow = 0;
                 bisect(hi)
             }
-            (Search::Secant, n) => {
+            (_, n) => {
                 let (p2, g2) = open[n - 1];
                 // the open probes nearest p_c, each at least 4 rel_tol below the next: probes
                 // closer than that differ by the solver's noise in g, not by the law
@@ -567,6 +588,209 @@ pub fn find_closing_load(
             opts.rel_tol
         ),
     })
+}
+
+/// The closing-load error for a load that is not below 2 `guess`.
+fn above_twice(guess: f64) -> CriticalError {
+    CriticalError::param(
+        "guess",
+        guess,
+        "a load with the saddle closed within a factor 2 above it",
+    )
+}
+
+/// Probes [`Search::Aimed`] may take beyond bisection's count from its first bracket: its
+/// model steps shrink the distance from below by orders of magnitude while the closed end stays
+/// put until the closing probe (a far first closed probe: 3 steps and the closing probe).
+const BUDGET_SPARE: usize = 4;
+
+/// Bisection steps from the bracket [lo, hi] to a relative width `tol`.
+fn bisections(lo: f64, hi: f64, tol: f64) -> usize {
+    ((hi - lo) / (tol * lo)).log2().ceil().max(0.0) as usize
+}
+
+/// [`Search::Aimed`] (module docs, "The p_c search").
+fn search_aimed(
+    probe: &mut dyn FnMut(f64) -> Result<f64, CriticalError>,
+    guess: f64,
+    width: f64,
+    seed: &[(f64, f64)],
+    opts: &RefinedOptions,
+) -> Result<ClosingLoad, CriticalError> {
+    let tol = opts.rel_tol;
+    let mut probes = 0usize;
+    let mut open: Vec<(f64, f64)> = Vec::new(); // (p, g), ascending p
+    let mut hi: Option<f64> = None;
+    let add = |p: f64, g: f64, open: &mut Vec<(f64, f64)>, hi: &mut Option<f64>| {
+        if g > 0.0 {
+            open.push((p, g));
+            open.sort_by(|a, b| a.0.total_cmp(&b.0));
+        } else {
+            *hi = Some(hi.map_or(p, |h: f64| h.min(p)));
+        }
+    };
+    for &(p, g) in seed {
+        if p.is_finite() && p > 0.0 && !g.is_nan() {
+            add(p, g, &mut open, &mut hi);
+        }
+    }
+    // an open seed above a closed one is noise at the floor: keep only the consistent ones
+    if let Some(h) = hi {
+        open.retain(|o| o.0 < h);
+    }
+    let mut run = |p: f64, open: &mut Vec<(f64, f64)>, hi: &mut Option<f64>, n: &mut usize| {
+        *n += 1;
+        let g = probe(p)?;
+        add(p, g, open, hi);
+        Ok::<(), CriticalError>(())
+    };
+    // an open load at guess (1 − width); while closed, step down by widths growing 8× (then by
+    // halving the load), or to the highest open seed
+    let mut step = width;
+    let mut p = guess * (1.0 - width);
+    loop {
+        if open.last().is_some_and(|o| o.0 >= p * (1.0 - 1e-12)) {
+            break;
+        }
+        if hi.is_some_and(|h| p >= h) {
+            // a closed seed below the first probe: step down at once
+        } else {
+            run(p, &mut open, &mut hi, &mut probes)?;
+            if hi != Some(p) {
+                break;
+            }
+        }
+        if p < 1e-3 * guess {
+            return Err(CriticalError::param(
+                "guess",
+                guess,
+                "a load with the saddle open above 1e-3 of it",
+            ));
+        }
+        step *= 8.0;
+        p = if step < 0.5 {
+            guess * (1.0 - step)
+        } else {
+            0.5 * p
+        };
+    }
+    let mut state = AimState::default();
+    // the probe budget: at most BUDGET_SPARE more than bisection from the first bracket
+    let mut budget: Option<usize> = None;
+    for _ in 0..200 {
+        let (lo, glo) = *open.last().expect("one open");
+        if let Some(h) = hi {
+            if h / lo - 1.0 <= tol {
+                return Ok(ClosingLoad { lo, hi: h, probes });
+            }
+            let left = bisections(lo, h, tol);
+            let b = *budget.get_or_insert(probes + left + BUDGET_SPARE);
+            if probes + left >= b {
+                // the budget is spent: bisection from here keeps to it
+                let q = 0.5 * (lo + h);
+                run(q, &mut open, &mut hi, &mut probes)?;
+                continue;
+            }
+        }
+        let q = aimed_step(&open, lo, glo, hi, width, &mut state, opts);
+        if !q.is_finite() || q > 2.0 * guess {
+            return Err(above_twice(guess));
+        }
+        run(q, &mut open, &mut hi, &mut probes)?;
+    }
+    Err(CriticalError::Solver {
+        load: open.last().map_or(guess, |o| o.0),
+        detail: format!(
+            "closing-load search: no bracket of relative width {:e} after 200 probes",
+            tol
+        ),
+    })
+}
+
+/// What [`aimed_step`] carries from one step to the next.
+#[derive(Default)]
+struct AimState {
+    /// The last step's zero.
+    last_est: Option<f64>,
+    /// Steps in a row whose fitted zero lay at or above the closed end.
+    overshoots: usize,
+}
+
+/// The next load of [`Search::Aimed`]: the zero `est` of g^(1/a) through the two open probes
+/// nearest p_c (a fitted to three), its uncertainty u = the change of the zero since the last
+/// step (at least the solver's floor 2 tol_gap / |dg/dp|), and the probe est − min(θ d, 2u)
+/// (d = est − lo), or just above lo once est + u lies within the tolerance of lo.
+fn aimed_step(
+    open: &[(f64, f64)],
+    lo: f64,
+    glo: f64,
+    hi: Option<f64>,
+    width: f64,
+    state: &mut AimState,
+    opts: &RefinedOptions,
+) -> f64 {
+    let tol = opts.rel_tol;
+    let midpoint = match hi {
+        Some(h) => 0.5 * (lo + h),
+        None => lo * (1.0 + 0.5 * width),
+    };
+    // the open probes nearest p_c, each at least 4 tol below the next (closer ones differ by
+    // the solver's noise in g, not by the law)
+    let mut spaced = vec![open[open.len() - 1]];
+    for &o in open[..open.len() - 1].iter().rev() {
+        if spaced.len() < 3 && spaced[spaced.len() - 1].0 - o.0 >= 4.0 * tol * lo {
+            spaced.push(o);
+        }
+    }
+    if spaced.len() < 2 {
+        return midpoint;
+    }
+    let a = match spaced.len() {
+        3 => fit_exponent(spaced[2], spaced[1], spaced[0]),
+        _ => opts.zeta0,
+    };
+    let est = secant_zero(spaced[1], spaced[0], a);
+    let d = est - lo;
+    if !(d > 0.0 && est.is_finite()) {
+        state.last_est = None;
+        return midpoint;
+    }
+    if let Some(h) = hi
+        && est >= h
+    {
+        // the fitted law overshoots a closed probe: the straight secant (a = 1), below p_c
+        // for a convex law, or bisection
+        let est1 = secant_zero(spaced[1], spaced[0], 1.0);
+        state.last_est = Some(est1);
+        state.overshoots += 1;
+        return if est1 > lo && est1 < h {
+            // every second overshoot in a row (the fitted exponent keeps overshooting, the
+            // straight secant creeps up from below): halve [est1, h], the bracket for a convex law
+            if state.overshoots % 2 == 0 {
+                0.5 * (est1 + h)
+            } else {
+                est1.max(lo * (1.0 + 0.5 * tol))
+            }
+        } else {
+            // p_c just below the closed probe: try to close the bracket there
+            (h * (1.0 - 0.9 * tol)).max(midpoint)
+        };
+    }
+    // dg/dp at lo of g = A (p_c − p)^a: a g / d
+    let noise = 2.0 * opts.tol_gap * d / (a * glo);
+    let u = state.last_est.map_or(d, |e| (est - e).abs()).max(noise);
+    state.last_est = Some(est);
+    state.overshoots = 0;
+    let q = if est + u <= lo * (1.0 + 0.9 * tol) {
+        lo * (1.0 + 0.9 * tol)
+    } else {
+        let back = (opts.aim_below * d).min((2.0 * u).max(0.45 * tol * lo));
+        (est - back).max(lo * (1.0 + 0.5 * tol))
+    };
+    match hi {
+        Some(h) if q >= h => midpoint,
+        _ => q,
+    }
 }
 
 /// The first guess of p_c(D): the closing load of D's axis saddle on the periodic base grid
@@ -941,11 +1165,17 @@ impl Refinement {
             Some(g) => (g, width),
             None => (0.5 * self.p_fc(), 0.45),
         };
+        let mut seed = Vec::new();
         if self.warm.is_none() {
-            // a cold start right at p_c can stagnate (k = 4): start 1 % below it
-            self.solve(g * (1.0 - w.max(1e-2)))?;
+            // a cold start right at p_c can stagnate (k = 4): start 1 % below it (an open probe
+            // for the search if converged)
+            let p0 = g * (1.0 - w.max(1e-2));
+            let (r, _) = self.solve(p0)?;
+            if r.stats.converged {
+                seed.push((p0, self.saddle_gap(&r)));
+            }
         }
-        find_closing_load(
+        find_closing_load_seeded(
             &mut |p| {
                 let (r, _) = self.solve(p)?;
                 if !r.stats.converged {
@@ -961,6 +1191,7 @@ impl Refinement {
             },
             g,
             w,
+            &seed,
             &opts,
         )
     }
