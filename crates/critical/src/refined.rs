@@ -766,7 +766,7 @@ fn aimed_step(
         return if est1 > lo && est1 < h {
             // every second overshoot in a row (the fitted exponent keeps overshooting, the
             // straight secant creeps up from below): halve [est1, h], the bracket for a convex law
-            if state.overshoots % 2 == 0 {
+            if state.overshoots.is_multiple_of(2) {
                 0.5 * (est1 + h)
             } else {
                 est1.max(lo * (1.0 + 0.5 * tol))
