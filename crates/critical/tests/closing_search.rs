@@ -19,13 +19,16 @@ fn noise(p: f64) -> f64 {
     (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
 }
 
+/// A gap law g(δ).
+type Law = Box<dyn Fn(f64) -> f64>;
+
 const PC: f64 = 0.2286050839617;
 
 /// The gap laws g(δ), δ = 1 − p/p_c: pure power laws a = 1 … 1.3 (prefactor 0.37 p_c: the
 /// square model's measured affine slope, 64² base, k = 3), a power law turning affine below
 /// 1e-6 (a discretisation's frozen contact set), and one with the solver's noise on top.
-fn laws() -> Vec<(String, Box<dyn Fn(f64) -> f64>)> {
-    let mut v: Vec<(String, Box<dyn Fn(f64) -> f64>)> = Vec::new();
+fn laws() -> Vec<(String, Law)> {
+    let mut v: Vec<(String, Law)> = Vec::new();
     for a in [1.0, 1.1, 1.2, 1.3] {
         v.push((
             format!("power a = {a}"),
@@ -176,14 +179,14 @@ fn the_aimed_search_stays_within_bisection_on_hostile_laws() {
     let correction = |d: f64| 0.37 * d.powf(1.2) * (1.0 + 4.0 * d.powf(0.3));
     let affine = |d: f64| 0.37 * d;
     let stairs = |d: f64| 0.37 * ((d / 1e-9).ceil() * 1e-9).powf(1.2);
-    let hostile: [(&str, &dyn Fn(f64) -> f64, f64); 3] = [
-        ("correction", &correction, 0.0),
-        ("affine with noise 1e-13", &affine, 1e-13),
-        ("staircase", &stairs, 0.0),
+    let hostile: [(&str, Law, f64); 3] = [
+        ("correction", Box::new(correction), 0.0),
+        ("affine with noise 1e-13", Box::new(affine), 1e-13),
+        ("staircase", Box::new(stairs), 0.0),
     ];
     for (name, law, noise_gap) in hostile {
         for case in &CASES {
-            let n = counts(law, case, noise_gap);
+            let n = counts(&law, case, noise_gap);
             eprintln!(
                 "{name:>24}, offset {:+.1e} width {:.0e}: aimed {} secant {} bisection {}",
                 case.offset, case.width, n[0], n[1], n[2]
