@@ -678,7 +678,7 @@ fn search_aimed(
     // the probe budget: at most BUDGET_SPARE more than bisection from the first bracket
     let mut budget: Option<usize> = None;
     for _ in 0..200 {
-        let (lo, glo) = *open.last().expect("one open");
+        let lo = open.last().expect("one open").0;
         if let Some(h) = hi {
             if h / lo - 1.0 <= tol {
                 return Ok(ClosingLoad { lo, hi: h, probes });
@@ -692,7 +692,7 @@ fn search_aimed(
                 continue;
             }
         }
-        let q = aimed_step(&open, lo, glo, hi, width, &mut state, opts);
+        let q = aimed_step(&open, lo, hi, width, &mut state, opts);
         if !q.is_finite() || q > 2.0 * guess {
             return Err(above_twice(guess));
         }
@@ -723,7 +723,6 @@ struct AimState {
 fn aimed_step(
     open: &[(f64, f64)],
     lo: f64,
-    glo: f64,
     hi: Option<f64>,
     width: f64,
     state: &mut AimState,
@@ -755,34 +754,44 @@ fn aimed_step(
         state.last_est = None;
         return midpoint;
     }
+    // the model's resolution: the tolerance (the solver's floor, 2 tol_gap / |dg/dp|, was
+    // 4e-11 relative at tol_gap 1e-12 on 256², k = 4, but the gaps there followed the affine
+    // law to ~1e-14: tol_gap bounds the constraint violation, not the saddle gap's error)
+    let res = 0.45 * tol * lo;
+    if let Some(h) = hi
+        && h - lo <= 8.0 * res
+    {
+        // a bracket at the model's resolution: its open/closed answers are noise
+        return midpoint;
+    }
     if let Some(h) = hi
         && est >= h
     {
-        // the fitted law overshoots a closed probe: the straight secant (a = 1), below p_c
-        // for a convex law, or bisection
+        // the fitted law overshoots a closed probe: the straight secant (a = 1), below p_c for
+        // a convex law, or an expanding step down from the closed probe
         let est1 = secant_zero(spaced[1], spaced[0], 1.0);
         state.last_est = Some(est1);
         state.overshoots += 1;
-        return if est1 > lo && est1 < h {
+        let n = state.overshoots as i32;
+        return if est1 > lo && est1 < h - 2.0 * res {
             // every second overshoot in a row (the fitted exponent keeps overshooting, the
             // straight secant creeps up from below): halve [est1, h], the bracket for a convex law
-            if state.overshoots.is_multiple_of(2) {
-                0.5 * (est1 + h)
-            } else {
-                est1.max(lo * (1.0 + 0.5 * tol))
-            }
+            if n % 2 == 0 { 0.5 * (est1 + h) } else { est1 }
         } else {
-            // p_c just below the closed probe: try to close the bracket there
-            (h * (1.0 - 0.9 * tol)).max(midpoint)
+            // the straight secant reaches the closed probe too: p_c within a few resolutions
+            // below it (g concave at the solver's floor)
+            (h - 2.0 * res * 2f64.powi(n - 1)).max(midpoint)
         };
     }
-    // dg/dp at lo of g = A (p_c − p)^a: a g / d
-    let noise = 2.0 * opts.tol_gap * d / (a * glo);
-    let u = state.last_est.map_or(d, |e| (est - e).abs()).max(noise);
+    let u = state.last_est.map_or(d, |e| (est - e).abs());
     state.last_est = Some(est);
     state.overshoots = 0;
     let q = if est + u <= lo * (1.0 + 0.9 * tol) {
+        // p_c within the tolerance above lo: close the bracket
         lo * (1.0 + 0.9 * tol)
+    } else if d <= 4.0 * res && hi.is_none_or(|h| h > est + 2.0 * res) {
+        // p_c within the resolution above lo: a closed probe just above it, then bisection
+        est + 2.0 * res
     } else {
         let back = (opts.aim_below * d).min((2.0 * u).max(0.45 * tol * lo));
         (est - back).max(lo * (1.0 + 0.5 * tol))
