@@ -21,7 +21,10 @@
 //! `REFINED_PC`: p_c/p_fc of every D (no search: the rungs' reduced loads from it; for timing
 //! rungs of a D whose p_c is known or close to another D's). With `REFINED_PC_GUESS` or
 //! `REFINED_PC` set, the periodic base grid's own p_c search is skipped (and D(k − 1) starts
-//! from the guess too).
+//! from the guess too). `REFINED_SEARCH`: `aimed` (default), `secant` (the search until
+//! 2026-11-26) or `bisection`. `REFINED_PC_TRACE` (any value): print every probe of the p_c
+//! searches (`probe,<name>,k,#,load/p_fc,saddle gap,iterations,wall_s`; the search is then run
+//! from the example, as `Refinement::critical_load` runs it).
 use critical::refined::{
     Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, Search, base_guess,
     default_ls, running_zeta,

@@ -24,24 +24,68 @@
 //! through the two open probes nearest p_c (secant) is p_c. The exponent a is not 1.2 there:
 //! on a discretisation the contact set stops changing close enough to p_c, and on a fixed
 //! contact set the hard-wall solution is affine in the load, so g_s turns linear (a = 1) below
-//! some δ = 1 − p/p_c (on 64² k = 2 already at δ ~ 1e-4: ζ_eff = 1.0000 there). With a ≥ the
-//! true local exponent's lower bound the secant undershoots (g convex in p) and lands open; with
-//! a too large (1.2 in the linear regime) it overshoots into the closed side, where g = 0 gives
-//! no value — the first version (y = g^(1/1.2)) needed 27–36 probes for 1e-11 on 32² grids for
-//! that reason. So: two open probes use a = `zeta0` (default 1: never overshoots a convex law);
-//! three use the a ∈ [1, 3] that makes them collinear in g^(1/a) (exact for a pure power law and
-//! for the affine regime); the probe aims a fraction θ = 0.02 of the predicted distance d below
-//! the zero, so it keeps landing open; once d is below half the tolerance one probe just above
-//! closes the bracket. Probes closer than 4 tol to each other are not paired (their gaps differ
-//! by solver noise). Safeguards: a zero outside the bracket (lo, hi), a y that does not fall
-//! with p, or two probes in a row that do not halve a known bracket fall back to bisection.
-//! Result: [lo, hi] with hi/lo − 1 ≤ tol (default 1e-11), p_c its midpoint. Measured: 7–15
-//! probes against 29–31 for bisection (tests, 32²–64² bases; square 256², k = 3, 4: 11 probes).
+//! some δ = 1 − p/p_c (on 64² k = 2 already at δ ~ 1e-4: ζ_eff = 1.0000 there; on 256², k = 3,
+//! 4 between 1e-7 and 1e-6: the local exponent of the probes rose 1.19 → 1.30 and fell to 1.0).
+//! With a ≥ the true local exponent's lower bound the secant undershoots (g convex in p) and
+//! lands open; with a too large it overshoots into the closed side, where g = 0 gives no value.
+//! Two open probes use a = `zeta0` (default 1: never overshoots a convex law); three use the
+//! a ∈ [1, 3] that makes them collinear in g^(1/a) (exact for a pure power law and for the
+//! affine regime). Probes closer than 4 tol to each other are not paired (their gaps differ by
+//! solver noise).
+//!
+//! [`Search::Aimed`] (the default since 2026-11-26) aims each probe below the zero `est` by
+//! min(θ d, 2u) (d = est − lo, θ = `aim_below` = 0.02, u = the change of `est` since the last
+//! step: once the law is resolved the zeros stop moving and the probe lands just below p_c)
+//! and closes the bracket with one probe at lo (1 + 0.9 tol) once est + u is within the
+//! tolerance of lo, or with a probe 2 resolutions above est once est is within 4 resolutions
+//! (resolution = 0.45 tol). A fitted zero at or above a closed probe is an overshoot: then the
+//! straight secant (a = 1, a lower bound for a convex law), every second time the midpoint of
+//! [straight zero, closed probe], or, when the straight zero reaches the closed probe too,
+//! steps down from it by 2, 4, 8 … resolutions. The search starts from the warm-up solve
+//! [`Refinement::critical_load`] does 1 % below the guess anyway (a seed: an open probe for
+//! free), probes guess (1 − width) and, if closed, steps down by widths growing 8× (the old
+//! search halved the load: 9 probes to climb back on a 64² base whose base-grid guess was
+//! 3e-4 off). Safeguards: a bracket within 8 resolutions, or a zero that is not finite or not
+//! above lo, bisects; and a probe budget: from the first bracket on, at most 4 probes more than
+//! bisection of that bracket (`BUDGET_SPARE`; bisection from there when spent). Result: [lo,
+//! hi] with hi/lo − 1 ≤ tol (default 1e-11), lo open, hi closed, p_c the midpoint.
+//! [`Search::Secant`] (the search until 2026-11-26: always θ d below, no seed, bisection after
+//! two probes that do not halve the bracket) and [`Search::Bisection`] stay for comparison.
+//!
+//! Where the probes went (`REFINED_PC_TRACE=1` of `examples/refined_ladder.rs`; square, 256²
+//! base, window 16, margin 8, tol_gap 1e-12; old = `Secant` with the next D's width 2e-5,
+//! new = `Aimed` with 2e-6): D(3) from the periodic base guess (3e-5 off, width 2e-4): old 11
+//! probes — 4 secant steps from δ = 1.7e-4 to 7e-7 (each 2–25× closer: a = 1 on a law with
+//! local exponent 1.2–1.3), 4 alternating open/closed around 1e-7…1e-8, 3 to close — new 10
+//! (3 to δ = 2e-7, 3 overshoots to −3e-9…−3e-11, then closing at the tolerance). D(4) from
+//! D(3)'s p_c: old 11 (δ = 2e-5 → 2e-6 → 2e-7 → 8e-9, two overshoots, 3 to close), new 8 (first
+//! probe at δ = 1.5e-6, 2 to 3e-8, two overshoots, a probe at 4.5e-12 below p_c from the
+//! straight secant through two affine-regime probes, one closing). Cost per probe (iterations,
+//! warm-started from the last probe; Δ = relative distance from it): the first probe after the
+//! warm-up 57–102, Δ ~ 1e-4 … 1e-6: 33–46, Δ ~ 1e-7: 22–28, Δ ~ 1e-8 … 1e-9: 13–26, Δ ≤ 1e-10:
+//! 5–15: the far probes cost 3–8× the closing ones, so a tighter start saves more than its
+//! count. Search wall (load 8–12 on 2 cores, one run each, back to back): D(3) 19.7 s → 9.6 s,
+//! D(4) 79.1 s → 52.3 s (of which the warm-up solve ~17 s). SEARCH_TABLE
+//!
+//! Widths: the next D's p_c lies 5.5e-7 (square) and 5.8e-7 (triangular) from the previous
+//! D's on 256² bases (paper run, k = 3 → 4; margin 12 → 16: 5e-9 … 5e-8), 2.7e-8 … 4.2e-8 on
+//! 1024² bases; the refined_ladder kind now starts the next D with width 2e-6 (was 2e-5; a miss
+//! costs a probe or two: the search steps down 8× or extends up). The first D keeps 2e-4 from
+//! the periodic base grid's p_c (3e-5 off on 256², 3e-4 on 64²).
+//!
+//! Precision: ζ_eff between rungs l₁ = −2e-5 and l₂ = −1e-5 moves by ζ ε (1/|l₂| − 1/|l₁|) /
+//! ln 2 = 7.2e4 ζ ε for a relative p_c error ε; unchanged to 1e-5 needs ε ≤ 1.2e-10, i.e. a
+//! bracket rel_tol ≤ 2e-10 (midpoint error ≤ half of it). The default 1e-11 is 20× inside that
+//! and kept (not measured looser; at the end the aimed search spends 1–2 probes on the last
+//! decade, the cheapest ones: 5–15 iterations each).
 //!
 //! The floor: near p_c, dg_s/dδ ≈ 0.1 h0 (square model, affine regime), so a solver tolerance
 //! tol_gap resolves δ ≈ 10 tol_gap: 1e-12 at tol_gap 1e-13, 5e-11 at 5e-12. Below that the
 //! open/closed answer itself is noise and the search ends by bisection (k = 5 at 5e-12: 21
-//! probes). At |l| = 1e-5 a p_c error of 5e-11 shifts l by 5e-6 of itself: negligible.
+//! probes). At |l| = 1e-5 a p_c error of 5e-11 shifts l by 5e-6 of itself: negligible. This
+//! estimate is pessimistic for warm-started probes: at tol_gap 1e-12 (256², k = 4) the gaps of
+//! the last probes followed the affine law to ~1e-14 (g = 4.0e-13 at 2.1e-12 below p_c,
+//! closed 1.4e-12 above), so [`Search::Aimed`] does not widen its resolution by tol_gap.
 //!
 //! Solver floor: the composite solve does not reach tol_gap = 1e-13 everywhere (k = 4 square
 //! and k = 3 triangular near p_c stagnated at violations of 1–3e-12 after 3000 iterations);
