@@ -65,7 +65,26 @@
 //! warm-up 57–102, Δ ~ 1e-4 … 1e-6: 33–46, Δ ~ 1e-7: 22–28, Δ ~ 1e-8 … 1e-9: 13–26, Δ ≤ 1e-10:
 //! 5–15: the far probes cost 3–8× the closing ones, so a tighter start saves more than its
 //! count. Search wall (load 8–12 on 2 cores, one run each, back to back): D(3) 19.7 s → 9.6 s,
-//! D(4) 79.1 s → 52.3 s (of which the warm-up solve ~17 s). SEARCH_TABLE
+//! D(4) 79.1 s → 52.3 s (of which the warm-up solve ~17 s).
+//!
+//! Old → new, one run each, back to back (`REFINED_PC_TRACE=1 REFINED_COMPARE=levels
+//! refined_ladder <model> 8 <k> <w> 8 -1e-3,-1e-4,-1e-5`, the old binary built at 833e17e):
+//! probes, iterations (including the warm-up solve), search wall:
+//!
+//! | D (256² base)                           | probes  | iterations | search s     |
+//! |-----------------------------------------|---------|------------|--------------|
+//! | square k = 2, w 32, from base (1e-13)   | 13 → 8  | 443 → 324  | 11.3 → 13.1  |
+//! | square k = 3, w 32, from k = 2          | 11 → 5  | 469 → 259  | 20.1 → 21.4  |
+//! | square k = 3, w 16, from base (1e-12)   | 11 → 10 | 337 → 310  | 19.7 → 9.6   |
+//! | square k = 4, w 16, from k = 3          | 11 → 8  | 462 → 365  | 79.1 → 52.3  |
+//! | triangular k = 3, w 16, from base (5e-12)| 19 → 11 | 454 → 414 | 15.1 → 18.5  |
+//! | triangular k = 4, w 16, from k = 3      | 15 → 7  | 661 → 391  | 89.4 → 57.5  |
+//!
+//! (tol_gap in brackets; triangular max_iter 400.) In all 80 → 49 probes, 2826 → 2063
+//! iterations; wall times are noisy at load 8–12 (the whole k = 4 runs: square 142 → 94 s,
+//! triangular 144 → 119 s). p_c(D) agreed within the brackets (≤ 1.6e-12 relative) but for the
+//! triangular D's at tol_gap 5e-12 (+2.8e-11 and −1.1e-11: the floor below), and the running
+//! ζ_eff of every D by ≤ 5.5e-8 (square) and ≤ 1.7e-6 (triangular, −1e-4 → −1e-5).
 //!
 //! Widths: the next D's p_c lies 5.5e-7 (square) and 5.8e-7 (triangular) from the previous
 //! D's on 256² bases (paper run, k = 3 → 4; margin 12 → 16: 5e-9 … 5e-8), 2.7e-8 … 4.2e-8 on
