@@ -1225,8 +1225,10 @@ impl Refinement {
         }
     }
 
-    /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 1e-4;
-    /// without a guess, 0.5 p_fc and 0.45). Errors if a solve does not converge.
+    /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 2e-6;
+    /// without a guess, 0.5 p_fc and 0.45). A fresh D is first solved 1 % below the guess (a
+    /// cold start at p_c can stagnate), and that solve is the search's seed. Errors if a solve
+    /// does not converge.
     pub fn critical_load(
         &mut self,
         guess: Option<f64>,
