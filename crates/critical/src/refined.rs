@@ -88,9 +88,9 @@
 //! 1024² base, square D(3) (window 32, margin 12, tol_gap 5e-12) from D(4)'s p_c (4.2e-8 below
 //! its own; `REFINED_COMPARE=none REFINED_PC_GUESS=0.2286048431383601 … square 10 3 32 12`):
 //! 14 → 8 probes, 351 → 259 iterations, search 215 → 101 s (load 11–12). The two p_c's differ
-//! by 2.8e-11, beyond their brackets: the old search's probe 2.8e-11 below the new p_c came out
-//! open, the new search's probe 5e-13 above it closed: at 5e-12 the open/closed answer depends
-//! on the warm start there (the floor below).
+//! by 2.8e-11, beyond their brackets: the new search found closed a load 4.6e-12 below one
+//! the old search found open; at tol_gap 5e-12 the open/closed answer there depends on the
+//! warm start (the floor below).
 //!
 //! Widths: the next D's p_c lies 5.5e-7 (square) and 5.8e-7 (triangular) from the previous
 //! D's on 256² bases (paper run, k = 3 → 4; margin 12 → 16: 5e-9 … 5e-8), 2.7e-8 … 4.2e-8 on
