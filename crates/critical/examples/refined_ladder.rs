@@ -11,7 +11,7 @@
 //! for the contact-set hash, so a frozen pair is one with an unchanged count).
 //! `REFINED_FINE_CSV`, `REFINED_MARGIN_CSV`: the same for D(k) and D(k, margin + Δ) (all three
 //! given: no solve, only the running exponents). `REFINED_PC_GUESS`: p_c/p_fc to start D(k)'s
-//! search from (width 2e-5). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
+//! search from (width `REFINED_NEXT_WIDTH`, default 2e-6). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
 //! default 1e-13) and iteration cap per attempt (default `RefinedOptions`'s, 2000). `REFINED_EDGE_DUMP` (any value):
 //! print the runs of each rung's outermost ring of fine nodes (`edge,…` rows, see `dump_edge`).
 //! `REFINED_DWINDOW=<Δw>`: also solve D(k) with the window widened by Δw base cells (or read
@@ -21,10 +21,13 @@
 //! `REFINED_PC`: p_c/p_fc of every D (no search: the rungs' reduced loads from it; for timing
 //! rungs of a D whose p_c is known or close to another D's). With `REFINED_PC_GUESS` or
 //! `REFINED_PC` set, the periodic base grid's own p_c search is skipped (and D(k − 1) starts
-//! from the guess too).
+//! from the guess too). `REFINED_SEARCH`: `aimed` (default), `secant` (the search until
+//! 2026-11-26) or `bisection`. `REFINED_PC_TRACE` (any value): print every probe of the p_c
+//! searches (`probe,<name>,k,#,load/p_fc,saddle gap,iterations,wall_s`; the search is then run
+//! from the example, as `Refinement::critical_load` runs it).
 use critical::refined::{
-    Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, base_guess, default_ls,
-    running_zeta,
+    Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, Search, base_guess,
+    default_ls, running_zeta,
 };
 use std::io::Write;
 use std::time::Instant;
@@ -68,6 +71,39 @@ fn run(
                 hi: pc,
                 probes: 0,
             }
+        }
+        Err(_) if std::env::var("REFINED_PC_TRACE").is_ok() => {
+            // what `critical_load` does (a fresh D: the warm-up solve below the bracket), with
+            // every probe printed: `probe,<name>,k,#,load/p_fc,gap,iterations,wall_s`
+            let p_fc = r.p_fc();
+            let p0 = guess * (1.0 - width.max(1e-2));
+            let (s0, _) = r.solve(p0).expect("warm-up solve");
+            let seed: Vec<(f64, f64)> = if s0.stats.converged {
+                vec![(p0, r.saddle_gap(&s0))]
+            } else {
+                Vec::new()
+            };
+            let mut n = 0;
+            let label = format!("{name},{}", d.levels);
+            critical::refined::find_closing_load_seeded(
+                &mut |p| {
+                    let t = Instant::now();
+                    let (s, it) = r.solve(p)?;
+                    let g = r.saddle_gap(&s);
+                    n += 1;
+                    println!(
+                        "probe,{label},{n},{:.15e},{g:.6e},{it},{:.2}",
+                        p / p_fc,
+                        t.elapsed().as_secs_f64()
+                    );
+                    Ok(g)
+                },
+                guess,
+                width,
+                &seed,
+                opts,
+            )
+            .expect("p_c")
         }
         Err(_) => r.critical_load(Some(guess), width).expect("p_c"),
     };
@@ -150,6 +186,12 @@ fn main() {
     let opts = RefinedOptions {
         tol_gap: env("REFINED_TOL_GAP").unwrap_or(defaults.tol_gap),
         max_iter: env("REFINED_MAX_ITER").map_or(defaults.max_iter, |v| v as usize),
+        search: match std::env::var("REFINED_SEARCH").as_deref() {
+            Ok("secant") => Search::Secant,
+            Ok("bisection") => Search::Bisection,
+            Ok("aimed") | Err(_) => Search::Aimed,
+            Ok(v) => panic!("REFINED_SEARCH={v}: aimed (default), secant or bisection"),
+        },
         ..defaults
     };
     println!("# tol_gap {:e}, max_iter {}", opts.tol_gap, opts.max_iter);
@@ -204,11 +246,15 @@ fn main() {
         guess = pc;
         coarser = Some(rungs);
     }
-    let mut width = if coarser.is_some() { 2e-5 } else { 2e-4 };
+    // REFINED_NEXT_WIDTH: the relative width of a search from another D's p_c (default 2e-6,
+    // the refined_ladder kind's; the p_c's of D(k − 1), D(k) and D(k, margin + Δ) differ by
+    // ≤ 6e-7 relative on 256² bases)
+    let next_width = env("REFINED_NEXT_WIDTH").unwrap_or(2e-6);
+    let mut width = if coarser.is_some() { next_width } else { 2e-4 };
     if let Ok(v) = std::env::var("REFINED_PC_GUESS") {
         guess = v.parse::<f64>().expect("REFINED_PC_GUESS (p_c/p_fc)")
             * lattice_p_fc(lattice, base_log2);
-        width = 2e-5;
+        width = next_width;
     }
     let (pc, fine) = match std::env::var("REFINED_FINE_CSV") {
         Ok(path) => read_rungs(&path, levels, margin),
@@ -222,7 +268,7 @@ fn main() {
             "margin",
             d.with_margin(margin + dmargin),
             pc,
-            2e-5,
+            next_width,
             &ls,
             &opts,
         );
@@ -237,9 +283,17 @@ fn main() {
         std::env::var("REFINED_WINDOW_CSV"),
     ) {
         (Some(dw), Ok(path)) => Some(read_rungs_of(&path, levels, margin, Some(window + dw)).1),
-        (Some(dw), Err(_)) => {
-            Some(run("window", d.with_window(window + dw), pc, 2e-5, &ls, &opts).1)
-        }
+        (Some(dw), Err(_)) => Some(
+            run(
+                "window",
+                d.with_window(window + dw),
+                pc,
+                next_width,
+                &ls,
+                &opts,
+            )
+            .1,
+        ),
         _ => None,
     };
     if let Some(w) = &window_rungs {

@@ -24,24 +24,93 @@
 //! through the two open probes nearest p_c (secant) is p_c. The exponent a is not 1.2 there:
 //! on a discretisation the contact set stops changing close enough to p_c, and on a fixed
 //! contact set the hard-wall solution is affine in the load, so g_s turns linear (a = 1) below
-//! some δ = 1 − p/p_c (on 64² k = 2 already at δ ~ 1e-4: ζ_eff = 1.0000 there). With a ≥ the
-//! true local exponent's lower bound the secant undershoots (g convex in p) and lands open; with
-//! a too large (1.2 in the linear regime) it overshoots into the closed side, where g = 0 gives
-//! no value — the first version (y = g^(1/1.2)) needed 27–36 probes for 1e-11 on 32² grids for
-//! that reason. So: two open probes use a = `zeta0` (default 1: never overshoots a convex law);
-//! three use the a ∈ [1, 3] that makes them collinear in g^(1/a) (exact for a pure power law and
-//! for the affine regime); the probe aims a fraction θ = 0.02 of the predicted distance d below
-//! the zero, so it keeps landing open; once d is below half the tolerance one probe just above
-//! closes the bracket. Probes closer than 4 tol to each other are not paired (their gaps differ
-//! by solver noise). Safeguards: a zero outside the bracket (lo, hi), a y that does not fall
-//! with p, or two probes in a row that do not halve a known bracket fall back to bisection.
-//! Result: [lo, hi] with hi/lo − 1 ≤ tol (default 1e-11), p_c its midpoint. Measured: 7–15
-//! probes against 29–31 for bisection (tests, 32²–64² bases; square 256², k = 3, 4: 11 probes).
+//! some δ = 1 − p/p_c (on 64² k = 2 already at δ ~ 1e-4: ζ_eff = 1.0000 there; on 256², k = 3,
+//! 4 between 1e-7 and 1e-6: the local exponent of the probes rose 1.19 → 1.30 and fell to 1.0).
+//! With a ≥ the true local exponent's lower bound the secant undershoots (g convex in p) and
+//! lands open; with a too large it overshoots into the closed side, where g = 0 gives no value.
+//! Two open probes use a = `zeta0` (default 1: never overshoots a convex law); three use the
+//! a ∈ [1, 3] that makes them collinear in g^(1/a) (exact for a pure power law and for the
+//! affine regime). Probes closer than 4 tol to each other are not paired (their gaps differ by
+//! solver noise).
+//!
+//! [`Search::Aimed`] (the default since 2026-11-26) aims each probe below the zero `est` by
+//! min(θ d, 2u) (d = est − lo, θ = `aim_below` = 0.02, u = the change of `est` since the last
+//! step: once the law is resolved the zeros stop moving and the probe lands just below p_c)
+//! and closes the bracket with one probe at lo (1 + 0.9 tol) once est + u is within the
+//! tolerance of lo, or with a probe 2 resolutions above est once est is within 4 resolutions
+//! (resolution = 0.45 tol). A fitted zero at or above a closed probe is an overshoot: then the
+//! straight secant (a = 1, a lower bound for a convex law), every second time the midpoint of
+//! [straight zero, closed probe], or, when the straight zero reaches the closed probe too,
+//! steps down from it by 2, 4, 8 … resolutions. The search starts from the warm-up solve
+//! [`Refinement::critical_load`] does 1 % below the guess anyway (a seed: an open probe for
+//! free), probes guess (1 − width) and, if closed, steps down by widths growing 8× (the old
+//! search halved the load: 9 probes to climb back on a 64² base whose base-grid guess was
+//! 3e-4 off). Safeguards: a bracket within 8 resolutions, or a zero that is not finite or not
+//! above lo, bisects; and a probe budget: from the first bracket on, at most 4 probes more than
+//! bisection of that bracket (`BUDGET_SPARE`; bisection from there when spent). Result: [lo,
+//! hi] with hi/lo − 1 ≤ tol (default 1e-11), lo open, hi closed, p_c the midpoint.
+//! [`Search::Secant`] (the search until 2026-11-26: always θ d below, no seed, bisection after
+//! two probes that do not halve the bracket) and [`Search::Bisection`] stay for comparison.
+//!
+//! Where the probes went (`REFINED_PC_TRACE=1` of `examples/refined_ladder.rs`; square, 256²
+//! base, window 16, margin 8, tol_gap 1e-12; old = `Secant` with the next D's width 2e-5,
+//! new = `Aimed` with 2e-6): D(3) from the periodic base guess (3e-5 off, width 2e-4): old 11
+//! probes — 4 secant steps from δ = 1.7e-4 to 7e-7 (each 2–25× closer: a = 1 on a law with
+//! local exponent 1.2–1.3), 4 alternating open/closed around 1e-7…1e-8, 3 to close — new 10
+//! (3 to δ = 2e-7, 3 overshoots to −3e-9…−3e-11, then closing at the tolerance). D(4) from
+//! D(3)'s p_c: old 11 (δ = 2e-5 → 2e-6 → 2e-7 → 8e-9, two overshoots, 3 to close), new 8 (first
+//! probe at δ = 1.5e-6, 2 to 3e-8, two overshoots, a probe at 4.5e-12 below p_c from the
+//! straight secant through two affine-regime probes, one closing). Cost per probe (iterations,
+//! warm-started from the last probe; Δ = relative distance from it): the first probe after the
+//! warm-up 57–102, Δ ~ 1e-4 … 1e-6: 33–46, Δ ~ 1e-7: 22–28, Δ ~ 1e-8 … 1e-9: 13–26, Δ ≤ 1e-10:
+//! 5–15: the far probes cost 3–8× the closing ones, so a tighter start saves more than its
+//! count. Search wall (load 8–12 on 2 cores, one run each, back to back): D(3) 19.7 s → 9.6 s,
+//! D(4) 79.1 s → 52.3 s (of which the warm-up solve ~17 s).
+//!
+//! Old → new, one run each, back to back (`REFINED_PC_TRACE=1 REFINED_COMPARE=levels
+//! refined_ladder <model> 8 <k> <w> 8 -1e-3,-1e-4,-1e-5`, the old binary built at 833e17e):
+//! probes, iterations (including the warm-up solve), search wall:
+//!
+//! | D (256² base)                           | probes  | iterations | search s     |
+//! |-----------------------------------------|---------|------------|--------------|
+//! | square k = 2, w 32, from base (1e-13)   | 13 → 8  | 443 → 324  | 11.3 → 13.1  |
+//! | square k = 3, w 32, from k = 2          | 11 → 5  | 469 → 259  | 20.1 → 21.4  |
+//! | square k = 3, w 16, from base (1e-12)   | 11 → 10 | 337 → 310  | 19.7 → 9.6   |
+//! | square k = 4, w 16, from k = 3          | 11 → 8  | 462 → 365  | 79.1 → 52.3  |
+//! | triangular k = 3, w 16, from base (5e-12)| 19 → 11 | 454 → 414 | 15.1 → 18.5  |
+//! | triangular k = 4, w 16, from k = 3      | 15 → 7  | 661 → 391  | 89.4 → 57.5  |
+//!
+//! (tol_gap in brackets; triangular max_iter 400.) In all 80 → 49 probes, 2826 → 2063
+//! iterations; wall times are noisy at load 8–12 (the whole k = 4 runs: square 142 → 94 s,
+//! triangular 144 → 119 s). p_c(D) agreed within the brackets (≤ 1.6e-12 relative) but for the
+//! triangular D's at tol_gap 5e-12 (+2.8e-11 and −1.1e-11: the floor below), and the running
+//! ζ_eff of every D by ≤ 5.5e-8 (square) and ≤ 1.7e-6 (triangular, −1e-4 → −1e-5).
+//! 1024² base, square D(3) (window 32, margin 12, tol_gap 5e-12) from D(4)'s p_c (4.2e-8 below
+//! its own; `REFINED_COMPARE=none REFINED_PC_GUESS=0.2286048431383601 … square 10 3 32 12`):
+//! 14 → 8 probes, 351 → 259 iterations, search 215 → 101 s (load 11–12). The two p_c's differ
+//! by 2.8e-11, beyond their brackets: the new search found closed a load 4.6e-12 below one
+//! the old search found open; at tol_gap 5e-12 the open/closed answer there depends on the
+//! warm start (the floor below).
+//!
+//! Widths: the next D's p_c lies 5.5e-7 (square) and 5.8e-7 (triangular) from the previous
+//! D's on 256² bases (paper run, k = 3 → 4; margin 12 → 16: 5e-9 … 5e-8), 2.7e-8 … 4.2e-8 on
+//! 1024² bases; the refined_ladder kind now starts the next D with width 2e-6 (was 2e-5; a miss
+//! costs a probe or two: the search steps down 8× or extends up). The first D keeps 2e-4 from
+//! the periodic base grid's p_c (3e-5 off on 256², 3e-4 on 64²).
+//!
+//! Precision: ζ_eff between rungs l₁ = −2e-5 and l₂ = −1e-5 moves by ζ ε (1/|l₂| − 1/|l₁|) /
+//! ln 2 = 7.2e4 ζ ε for a relative p_c error ε; unchanged to 1e-5 needs ε ≤ 1.2e-10, i.e. a
+//! bracket rel_tol ≤ 2e-10 (midpoint error ≤ half of it). The default 1e-11 is 20× inside that
+//! and kept (not measured looser; at the end the aimed search spends 1–2 probes on the last
+//! decade, the cheapest ones: 5–15 iterations each).
 //!
 //! The floor: near p_c, dg_s/dδ ≈ 0.1 h0 (square model, affine regime), so a solver tolerance
 //! tol_gap resolves δ ≈ 10 tol_gap: 1e-12 at tol_gap 1e-13, 5e-11 at 5e-12. Below that the
 //! open/closed answer itself is noise and the search ends by bisection (k = 5 at 5e-12: 21
-//! probes). At |l| = 1e-5 a p_c error of 5e-11 shifts l by 5e-6 of itself: negligible.
+//! probes). At |l| = 1e-5 a p_c error of 5e-11 shifts l by 5e-6 of itself: negligible. This
+//! estimate is pessimistic for warm-started probes: at tol_gap 1e-12 (256², k = 4) the gaps of
+//! the last probes followed the affine law to ~1e-14 (g = 4.0e-13 at 2.1e-12 below p_c,
+//! closed 1.4e-12 above), so [`Search::Aimed`] does not widen its resolution by tol_gap.
 //!
 //! Solver floor: the composite solve does not reach tol_gap = 1e-13 everywhere (k = 4 square
 //! and k = 3 triangular near p_c stagnated at violations of 1–3e-12 after 3000 iterations);
@@ -324,8 +393,13 @@ impl Discretisation {
 /// How [`find_closing_load`] searches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Search {
-    /// Secant on g^(1/ζ0), aimed below, safeguarded by the bracket (module docs).
+    /// Secant on g^(1/a) (a fitted to three open probes), aimed below the zero by the change of
+    /// the zero between steps; seeded with solves done before the search; bisection within a
+    /// probe budget (module docs, "The p_c search").
     #[default]
+    Aimed,
+    /// The first secant search (until 2026-11-26): aimed a fixed fraction `aim_below` of the
+    /// predicted distance below the zero; ignores seeds.
     Secant,
     /// Plain bisection of the bracket.
     Bisection,
@@ -360,7 +434,7 @@ impl Default for RefinedOptions {
             rel_tol: 1e-11,
             zeta0: 1.0,
             aim_below: 0.02,
-            search: Search::Secant,
+            search: Search::Aimed,
             min_edge_cells: 2.0,
         }
     }
@@ -437,12 +511,28 @@ pub fn find_closing_load(
     width: f64,
     opts: &RefinedOptions,
 ) -> Result<ClosingLoad, CriticalError> {
+    find_closing_load_seeded(probe, guess, width, &[], opts)
+}
+
+/// [`find_closing_load`] with `seed`, loads solved before the search and their gaps (p, g)
+/// (e.g. the warm-up solve below the bracket): [`Search::Aimed`] uses them as probes (not
+/// counted in `probes`); the other searches ignore them.
+pub fn find_closing_load_seeded(
+    probe: &mut dyn FnMut(f64) -> Result<f64, CriticalError>,
+    guess: f64,
+    width: f64,
+    seed: &[(f64, f64)],
+    opts: &RefinedOptions,
+) -> Result<ClosingLoad, CriticalError> {
     opts.validate()?;
     if !(guess.is_finite() && guess > 0.0) {
         return Err(CriticalError::param("guess", guess, "finite and > 0"));
     }
     if !(width.is_finite() && width > 0.0 && width < 0.5) {
         return Err(CriticalError::param("width", width, "0 < width < 0.5"));
+    }
+    if opts.search == Search::Aimed {
+        return search_aimed(probe, guess, width, seed, opts);
     }
     let mut probes = 0usize;
     let mut open: Vec<(f64, f64)> = Vec::new(); // (p, g), ascending p
@@ -500,15 +590,15 @@ pub fn find_closing_load(
                 }
                 bisect(hi)
             }
-            (Search::Secant, 1) => match hi {
+            (_, 1) => match hi {
                 Some(h) => 0.5 * (lo + h),
                 None => lo * (1.0 + 0.5 * w),
             },
-            (Search::Secant, _) if slow >= 2 => {
+            (_, _) if slow >= 2 => {
                 slow = 0;
                 bisect(hi)
             }
-            (Search::Secant, n) => {
+            (_, n) => {
                 let (p2, g2) = open[n - 1];
                 // the open probes nearest p_c, each at least 4 rel_tol below the next: probes
                 // closer than that differ by the solver's noise in g, not by the law
@@ -567,6 +657,218 @@ pub fn find_closing_load(
             opts.rel_tol
         ),
     })
+}
+
+/// The closing-load error for a load that is not below 2 `guess`.
+fn above_twice(guess: f64) -> CriticalError {
+    CriticalError::param(
+        "guess",
+        guess,
+        "a load with the saddle closed within a factor 2 above it",
+    )
+}
+
+/// Probes [`Search::Aimed`] may take beyond bisection's count from its first bracket: its
+/// model steps shrink the distance from below by orders of magnitude while the closed end stays
+/// put until the closing probe (a far first closed probe: 3 steps and the closing probe).
+const BUDGET_SPARE: usize = 4;
+
+/// Bisection steps from the bracket [lo, hi] to a relative width `tol`.
+fn bisections(lo: f64, hi: f64, tol: f64) -> usize {
+    ((hi - lo) / (tol * lo)).log2().ceil().max(0.0) as usize
+}
+
+/// [`Search::Aimed`] (module docs, "The p_c search").
+fn search_aimed(
+    probe: &mut dyn FnMut(f64) -> Result<f64, CriticalError>,
+    guess: f64,
+    width: f64,
+    seed: &[(f64, f64)],
+    opts: &RefinedOptions,
+) -> Result<ClosingLoad, CriticalError> {
+    let tol = opts.rel_tol;
+    let mut probes = 0usize;
+    let mut open: Vec<(f64, f64)> = Vec::new(); // (p, g), ascending p
+    let mut hi: Option<f64> = None;
+    let add = |p: f64, g: f64, open: &mut Vec<(f64, f64)>, hi: &mut Option<f64>| {
+        if g > 0.0 {
+            open.push((p, g));
+            open.sort_by(|a, b| a.0.total_cmp(&b.0));
+        } else {
+            *hi = Some(hi.map_or(p, |h: f64| h.min(p)));
+        }
+    };
+    for &(p, g) in seed {
+        if p.is_finite() && p > 0.0 && !g.is_nan() {
+            add(p, g, &mut open, &mut hi);
+        }
+    }
+    // an open seed above a closed one is noise at the floor: keep only the consistent ones
+    if let Some(h) = hi {
+        open.retain(|o| o.0 < h);
+    }
+    let mut run = |p: f64, open: &mut Vec<(f64, f64)>, hi: &mut Option<f64>, n: &mut usize| {
+        *n += 1;
+        let g = probe(p)?;
+        add(p, g, open, hi);
+        Ok::<(), CriticalError>(())
+    };
+    // an open load at guess (1 − width); while closed, step down by widths growing 8× (then by
+    // halving the load), or to the highest open seed
+    let mut step = width;
+    let mut p = guess * (1.0 - width);
+    loop {
+        if open.last().is_some_and(|o| o.0 >= p * (1.0 - 1e-12)) {
+            break;
+        }
+        if hi.is_some_and(|h| p >= h) {
+            // a closed seed below the first probe: step down at once
+        } else {
+            run(p, &mut open, &mut hi, &mut probes)?;
+            if hi != Some(p) {
+                break;
+            }
+        }
+        if p < 1e-3 * guess {
+            return Err(CriticalError::param(
+                "guess",
+                guess,
+                "a load with the saddle open above 1e-3 of it",
+            ));
+        }
+        step *= 8.0;
+        p = if step < 0.5 {
+            guess * (1.0 - step)
+        } else {
+            0.5 * p
+        };
+    }
+    let mut state = AimState::default();
+    // the probe budget: at most BUDGET_SPARE more than bisection from the first bracket
+    let mut budget: Option<usize> = None;
+    for _ in 0..200 {
+        let lo = open.last().expect("one open").0;
+        if let Some(h) = hi {
+            if h / lo - 1.0 <= tol {
+                return Ok(ClosingLoad { lo, hi: h, probes });
+            }
+            let left = bisections(lo, h, tol);
+            let b = *budget.get_or_insert(probes + left + BUDGET_SPARE);
+            if probes + left >= b {
+                // the budget is spent: bisection from here keeps to it
+                let q = 0.5 * (lo + h);
+                run(q, &mut open, &mut hi, &mut probes)?;
+                continue;
+            }
+        }
+        let q = aimed_step(&open, lo, hi, width, &mut state, opts);
+        if !q.is_finite() || q > 2.0 * guess {
+            return Err(above_twice(guess));
+        }
+        run(q, &mut open, &mut hi, &mut probes)?;
+    }
+    Err(CriticalError::Solver {
+        load: open.last().map_or(guess, |o| o.0),
+        detail: format!(
+            "closing-load search: no bracket of relative width {:e} after 200 probes",
+            tol
+        ),
+    })
+}
+
+/// What [`aimed_step`] carries from one step to the next.
+#[derive(Default)]
+struct AimState {
+    /// The last step's zero.
+    last_est: Option<f64>,
+    /// Steps in a row whose fitted zero lay at or above the closed end.
+    overshoots: usize,
+}
+
+/// The next load of [`Search::Aimed`]: the zero `est` of g^(1/a) through the two open probes
+/// nearest p_c (a fitted to three), its uncertainty u = the change of the zero since the last
+/// step (at least the solver's floor 2 tol_gap / |dg/dp|), and the probe est − min(θ d, 2u)
+/// (d = est − lo), or just above lo once est + u lies within the tolerance of lo.
+fn aimed_step(
+    open: &[(f64, f64)],
+    lo: f64,
+    hi: Option<f64>,
+    width: f64,
+    state: &mut AimState,
+    opts: &RefinedOptions,
+) -> f64 {
+    let tol = opts.rel_tol;
+    let midpoint = match hi {
+        Some(h) => 0.5 * (lo + h),
+        None => lo * (1.0 + 0.5 * width),
+    };
+    // the open probes nearest p_c, each at least 4 tol below the next (closer ones differ by
+    // the solver's noise in g, not by the law)
+    let mut spaced = vec![open[open.len() - 1]];
+    for &o in open[..open.len() - 1].iter().rev() {
+        if spaced.len() < 3 && spaced[spaced.len() - 1].0 - o.0 >= 4.0 * tol * lo {
+            spaced.push(o);
+        }
+    }
+    if spaced.len() < 2 {
+        return midpoint;
+    }
+    let a = match spaced.len() {
+        3 => fit_exponent(spaced[2], spaced[1], spaced[0]),
+        _ => opts.zeta0,
+    };
+    let est = secant_zero(spaced[1], spaced[0], a);
+    let d = est - lo;
+    if !(d > 0.0 && est.is_finite()) {
+        state.last_est = None;
+        return midpoint;
+    }
+    // the model's resolution: the tolerance (the solver's floor, 2 tol_gap / |dg/dp|, was
+    // 4e-11 relative at tol_gap 1e-12 on 256², k = 4, but the gaps there followed the affine
+    // law to ~1e-14: tol_gap bounds the constraint violation, not the saddle gap's error)
+    let res = 0.45 * tol * lo;
+    if let Some(h) = hi
+        && h - lo <= 8.0 * res
+    {
+        // a bracket at the model's resolution: its open/closed answers are noise
+        return midpoint;
+    }
+    if let Some(h) = hi
+        && est >= h
+    {
+        // the fitted law overshoots a closed probe: the straight secant (a = 1), below p_c for
+        // a convex law, or an expanding step down from the closed probe
+        let est1 = secant_zero(spaced[1], spaced[0], 1.0);
+        state.last_est = Some(est1);
+        state.overshoots += 1;
+        let n = state.overshoots as i32;
+        return if est1 > lo && est1 < h - 2.0 * res {
+            // every second overshoot in a row (the fitted exponent keeps overshooting, the
+            // straight secant creeps up from below): halve [est1, h], the bracket for a convex law
+            if n % 2 == 0 { 0.5 * (est1 + h) } else { est1 }
+        } else {
+            // the straight secant reaches the closed probe too: p_c within a few resolutions
+            // below it (g concave at the solver's floor)
+            (h - 2.0 * res * 2f64.powi(n - 1)).max(midpoint)
+        };
+    }
+    let u = state.last_est.map_or(d, |e| (est - e).abs());
+    state.last_est = Some(est);
+    state.overshoots = 0;
+    let q = if est + u <= lo * (1.0 + 0.9 * tol) {
+        // p_c within the tolerance above lo: close the bracket
+        lo * (1.0 + 0.9 * tol)
+    } else if d <= 4.0 * res && hi.is_none_or(|h| h > est + 2.0 * res) {
+        // p_c within the resolution above lo: a closed probe just above it, then bisection
+        est + 2.0 * res
+    } else {
+        let back = (opts.aim_below * d).min((2.0 * u).max(0.45 * tol * lo));
+        (est - back).max(lo * (1.0 + 0.5 * tol))
+    };
+    match hi {
+        Some(h) if q >= h => midpoint,
+        _ => q,
+    }
 }
 
 /// The first guess of p_c(D): the closing load of D's axis saddle on the periodic base grid
@@ -929,8 +1231,10 @@ impl Refinement {
         }
     }
 
-    /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 1e-4;
-    /// without a guess, 0.5 p_fc and 0.45). Errors if a solve does not converge.
+    /// p_c(D) (module docs) from a guess and a relative width (e.g. another D's p_c and 2e-6;
+    /// without a guess, 0.5 p_fc and 0.45). A fresh D is first solved 1 % below the guess (a
+    /// cold start at p_c can stagnate), and that solve is the search's seed. Errors if a solve
+    /// does not converge.
     pub fn critical_load(
         &mut self,
         guess: Option<f64>,
@@ -941,11 +1245,17 @@ impl Refinement {
             Some(g) => (g, width),
             None => (0.5 * self.p_fc(), 0.45),
         };
+        let mut seed = Vec::new();
         if self.warm.is_none() {
-            // a cold start right at p_c can stagnate (k = 4): start 1 % below it
-            self.solve(g * (1.0 - w.max(1e-2)))?;
+            // a cold start right at p_c can stagnate (k = 4): start 1 % below it (an open probe
+            // for the search if converged)
+            let p0 = g * (1.0 - w.max(1e-2));
+            let (r, _) = self.solve(p0)?;
+            if r.stats.converged {
+                seed.push((p0, self.saddle_gap(&r)));
+            }
         }
-        find_closing_load(
+        find_closing_load_seeded(
             &mut |p| {
                 let (r, _) = self.solve(p)?;
                 if !r.stats.converged {
@@ -961,6 +1271,7 @@ impl Refinement {
             },
             g,
             w,
+            &seed,
             &opts,
         )
     }

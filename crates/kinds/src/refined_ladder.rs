@@ -319,8 +319,9 @@ impl TypedKind for RefinedLadderKind {
             let flux_wall: f64 = fluxes.iter().flatten().map(|f| f.wall_s).sum();
             out.set_attr_at(&format!("d/{i}"), "flux_wall_s", flux_wall)?;
             flux_walls.push(flux_wall);
-            // the next discretisation's p_c lies within ~1e-6 of this one's (critical::refined)
-            (guess, width) = (c.p_c(), 2e-5);
+            // the next discretisation's p_c lies within ~6e-7 of this one's (critical::refined,
+            // "The p_c search"; a miss costs the search one probe or two)
+            (guess, width) = (c.p_c(), 2e-6);
             runs.push((disc, c, rungs));
         }
         let fine = &runs[params.levels.len() - 1].2;
