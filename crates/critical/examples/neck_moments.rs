@@ -9,7 +9,8 @@
 //! or the blocked half-length a, and the three neck lengths (rms width p = 2 and p = 1, level
 //! width at g = g_s/2, rise length to g = 2 g_s); then per pair of neighbouring rungs and level
 //! the running exponents and their change from k − 1 (`pair,…`).
-//! `NECK_TOL_GAP` (default 1e-12), `NECK_MAX_ITER` (default 3000): the solver's tolerance and
+//! `NECK_PC_GUESS`: p_c/p_fc to start the first p_c search from (skips the periodic base grid's
+//! search). `NECK_TOL_GAP` (default 1e-12), `NECK_MAX_ITER` (default 3000): the solver's tolerance and
 //! iteration cap per attempt.
 use critical::neck_moments::{NeckOptions, across_rms, neck_lengths};
 use critical::refined::{Discretisation, RefinedOptions, Refinement, base_guess};
@@ -99,8 +100,20 @@ fn main() {
         window,
         margin,
     };
-    let (base, p_fc) = base_guess(d, &opts).expect("base p_c");
-    let (mut guess, mut width) = (base.p_c(), 2e-4);
+    // NECK_PC_GUESS: p_c/p_fc to start the first search from (width 2e-5) instead of the
+    // periodic base grid's search (minutes on a 1024² base)
+    let (mut guess, mut width, p_fc) = match env("NECK_PC_GUESS") {
+        Some(g) => {
+            let p_fc = surface::Surface::new(lattice, base_log2)
+                .expect("surface")
+                .p_fc_grid();
+            (g * p_fc, 2e-5, p_fc)
+        }
+        None => {
+            let (base, p_fc) = base_guess(d, &opts).expect("base p_c");
+            (base.p_c(), 2e-4, p_fc)
+        }
+    };
     println!(
         "rung,k,l,saddle_gap,neck_nodes,edge,edge_sigma,rms2,rms1,level,level_asym,rise,rise_asym,flag,notes"
     );
