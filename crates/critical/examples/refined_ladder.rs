@@ -401,6 +401,7 @@ fn read_rungs_of(
                 half_length: (f64::NAN, f64::NAN),
                 edge_note: None,
                 flux: (f64::NAN, f64::NAN),
+                neck: critical::refined::NeckRecord::NONE,
             });
         }
     }

@@ -50,6 +50,7 @@ pub mod bracket;
 pub mod constriction;
 pub mod ladder;
 pub mod leakage;
+pub mod neck_moments;
 pub mod refined;
 pub mod refined_flow;
 pub mod running;

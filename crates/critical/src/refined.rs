@@ -1035,6 +1035,42 @@ pub struct RefinedRung {
     /// ([`crate::refined_flow`], filled by [`crate::refined_flow::ladder_with_flux`]); NaN if
     /// not measured.
     pub flux: (f64, f64),
+    /// l < 0: the neck's lengths from its gap field on the fine window
+    /// ([`crate::neck_moments`], default options): rms half-width W_2 and level half-width
+    /// (g = g_s/2) across the channel (υ), rise length along it (g = 2 g_s; χ from below),
+    /// λ; NaN where not measured or the estimator has no value (too few nodes, window too
+    /// small).
+    pub neck: NeckRecord,
+}
+
+/// A rung's neck lengths ([`RefinedRung::neck`]; λ, NaN where not measured).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NeckRecord {
+    /// [`crate::neck_moments::across_rms`] with p = 2.
+    pub width_rms: f64,
+    /// [`crate::neck_moments::across_level_width`] at g_s/2 (both sides' mean).
+    pub width_level: f64,
+    /// [`crate::neck_moments::along_rise_length`] to 2 g_s (both sides' mean).
+    pub rise_length: f64,
+}
+
+impl NeckRecord {
+    /// Not measured (l > 0, or a ladder before the neck lengths).
+    pub const NONE: NeckRecord = NeckRecord {
+        width_rms: f64::NAN,
+        width_level: f64::NAN,
+        rise_length: f64::NAN,
+    };
+
+    /// The lengths of one window ([`crate::neck_moments::neck_lengths`], default options).
+    pub fn of(w: &SaddleWindow) -> Self {
+        let n = crate::neck_moments::neck_lengths(w, &crate::neck_moments::NeckOptions::default());
+        NeckRecord {
+            width_rms: n.across_rms.unwrap_or(f64::NAN),
+            width_level: n.across_level.map_or(f64::NAN, |t| t.value),
+            rise_length: n.along_rise.map_or(f64::NAN, |t| t.value),
+        }
+    }
 }
 
 /// The default reduced loads below p_c: −{5e-2, 2e-2, 1e-2, …, 2e-5, 1e-5}.
@@ -1371,6 +1407,11 @@ impl Refinement {
                 half_length,
                 edge_note,
                 flux: (f64::NAN, f64::NAN),
+                neck: if l < 0.0 {
+                    NeckRecord::of(&w)
+                } else {
+                    NeckRecord::NONE
+                },
             };
             on_rung(&rung, &r, &w);
             rungs.push(rung);

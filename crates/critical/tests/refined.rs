@@ -226,6 +226,7 @@ fn rung(l: f64, g: f64, hash: u64, flag: Option<RungFlag>) -> RefinedRung {
         half_length: (f64::NAN, f64::NAN),
         edge_note: None,
         flux: (f64::NAN, f64::NAN),
+        neck: critical::refined::NeckRecord::NONE,
     }
 }
 

@@ -413,11 +413,25 @@ pub fn rung_row(r: &RefinedRung) -> RefinedRungRow {
     }
 }
 
-/// Rungs as `<at>/*` ([`RefinedRungRow`]) with their flags as `<at>/flag` (empty: unflagged);
-/// shared by `refined_ladder` (each `d/<i>`) and `refined_window` (`rungs`).
+/// Rungs as `<at>/*` ([`RefinedRungRow`]) with their flags as `<at>/flag` (empty: unflagged)
+/// and the neck lengths from the gap field ([`critical::refined::NeckRecord`], λ, NaN where
+/// not measured) as `<at>/neck_width_rms`, `<at>/neck_width_level`, `<at>/neck_rise_length`
+/// (datasets beside the record, so that artefacts written before them still read as
+/// [`RefinedRungRow`]s; not yet used by any table); shared by `refined_ladder` (each `d/<i>`)
+/// and `refined_window` (`rungs`).
 pub fn write_rungs(out: &mut ArtefactWriter, at: &str, rungs: &[RefinedRung]) -> Result<()> {
     let rows: Vec<RefinedRungRow> = rungs.iter().map(rung_row).collect();
     RefinedRungRow::write(&rows, out, at)?;
+    type Pick = fn(&critical::refined::NeckRecord) -> f64;
+    let columns: [(&str, Pick); 3] = [
+        ("neck_width_rms", |n| n.width_rms),
+        ("neck_width_level", |n| n.width_level),
+        ("neck_rise_length", |n| n.rise_length),
+    ];
+    for (name, pick) in columns {
+        let v: Vec<f64> = rungs.iter().map(|r| pick(&r.neck)).collect();
+        out.write_f64_1d(&format!("{at}/{name}"), &v)?;
+    }
     let flags: Vec<String> = rungs
         .iter()
         .map(|r| r.flag.as_ref().map_or(String::new(), |f| f.to_string()))

@@ -1,0 +1,284 @@
+//! υ and χ from the neck's gap field ([`critical::neck_moments`]) against the contact-line fits,
+//! on refined ladders at several levels k of one base grid:
+//! `cargo run --release -p critical --example neck_moments -- <model> <base_log2> <k_lo> <k_hi>
+//! <window> <margin> [ls]` (ls comma-separated; default −1e-2 … −1e-5 and +1e-4 … +5e-3).
+//!
+//! Solves p_c(D) and the ladder of D(k) for k = k_lo … k_hi (same window and margin; each p_c
+//! search starts from the previous one) and prints per rung (`rung,…`) the saddle gap, the open
+//! half-width r_c of [`critical::scaling::open_half_width`] (as `Refinement::ladder` records it)
+//! or the blocked half-length a, and the three neck lengths (rms width p = 2 and p = 1, level
+//! width at g = g_s/2, rise length to g = 2 g_s); then per pair of neighbouring rungs and level
+//! the running exponents and their change from k − 1 (`pair,…`).
+//! `NECK_PC_GUESS`: p_c/p_fc to start the first p_c search from (skips the periodic base grid's
+//! search). `NECK_TOL_GAP` (default 1e-12), `NECK_MAX_ITER` (default 3000): the solver's tolerance and
+//! iteration cap per attempt.
+use critical::neck_moments::{NeckOptions, across_rms, neck_lengths};
+use critical::refined::{Discretisation, RefinedOptions, Refinement, base_guess};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::time::Instant;
+use surface::Lattice;
+
+/// The lengths of one rung (λ; NaN where the estimator or fit has no value).
+#[derive(Clone, Debug)]
+struct Row {
+    l: f64,
+    gap: f64,
+    /// open_half_width r_c (l < 0) or blocked_half_length a (l > 0), and its 1σ
+    edge: (f64, f64),
+    rms2: f64,
+    rms1: f64,
+    level: f64,
+    rise: f64,
+    flagged: bool,
+}
+
+const NAMES: [&str; 6] = ["gap", "edge", "rms2", "rms1", "level", "rise"];
+
+impl Row {
+    fn get(&self, k: usize) -> f64 {
+        [
+            self.gap,
+            self.edge.0,
+            self.rms2,
+            self.rms1,
+            self.level,
+            self.rise,
+        ][k]
+    }
+}
+
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_default()
+}
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    if a.len() < 7 {
+        eprintln!("usage: neck_moments <model> <base_log2> <k_lo> <k_hi> <window> <margin> [ls]");
+        std::process::exit(2);
+    }
+    let lattice: Lattice = a[1].parse().expect("model");
+    let base_log2: u32 = a[2].parse().expect("base_log2");
+    let k_lo: u32 = a[3].parse().expect("k_lo");
+    let k_hi: u32 = a[4].parse().expect("k_hi");
+    let window: usize = a[5].parse().expect("window (base cells)");
+    let margin: usize = a[6].parse().expect("margin (base cells)");
+    let ls: Vec<f64> = a.get(7).map_or_else(
+        || {
+            vec![
+                -1e-2, -5e-3, -2e-3, -1e-3, -5e-4, -2e-4, -1e-4, -5e-5, -2e-5, -1e-5, 1e-4, 2e-4,
+                5e-4, 1e-3, 2e-3, 5e-3,
+            ]
+        },
+        |s| {
+            s.split(',')
+                .map(|v| v.trim().parse().expect("ls"))
+                .collect()
+        },
+    );
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    let opts = RefinedOptions {
+        tol_gap: env("NECK_TOL_GAP").unwrap_or(1e-12),
+        max_iter: env("NECK_MAX_ITER").map_or(3000, |v| v as usize),
+        ..RefinedOptions::default()
+    };
+    let t0 = Instant::now();
+    println!(
+        "# {} 2^{base_log2}, k = {k_lo}..{k_hi}, window {window}, margin {margin}, tol_gap {:e}, max_iter {}, load average {}",
+        lattice.name(),
+        opts.tol_gap,
+        opts.max_iter,
+        load_average()
+    );
+    let mut d = Discretisation {
+        lattice,
+        base_log2,
+        levels: k_lo,
+        window,
+        margin,
+    };
+    // NECK_PC_GUESS: p_c/p_fc to start the first search from (width 2e-5) instead of the
+    // periodic base grid's search (minutes on a 1024² base)
+    let (mut guess, mut width, p_fc) = match env("NECK_PC_GUESS") {
+        Some(g) => {
+            let p_fc = surface::Surface::new(lattice, base_log2)
+                .expect("surface")
+                .p_fc_grid();
+            (g * p_fc, 2e-5, p_fc)
+        }
+        None => {
+            let (base, p_fc) = base_guess(d, &opts).expect("base p_c");
+            (base.p_c(), 2e-4, p_fc)
+        }
+    };
+    println!(
+        "rung,k,l,saddle_gap,neck_nodes,edge,edge_sigma,rms2,rms1,level,level_asym,rise,rise_asym,flag,notes"
+    );
+    let no = NeckOptions::default();
+    let mut levels: BTreeMap<u32, Vec<Row>> = BTreeMap::new();
+    for k in k_lo..=k_hi {
+        d = d.with_levels(k);
+        let t = Instant::now();
+        let mut r = Refinement::new(d, &opts).expect("refined discretisation");
+        let c = r.critical_load(Some(guess), width).expect("p_c");
+        let pc = c.p_c();
+        println!(
+            "# k = {k}: p_c/p_fc {:.12} ({} probes, {:.1} s, load average {})",
+            pc / p_fc,
+            c.probes,
+            t.elapsed().as_secs_f64(),
+            load_average()
+        );
+        std::io::stdout().flush().ok();
+        let mut rows = Vec::new();
+        r.ladder(pc, &ls, &mut |g, _r, w| {
+            let nl = neck_lengths(w, &no);
+            let edge = if g.l < 0.0 {
+                g.half_width
+            } else {
+                g.half_length
+            };
+            let mut notes = Vec::new();
+            if let Some(e) = &g.edge_note {
+                notes.push(format!("edge: {e}"));
+            }
+            let val = |r: Result<f64, critical::neck_moments::NeckError>,
+                       what: &str,
+                       notes: &mut Vec<String>| match r {
+                Ok(v) => v,
+                Err(e) => {
+                    notes.push(format!("{what}: {e}"));
+                    f64::NAN
+                }
+            };
+            let (rms2, rms1, level, rise, la, ra) = if g.l < 0.0 {
+                let lv = nl.across_level.clone().map(|t| (t.value, t.asymmetry));
+                let rv = nl.along_rise.clone().map(|t| (t.value, t.asymmetry));
+                let (level, la) = match lv {
+                    Ok(v) => v,
+                    Err(e) => {
+                        notes.push(format!("level: {e}"));
+                        (f64::NAN, f64::NAN)
+                    }
+                };
+                let (rise, ra) = match rv {
+                    Ok(v) => v,
+                    Err(e) => {
+                        notes.push(format!("rise: {e}"));
+                        (f64::NAN, f64::NAN)
+                    }
+                };
+                (
+                    val(nl.across_rms.clone(), "rms2", &mut notes),
+                    val(across_rms(w, 1.0, no.min_nodes), "rms1", &mut notes),
+                    level,
+                    rise,
+                    la,
+                    ra,
+                )
+            } else {
+                let n = f64::NAN;
+                (n, n, n, n, n, n)
+            };
+            let row = Row {
+                l: g.l,
+                gap: g.saddle_gap,
+                edge,
+                rms2,
+                rms1,
+                level,
+                rise,
+                flagged: g.flag.is_some(),
+            };
+            println!(
+                "rung,{k},{:e},{:.10e},{},{:.6e},{:.1e},{:.8e},{:.8e},{:.8e},{:.1e},{:.8e},{:.1e},{},{}",
+                g.l,
+                g.saddle_gap,
+                g.neck_nodes,
+                edge.0,
+                edge.1,
+                rms2,
+                rms1,
+                level,
+                la,
+                rise,
+                ra,
+                g.flag
+                    .map_or(String::new(), |f| f.to_string().replace(',', ";")),
+                notes.join(" | ").replace(',', ";")
+            );
+            std::io::stdout().flush().ok();
+            rows.push(row);
+        })
+        .expect("ladder");
+        eprintln!(
+            "k = {k}: {:.1} s wall, {} solves, {} iterations",
+            t.elapsed().as_secs_f64(),
+            r.solves,
+            r.iterations
+        );
+        levels.insert(k, rows);
+        guess = pc;
+        width = 2e-5;
+    }
+    // running exponents per pair and level, with the change from k − 1
+    println!(
+        "pair,k,l_hi,l_lo,zeta_gap,d_gap,edge,d_edge,edge_sigma,rms2,d_rms2,rms1,d_rms1,level,d_level,rise,d_rise,flagged"
+    );
+    let slope = |a: &Row, b: &Row, m: usize| {
+        let (ya, yb) = (a.get(m), b.get(m));
+        if ya.is_finite() && yb.is_finite() && ya > 0.0 && yb > 0.0 {
+            (yb / ya).ln() / (b.l.abs() / a.l.abs()).ln()
+        } else {
+            f64::NAN
+        }
+    };
+    let pairs_of = |rows: &[Row]| -> Vec<(Row, Row)> {
+        let mut neg: Vec<&Row> = rows.iter().filter(|r| r.l < 0.0).collect();
+        neg.sort_by(|a, b| b.l.abs().total_cmp(&a.l.abs()));
+        let mut pos: Vec<&Row> = rows.iter().filter(|r| r.l > 0.0).collect();
+        pos.sort_by(|a, b| b.l.abs().total_cmp(&a.l.abs()));
+        let mut out = Vec::new();
+        for side in [neg, pos] {
+            for w in side.windows(2) {
+                out.push((w[0].clone(), w[1].clone()));
+            }
+        }
+        out
+    };
+    for (&k, rows) in &levels {
+        let coarser = levels.get(&(k.wrapping_sub(1))).map(|r| pairs_of(r));
+        for (a, b) in pairs_of(rows) {
+            let mut cells = Vec::new();
+            for m in 0..NAMES.len() {
+                let v = slope(&a, &b, m);
+                let dv = coarser
+                    .as_ref()
+                    .and_then(|c| c.iter().find(|(ca, cb)| ca.l == a.l && cb.l == b.l))
+                    .map_or(f64::NAN, |(ca, cb)| v - slope(ca, cb, m));
+                cells.push(format!("{v:.5},{dv:.1e}"));
+                if m == 1 {
+                    // the edge fits' 1σ propagated to the slope
+                    let s = (a.edge.1 / a.edge.0).hypot(b.edge.1 / b.edge.0)
+                        / (b.l.abs() / a.l.abs()).ln().abs();
+                    cells.push(format!("{s:.1e}"));
+                }
+            }
+            println!(
+                "pair,{k},{:e},{:e},{},{}",
+                a.l,
+                b.l,
+                cells.join(","),
+                u8::from(a.flagged || b.flagged)
+            );
+        }
+    }
+    println!(
+        "# total {:.1} s wall, load average {}",
+        t0.elapsed().as_secs_f64(),
+        load_average()
+    );
+}
