@@ -762,6 +762,10 @@ impl Composite {
                 order: ORDER,
             })
             .collect();
+        // the hats' compliance spectrum: the blockwise operator's and the two-level
+        // preconditioner's (computed once)
+        let alias = (margin.is_some() || pre != Preconditioner::Galerkin)
+            .then(|| blocks::alias_spectra(&geometries[0], blocks::Kernel::Compliance));
         let (fine, blocks) = match margin {
             None => {
                 let fine_grid = Grid {
@@ -774,10 +778,18 @@ impl Composite {
                 (Some(ElasticKernel::new(&fine_grid, 1.0)), None)
             }
             Some(_) => {
+                let compliance = alias.as_ref().expect("alias sums");
                 let pair = [
-                    Some(blocks::Blocks::new(&geometries, blocks::Kernel::Compliance)),
-                    (pre == Preconditioner::Galerkin)
-                        .then(|| blocks::Blocks::new(&geometries, blocks::Kernel::Stiffness)),
+                    Some(blocks::Blocks::new(
+                        &geometries,
+                        blocks::Kernel::Compliance,
+                        compliance,
+                    )),
+                    (pre == Preconditioner::Galerkin).then(|| {
+                        let stiffness =
+                            blocks::alias_spectra(&geometries[0], blocks::Kernel::Stiffness);
+                        blocks::Blocks::new(&geometries, blocks::Kernel::Stiffness, &stiffness)
+                    }),
                 ];
                 (None, Some(Box::new(pair)))
             }
@@ -890,6 +902,7 @@ impl Composite {
                 &shapes,
                 &weights,
                 pre == Preconditioner::Hierarchical,
+                &alias.as_ref().expect("alias sums").c,
             )));
         }
         c
@@ -1396,7 +1409,9 @@ impl RefinedModel {
                 margin: m,
                 order: ORDER,
             };
-            let hv = blocks::hat_heights(&geometry(&opts.windows[0]), &height);
+            let g0 = geometry(&opts.windows[0]);
+            let rows = blocks::FineRows::new(profile, &g0, (dx, dy), (s0, s1));
+            let hv = blocks::hat_heights(&g0, &|i, out: &mut [f64]| rows.row(i, out));
             let mut out = vec![0.0; n];
             for (w, r) in opts.windows.iter().zip(&comp.regions) {
                 let hr = blocks::window_heights(&geometry(w), &height, &hv);

@@ -74,6 +74,38 @@ impl Geometry {
         let j = (self.j0 as isize + rel_j).rem_euclid(self.ny as isize) as usize;
         i * self.ny + j
     }
+    /// The wave-number component τ s/l of every fine mode index 0..n along one axis (s the
+    /// signed index: k, or k − n above n/2), as [`Geometry::eigen`] computes it.
+    fn wave_numbers(n: usize, l: f64) -> Vec<f64> {
+        let tau = 2.0 * std::f64::consts::PI;
+        (0..n)
+            .map(|k| {
+                let s = if k <= n / 2 {
+                    k as f64
+                } else {
+                    k as f64 - n as f64
+                };
+                tau * s / l
+            })
+            .collect()
+    }
+    /// The kernel's eigenvalue at the fine mode with wave-number components (qx, qy) (from
+    /// [`Geometry::wave_numbers`]; bit for bit [`Geometry::eigen`]).
+    #[inline]
+    fn eigen_q(kernel: Kernel, qx: f64, qy: f64) -> f64 {
+        let k = 0.5 * qx.hypot(qy);
+        if k == 0.0 {
+            0.0
+        } else {
+            match kernel {
+                Kernel::Compliance => 1.0 / k,
+                Kernel::Stiffness => k,
+            }
+        }
+    }
+    /// The kernel's eigenvalue at the fine mode (kx, ky) (the reference of the tables' and alias
+    /// sums' inner loops, which take the wave numbers per axis).
+    #[cfg(test)]
     fn eigen(&self, kernel: Kernel, kx: usize, ky: usize) -> f64 {
         let (fx, fy) = self.fine();
         let sx = if kx <= fx / 2 {
@@ -119,24 +151,35 @@ fn lagrange(t: f64, order: usize) -> Vec<f64> {
 
 /// Real-space table t[dx·(by+1) + dy] = kernel(dx, dy) of the fine circulant for 0 ≤ dx ≤ bx,
 /// 0 ≤ dy ≤ by (the kernel is even in each coordinate). Two passes of 1-D transforms; the work
-/// array holds (F_x/2 + 1) × (by + 1) values, never the fine lattice.
+/// array holds (F_x/2 + 1) × (by + 1) values, never the fine lattice. The eigenvalues of a row
+/// come from per-axis wave numbers, the upper half of the row mirrored from the lower (the
+/// kernel is even, and so is each rounded step: s and −s give the same bits), so each
+/// distinct eigenvalue is evaluated once; the values are bit for bit those of the direct
+/// evaluation (test `the_fast_setup_is_bitwise_the_direct_one`).
 pub(crate) fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f64> {
     let (fx, fy) = g.fine();
     let (bx, by) = (bx.min(fx - 1), by.min(fy - 1));
     let half = fx / 2 + 1;
+    let qx = Geometry::wave_numbers(fx, g.lx);
+    let qy = Geometry::wave_numbers(fy, g.ly);
     let fft_y = FftPlanner::<f64>::new().plan_fft_forward(fy);
     let mut rows = vec![0.0; half * (by + 1)];
-    rows.par_chunks_mut(by + 1)
-        .enumerate()
-        .for_each(|(kx, out)| {
-            let mut buf: Vec<num_complex::Complex64> = (0..fy)
-                .map(|ky| num_complex::Complex64::new(g.eigen(kernel, kx, ky), 0.0))
-                .collect();
-            fft_y.process(&mut buf);
-            for (o, c) in out.iter_mut().zip(&buf) {
+    rows.par_chunks_mut(by + 1).enumerate().for_each_init(
+        || vec![num_complex::Complex64::new(0.0, 0.0); fy],
+        |buf, (kx, out)| {
+            let q = qx[kx];
+            for ky in 0..=fy / 2 {
+                buf[ky] = num_complex::Complex64::new(Geometry::eigen_q(kernel, q, qy[ky]), 0.0);
+            }
+            for ky in fy / 2 + 1..fy {
+                buf[ky] = buf[fy - ky];
+            }
+            fft_y.process(buf);
+            for (o, c) in out.iter_mut().zip(buf.iter()) {
                 *o = c.re;
             }
-        });
+        },
+    );
     let fft_x = FftPlanner::<f64>::new().plan_fft_forward(fx);
     let norm = (fx * fy) as f64;
     let cols: Vec<Vec<f64>> = (0..=by)
@@ -161,10 +204,28 @@ pub(crate) fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f
     t
 }
 
+/// The alias sums of one kernel (half spectra, natural layout, normalised for [`Spectral`]):
+/// C = Hᵀ K H, C' = (K ∗ hat) sampled on the base lattice, and K itself sampled on the base
+/// lattice ([`alias_spectra`]).
+#[derive(Debug, Clone)]
+pub(crate) struct AliasSpectra {
+    pub c: Vec<f64>,
+    pub cp: Vec<f64>,
+    pub pt: Vec<f64>,
+}
+
 /// Half spectra (natural layout, normalised for [`Spectral`]) of C = Hᵀ K H,
 /// C' = (K ∗ hat) sampled on the base lattice and K itself sampled on the base lattice: alias
 /// sums over the f² fine modes of each base mode.
-pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+///
+/// Cost: f² N_base/2 terms of a multiply and three adds, plus f² N_base/4 eigenvalues (a
+/// hypot and a division). The wave numbers and hat factors are tabulated per axis; the base
+/// modes a and n_x − a (a ≠ 0, n_x/2) share their aliases' eigenvalues (the alias m of one is
+/// the alias f − 1 − m of the other with the opposite signed index, which rounds to the same
+/// bits), so one block of f² eigenvalues serves both, each summed in its own alias order.
+/// The sums are bit for bit those of the direct loop over the fine modes (test
+/// `the_fast_setup_is_bitwise_the_direct_one`), so results do not change.
+pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> AliasSpectra {
     let (f, nx, ny) = (g.f, g.nx, g.ny);
     let (fx, fy) = g.fine();
     let phi = |k: usize, n: usize| -> f64 {
@@ -177,32 +238,65 @@ pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> (Vec<f64>, Vec<f64>
     };
     let px: Vec<f64> = (0..fx).map(|k| phi(k, fx)).collect();
     let py: Vec<f64> = (0..fy).map(|k| phi(k, fy)).collect();
+    let qx = Geometry::wave_numbers(fx, g.lx);
+    let qy = Geometry::wave_numbers(fy, g.ly);
     let m = ny / 2 + 1;
     let norm = (f * f * nx * ny) as f64;
-    let triples: Vec<(f64, f64, f64)> = (0..nx * m)
+    // one base row a (and its mirror nx − a): (a, its triples, the mirror's triples)
+    type Rows = (usize, Vec<[f64; 3]>, Option<Vec<[f64; 3]>>);
+    let rows: Vec<Rows> = (0..=nx / 2)
         .into_par_iter()
-        .map(|idx| {
-            let (a, b) = (idx / m, idx % m);
-            let (mut c, mut cp, mut pt) = (0.0, 0.0, 0.0);
-            for mx in 0..f {
-                let kx = a + nx * mx;
-                for my in 0..f {
-                    let ky = b + ny * my;
-                    let e = g.eigen(kernel, kx, ky);
-                    let h = px[kx] * py[ky];
-                    c += h * h * e;
-                    cp += h * e;
-                    pt += e;
+        .map(|a| {
+            let mirror = (a != 0 && 2 * a != nx).then_some(nx - a);
+            let mut e = vec![0.0; f * f];
+            let (mut own, mut other) = (Vec::with_capacity(m), Vec::with_capacity(m));
+            for b in 0..m {
+                for mx in 0..f {
+                    let q = qx[a + nx * mx];
+                    for my in 0..f {
+                        e[mx * f + my] = Geometry::eigen_q(kernel, q, qy[b + ny * my]);
+                    }
+                }
+                let sums = |kx0: usize, rev: bool| -> [f64; 3] {
+                    let (mut c, mut cp, mut pt) = (0.0, 0.0, 0.0);
+                    for mx in 0..f {
+                        let hx = px[kx0 + nx * mx];
+                        let row = if rev { f - 1 - mx } else { mx };
+                        let er = &e[row * f..(row + 1) * f];
+                        for (my, &e) in er.iter().enumerate() {
+                            let h = hx * py[b + ny * my];
+                            c += h * h * e;
+                            cp += h * e;
+                            pt += e;
+                        }
+                    }
+                    [c / norm, cp / norm, pt / norm]
+                };
+                own.push(sums(a, false));
+                if let Some(am) = mirror {
+                    other.push(sums(am, true));
                 }
             }
-            (c / norm, cp / norm, pt / norm)
+            (a, own, mirror.map(|_| other))
         })
         .collect();
-    let mut out = (Vec::new(), Vec::new(), Vec::new());
-    for (c, cp, pt) in triples {
-        out.0.push(c);
-        out.1.push(cp);
-        out.2.push(pt);
+    let mut out = AliasSpectra {
+        c: vec![0.0; nx * m],
+        cp: vec![0.0; nx * m],
+        pt: vec![0.0; nx * m],
+    };
+    let mut put = |a: usize, t: &[[f64; 3]]| {
+        for (b, v) in t.iter().enumerate() {
+            out.c[a * m + b] = v[0];
+            out.cp[a * m + b] = v[1];
+            out.pt[a * m + b] = v[2];
+        }
+    };
+    for (a, own, other) in &rows {
+        put(*a, own);
+        if let Some(o) = other {
+            put(nx - a, o);
+        }
     }
     out
 }
@@ -251,8 +345,10 @@ pub(crate) struct Blocks {
 
 impl Blocks {
     /// For the windows `gs` (one [`Geometry`] each, same lattice, margin and order; checked by
-    /// the caller to keep every window's R outside the other windows' margins).
-    pub fn new(gs: &[Geometry], kernel: Kernel) -> Self {
+    /// the caller to keep every window's R outside the other windows' margins), with the
+    /// kernel's alias sums `alias` ([`alias_spectra`] of `gs[0]`, computed once by the caller
+    /// and shared with the preconditioner).
+    pub fn new(gs: &[Geometry], kernel: Kernel, alias: &AliasSpectra) -> Self {
         let g0 = gs[0];
         let boxes: Vec<(usize, usize, isize)> = gs.iter().map(|g| g.boxed()).collect();
         let bx_max = boxes.iter().map(|b| b.0).max().expect("a window");
@@ -286,11 +382,10 @@ impl Blocks {
                 }
             })
             .collect();
-        let (c, cp, pt) = alias_spectra(&g0, kernel);
         let spectral = Spectral::new(g0.nx, g0.ny);
-        let c = spectral.multiplier(&c);
-        let cp = spectral.multiplier(&cp);
-        let cpp = (gs.len() > 1).then(|| spectral.multiplier(&pt));
+        let c = spectral.multiplier(&alias.c);
+        let cp = spectral.multiplier(&alias.cp);
+        let cpp = (gs.len() > 1).then(|| spectral.multiplier(&alias.pt));
         let lag = (0..g0.f)
             .map(|s| lagrange(s as f64 / g0.f as f64, g0.order))
             .collect();
@@ -617,35 +712,141 @@ pub(crate) fn weights(g: &Geometry) -> (Vec<f64>, f64) {
     (w, (f * f) as f64)
 }
 
-/// Hᵀ h on every base node for a height function h(i, j) of the fine lattice node (i, j)
-/// (global indices). Streams the fine lattice by fine rows, each fine node evaluated once
-/// (memory F_x × ny, not the fine lattice; at k = 6 on a 256² base this is the largest part of
-/// the setup: 16 s of 31 when each node was evaluated twice).
-pub(crate) fn hat_heights(g: &Geometry, h: &(impl Fn(usize, usize) -> f64 + Sync)) -> Vec<f64> {
+/// Heights of the analytic profile on the fine lattice, a row at a time, bit for bit
+/// `profile.height` at each node (test `fine_rows_are_the_profile_bit_for_bit`): the node
+/// (i, j) lies at ((i/f + s0) dx, (j/f + s1) dy). A wave along an axis (k_y = 0 or k_x = 0)
+/// is tabulated per row or per column (its phase k_x x + k_y y rounds to k_x x or k_y y
+/// exactly: the other product is a zero); the other waves take their products k_x x and
+/// k_y y from per-row and per-column tables and one cosine per node. The waves are summed in
+/// the profile's order. The square model then costs two table reads per node instead of two
+/// cosines; the triangular and hexagonal ones two cosines instead of three.
+pub(crate) struct FineRows<'a> {
+    profile: &'a surface::TrigSurface,
+    f: usize,
+    dx: f64,
+    s0: f64,
+    /// Per wave and fine column: amp cos(k_y y) (k_x = 0), else k_y y.
+    cols: Vec<Vec<f64>>,
+}
+
+impl<'a> FineRows<'a> {
+    /// The fine lattice of `g` (grid spacings `dx`, `dy`, shift `shift` in base spacings) for
+    /// `profile`.
+    pub fn new(
+        profile: &'a surface::TrigSurface,
+        g: &Geometry,
+        (dx, dy): (f64, f64),
+        shift: (f64, f64),
+    ) -> Self {
+        let (_, fy) = g.fine();
+        let f = g.f;
+        let cols = profile
+            .modes
+            .iter()
+            .map(|m| {
+                (0..fy)
+                    .map(|j| {
+                        let y = (j as f64 / f as f64 + shift.1) * dy;
+                        if m.kx == 0.0 {
+                            m.amp * (m.ky * y).cos()
+                        } else {
+                            m.ky * y
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        FineRows {
+            profile,
+            f,
+            dx,
+            s0: shift.0,
+            cols,
+        }
+    }
+
+    /// The heights of fine row `i` into `out` (one value per fine column).
+    pub fn row(&self, i: usize, out: &mut [f64]) {
+        let x = (i as f64 / self.f as f64 + self.s0) * self.dx;
+        // per wave: amp cos(k_x x) (k_y = 0), or k_x x
+        let along: Vec<f64> = self
+            .profile
+            .modes
+            .iter()
+            .map(|m| {
+                if m.kx == 0.0 {
+                    0.0
+                } else if m.ky == 0.0 {
+                    m.amp * (m.kx * x).cos()
+                } else {
+                    m.kx * x
+                }
+            })
+            .collect();
+        let modes = &self.profile.modes;
+        for (j, o) in out.iter_mut().enumerate() {
+            let sum = modes
+                .iter()
+                .enumerate()
+                .map(|(t, m)| {
+                    if m.kx == 0.0 {
+                        self.cols[t][j]
+                    } else if m.ky == 0.0 {
+                        along[t]
+                    } else {
+                        m.amp * (along[t] + self.cols[t][j]).cos()
+                    }
+                })
+                .sum::<f64>();
+            *o = self.profile.offset + sum;
+        }
+    }
+}
+
+/// Hᵀ h on every base node for the heights of the fine lattice, given row by row by `row(i,
+/// out)` (fine row i, every fine column; [`FineRows::row`]). Streams the fine lattice by fine
+/// rows, each fine node evaluated once (memory F_x × ny, not the fine lattice). The hat
+/// weights are tabulated and the periodic wrap taken only at the ends; the sums are those of
+/// the direct loop term for term.
+pub(crate) fn hat_heights(g: &Geometry, row: &(impl Fn(usize, &mut [f64]) + Sync)) -> Vec<f64> {
     let (fx, fy) = g.fine();
     let f = g.f;
     let (nx, ny) = (g.nx, g.ny);
+    let fi_ = f as isize;
+    // hat(db) for db = 1 − f ..= f − 1 at index db + f − 1
+    let w: Vec<f64> = (1 - fi_..fi_).map(|d| hat(d, f)).collect();
     // s[fi ny + j] = Σ_db hat(db) h(fi, f j + db)
     let mut rows = vec![0.0; fx * ny];
-    rows.par_chunks_mut(ny).enumerate().for_each(|(fi, out)| {
-        let line: Vec<f64> = (0..fy).map(|j| h(fi, j)).collect();
-        for (j, o) in out.iter_mut().enumerate() {
-            let mut sa = 0.0;
-            for db in 1 - f as isize..f as isize {
-                let fj = ((f * j) as isize + db).rem_euclid(fy as isize) as usize;
-                sa += hat(db, f) * line[fj];
+    rows.par_chunks_mut(ny).enumerate().for_each_init(
+        || vec![0.0; fy],
+        |line, (fi, out)| {
+            row(fi, line);
+            for (j, o) in out.iter_mut().enumerate() {
+                let c = (f * j) as isize;
+                let mut sa = 0.0;
+                if c + 1 - fi_ >= 0 && c + fi_ - 1 < fy as isize {
+                    let seg = &line[(c + 1 - fi_) as usize..(c + fi_) as usize];
+                    for (wd, h) in w.iter().zip(seg) {
+                        sa += wd * h;
+                    }
+                } else {
+                    for (t, db) in (1 - fi_..fi_).enumerate() {
+                        let fj = (c + db).rem_euclid(fy as isize) as usize;
+                        sa += w[t] * line[fj];
+                    }
+                }
+                *o = sa;
             }
-            *o = sa;
-        }
-    });
+        },
+    );
     (0..nx * ny)
         .into_par_iter()
         .map(|k| {
             let (i, j) = (k / ny, k % ny);
             let mut s = 0.0;
-            for da in 1 - f as isize..f as isize {
+            for (t, da) in (1 - fi_..fi_).enumerate() {
                 let fi = ((f * i) as isize + da).rem_euclid(fx as isize) as usize;
-                s += hat(da, f) * rows[fi * ny + j];
+                s += w[t] * rows[fi * ny + j];
             }
             s
         })
@@ -712,7 +913,7 @@ mod tests {
             let (i, j) = (i.min(fx - i), j.min(fy - j));
             t[i * fy + j]
         };
-        let (c, cp, pt) = alias_spectra(&g, Kernel::Compliance);
+        let AliasSpectra { c, cp, pt } = alias_spectra(&g, Kernel::Compliance);
         let mut sp = Spectral::new(g.nx, g.ny);
         let n = g.nx * g.ny;
         let mut e = vec![0.0; n];
@@ -753,6 +954,216 @@ mod tests {
         }
         // rounding of 32 × 24 transforms
         assert!(worst.iter().all(|w| *w < 1e-10), "{worst:?}");
+    }
+}
+
+#[cfg(test)]
+mod reference {
+    use super::*;
+
+    /// The direct table (every eigenvalue evaluated, the first design): the oracle of
+    /// [`table`].
+    pub(crate) fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f64> {
+        let (fx, fy) = g.fine();
+        let (bx, by) = (bx.min(fx - 1), by.min(fy - 1));
+        let half = fx / 2 + 1;
+        let fft_y = FftPlanner::<f64>::new().plan_fft_forward(fy);
+        let mut rows = vec![0.0; half * (by + 1)];
+        rows.par_chunks_mut(by + 1)
+            .enumerate()
+            .for_each(|(kx, out)| {
+                let mut buf: Vec<num_complex::Complex64> = (0..fy)
+                    .map(|ky| num_complex::Complex64::new(g.eigen(kernel, kx, ky), 0.0))
+                    .collect();
+                fft_y.process(&mut buf);
+                for (o, c) in out.iter_mut().zip(&buf) {
+                    *o = c.re;
+                }
+            });
+        let fft_x = FftPlanner::<f64>::new().plan_fft_forward(fx);
+        let norm = (fx * fy) as f64;
+        let cols: Vec<Vec<f64>> = (0..=by)
+            .into_par_iter()
+            .map(|dy| {
+                let mut buf: Vec<num_complex::Complex64> = (0..fx)
+                    .map(|kx| {
+                        let k = if kx < half { kx } else { fx - kx };
+                        num_complex::Complex64::new(rows[k * (by + 1) + dy], 0.0)
+                    })
+                    .collect();
+                fft_x.process(&mut buf);
+                buf[..=bx].iter().map(|c| c.re / norm).collect()
+            })
+            .collect();
+        let mut t = vec![0.0; (bx + 1) * (by + 1)];
+        for (dy, col) in cols.iter().enumerate() {
+            for (dx, v) in col.iter().enumerate() {
+                t[dx * (by + 1) + dy] = *v;
+            }
+        }
+        t
+    }
+
+    /// The direct alias sums (every alias's eigenvalue evaluated, in the order of the first
+    /// design): the oracle of [`alias_spectra`].
+    pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> AliasSpectra {
+        let (f, nx, ny) = (g.f, g.nx, g.ny);
+        let (fx, fy) = g.fine();
+        let phi = |k: usize, n: usize| -> f64 {
+            if k == 0 {
+                return f as f64;
+            }
+            let th = std::f64::consts::PI * k as f64 / n as f64;
+            let r = (f as f64 * th).sin() / th.sin();
+            r * r / f as f64
+        };
+        let px: Vec<f64> = (0..fx).map(|k| phi(k, fx)).collect();
+        let py: Vec<f64> = (0..fy).map(|k| phi(k, fy)).collect();
+        let m = ny / 2 + 1;
+        let norm = (f * f * nx * ny) as f64;
+        let mut out = AliasSpectra {
+            c: Vec::new(),
+            cp: Vec::new(),
+            pt: Vec::new(),
+        };
+        for idx in 0..nx * m {
+            let (a, b) = (idx / m, idx % m);
+            let (mut c, mut cp, mut pt) = (0.0, 0.0, 0.0);
+            for mx in 0..f {
+                let kx = a + nx * mx;
+                for my in 0..f {
+                    let ky = b + ny * my;
+                    let e = g.eigen(kernel, kx, ky);
+                    let h = px[kx] * py[ky];
+                    c += h * h * e;
+                    cp += h * e;
+                    pt += e;
+                }
+            }
+            out.c.push(c / norm);
+            out.cp.push(cp / norm);
+            out.pt.push(pt / norm);
+        }
+        out
+    }
+
+    /// The tabulated, mirrored setup gives the same bits as the direct one (so the cached
+    /// results of every stage stay valid): alias sums and tables of both kernels, on lattices
+    /// with unequal sides and periods, odd and even base sizes' mirrors, f = 2 … 8.
+    #[test]
+    fn the_fast_setup_is_bitwise_the_direct_one() {
+        for (nx, ny, ly, f) in [
+            (16, 12, 0.8, 2),
+            (12, 20, 1.7, 4),
+            (8, 8, 1.0, 8),
+            (10, 6, 0.6, 4),
+        ] {
+            let mut g = kernel_geometry(nx, ny, ly);
+            g.f = f;
+            for kernel in [Kernel::Compliance, Kernel::Stiffness] {
+                let (fast, slow) = (super::alias_spectra(&g, kernel), alias_spectra(&g, kernel));
+                for (name, a, b) in [
+                    ("C", &fast.c, &slow.c),
+                    ("C'", &fast.cp, &slow.cp),
+                    ("C''", &fast.pt, &slow.pt),
+                ] {
+                    assert_eq!(a.len(), b.len());
+                    for (k, (x, y)) in a.iter().zip(b.iter()).enumerate() {
+                        assert_eq!(
+                            x.to_bits(),
+                            y.to_bits(),
+                            "{name} {kernel:?} {nx}×{ny} f = {f}, mode {k}: {x:e} vs {y:e}"
+                        );
+                    }
+                }
+                let (bx, by) = (nx * f / 2 + 3, ny * f - 1);
+                let (tf, ts) = (super::table(&g, kernel, bx, by), table(&g, kernel, bx, by));
+                assert_eq!(tf.len(), ts.len());
+                for (k, (x, y)) in tf.iter().zip(&ts).enumerate() {
+                    assert_eq!(
+                        x.to_bits(),
+                        y.to_bits(),
+                        "table {kernel:?} {nx}×{ny} f = {f}, entry {k}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The direct Hᵀh (every node through `height`, the hat weights and wrap per term): the
+    /// oracle of [`hat_heights`].
+    fn hat_heights(g: &Geometry, h: &(impl Fn(usize, usize) -> f64 + Sync)) -> Vec<f64> {
+        let (fx, fy) = g.fine();
+        let f = g.f;
+        let (nx, ny) = (g.nx, g.ny);
+        let mut rows = vec![0.0; fx * ny];
+        rows.par_chunks_mut(ny).enumerate().for_each(|(fi, out)| {
+            let line: Vec<f64> = (0..fy).map(|j| h(fi, j)).collect();
+            for (j, o) in out.iter_mut().enumerate() {
+                let mut sa = 0.0;
+                for db in 1 - f as isize..f as isize {
+                    let fj = ((f * j) as isize + db).rem_euclid(fy as isize) as usize;
+                    sa += hat(db, f) * line[fj];
+                }
+                *o = sa;
+            }
+        });
+        (0..nx * ny)
+            .map(|k| {
+                let (i, j) = (k / ny, k % ny);
+                let mut s = 0.0;
+                for da in 1 - f as isize..f as isize {
+                    let fi = ((f * i) as isize + da).rem_euclid(fx as isize) as usize;
+                    s += hat(da, f) * rows[fi * ny + j];
+                }
+                s
+            })
+            .collect()
+    }
+
+    /// The fine rows are the profile's heights bit for bit, and so is Hᵀh: every model, a
+    /// shifted grid, f = 2, 4 (a change here would change every refined result).
+    #[test]
+    fn fine_rows_are_the_profile_bit_for_bit() {
+        for lattice in surface::Lattice::ALL {
+            for (n, f, shift) in [(4, 2, (0.0, 0.0)), (5, 4, (0.25, 0.5)), (4, 8, (0.5, 0.0))] {
+                let mut s = surface::Surface::new(lattice, n).expect("grid");
+                s.grid.shift = shift;
+                let gr = s.grid;
+                let mut g = kernel_geometry(gr.nx, gr.ny, gr.ly);
+                g.lx = gr.lx;
+                g.f = f;
+                let (dx, dy) = (gr.dx(), gr.dy());
+                let height = |i: usize, j: usize| {
+                    s.profile.height(
+                        (i as f64 / f as f64 + shift.0) * dx,
+                        (j as f64 / f as f64 + shift.1) * dy,
+                    )
+                };
+                let rows = FineRows::new(&s.profile, &g, (dx, dy), shift);
+                let (fx, fy) = g.fine();
+                let mut line = vec![0.0; fy];
+                for i in 0..fx {
+                    rows.row(i, &mut line);
+                    for (j, h) in line.iter().enumerate() {
+                        assert_eq!(
+                            h.to_bits(),
+                            height(i, j).to_bits(),
+                            "{lattice:?} f = {f} node ({i}, {j})"
+                        );
+                    }
+                }
+                let fast = super::hat_heights(&g, &|i, out: &mut [f64]| rows.row(i, out));
+                let slow = hat_heights(&g, &height);
+                for (k, (a, b)) in fast.iter().zip(&slow).enumerate() {
+                    assert_eq!(
+                        a.to_bits(),
+                        b.to_bits(),
+                        "{lattice:?} f = {f} Hᵀh at base node {k}"
+                    );
+                }
+            }
+        }
     }
 }
 
@@ -800,5 +1211,83 @@ mod ringing {
                 d2.join(" ")
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod cost {
+    use super::*;
+
+    /// Timing (ignored; `SETUP_K`, default 3, `SETUP_N` base exponent, default 10): the parts
+    /// of a blockwise discretisation's setup at the paper preset's deep-ladder geometry (square
+    /// model, window 32 base cells around the saddle (1/2, 0), margin 12): the alias sums, the
+    /// two real-space tables (G on the box, K on R), Hᵀh over the fine lattice.
+    /// `cargo test --release -p contact --lib -- --ignored --nocapture setup_parts`.
+    #[test]
+    #[ignore]
+    fn setup_parts() {
+        let env = |k: &str, d: u32| {
+            std::env::var(k)
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(d)
+        };
+        let (levels, n) = (env("SETUP_K", 3), env("SETUP_N", 10));
+        let s = surface::Surface::new(surface::Lattice::Square, n).expect("grid");
+        let gr = s.grid;
+        let w = crate::refinement::Window::centred(&gr, 0.5, 0.0, 32, 32);
+        let g = Geometry {
+            nx: gr.nx,
+            ny: gr.ny,
+            lx: gr.lx,
+            ly: gr.ly,
+            f: 1 << levels,
+            i0: w.i0,
+            j0: w.j0,
+            wx: 32,
+            wy: 32,
+            margin: 12,
+            order: crate::refinement::ORDER,
+        };
+        // process CPU time (utime + stime, clock ticks of 10 ms): the machine may be shared
+        let cpu = || -> f64 {
+            let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+            let after = stat.rsplit(')').next().unwrap_or("");
+            let f: Vec<f64> = after
+                .split_whitespace()
+                .skip(11)
+                .take(2)
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            f.iter().sum::<f64>() / 100.0
+        };
+        let time = |name: &str, run: &mut dyn FnMut() -> f64| {
+            let (t, c) = (std::time::Instant::now(), cpu());
+            let check = run();
+            eprintln!(
+                "k = {levels}, {}²: {name}: {:.2} s wall, {:.2} CPU-s (check {check:.17e})",
+                gr.nx,
+                t.elapsed().as_secs_f64(),
+                cpu() - c
+            );
+        };
+        time("alias sums", &mut || {
+            let a = alias_spectra(&g, Kernel::Compliance);
+            a.c.iter().chain(&a.cp).chain(&a.pt).sum()
+        });
+        let (bx, by, _) = g.boxed();
+        time("table G on the box", &mut || {
+            table(&g, Kernel::Compliance, bx, by).iter().sum()
+        });
+        let (rx, ry) = g.region();
+        time("table K on R", &mut || {
+            table(&g, Kernel::Stiffness, rx, ry).iter().sum()
+        });
+        let rows = FineRows::new(&s.profile, &g, (gr.dx(), gr.dy()), gr.shift);
+        time("H^T h", &mut || {
+            hat_heights(&g, &|i, out: &mut [f64]| rows.row(i, out))
+                .iter()
+                .sum()
+        });
     }
 }

@@ -23,7 +23,7 @@
 //! Neither needs the box with margins nor the fine lattice: per application one base-grid FFT
 //! pair, one FFT pair on (2 rx) × (2 ry) and passes over R.
 
-use super::blocks::{Geometry, Kernel, alias_spectra, hat, table};
+use super::blocks::{Geometry, Kernel, hat, table};
 use crate::compliance::Compliance;
 use crate::free_kernel::FreeKernel;
 use crate::spectral::Spectral;
@@ -56,15 +56,17 @@ impl TwoLevel {
     /// w > 1), enter it scaled by 1/w, so that W B W gives them the fine diagonal K_f(0) rather
     /// than w² K_f(0) (up to f⁴/4 too stiff; measured: leaving them out of the fine space, or
     /// not scaling them, costs up to 3× the iterations, see the parent module's docs). The
-    /// windows' fine spaces are disjoint and uncoupled (block diagonal).
+    /// windows' fine spaces are disjoint and uncoupled (block diagonal). `c` is the hats'
+    /// compliance spectrum C ([`super::blocks::alias_spectra`] of `gs[0]`, shared with the
+    /// blockwise operator).
     pub fn new(
         gs: &[Geometry],
         regions: &[(usize, usize)],
         weights: &[&[f64]],
         hierarchical: bool,
+        c: &[f64],
     ) -> Self {
         let g = gs[0];
-        let (c, _, _) = alias_spectra(&g, Kernel::Compliance);
         let nb = (g.nx * g.ny) as f64;
         // `c` includes the 1/(nx ny) of the inverse transform: eigenvalue λ = c nb, and the
         // inverse's multiplier is 1/(λ nb). The mean mode (index 0) is zero up to the rounding
@@ -223,8 +225,8 @@ mod tests {
             margin: 0,
             order: 8,
         };
-        let mut t = TwoLevel::new(&[g], &[(17, 13)], &[&[1.0; 17 * 13]], false);
-        let (c, _, _) = alias_spectra(&g, Kernel::Compliance);
+        let c = super::super::blocks::alias_spectra(&g, Kernel::Compliance).c;
+        let mut t = TwoLevel::new(&[g], &[(17, 13)], &[&[1.0; 17 * 13]], false, &c);
         let cm = t.spectral.multiplier(&c);
         let n = g.nx * g.ny;
         let mut x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
