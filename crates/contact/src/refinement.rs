@@ -936,6 +936,7 @@ impl Composite {
                 self.out[idx] = gv[k];
             }
         }
+        b.recycle(gv);
         if !stiffness {
             for (o, w) in self.out[..n].iter_mut().zip(&self.weight) {
                 *o /= w;
