@@ -301,6 +301,79 @@ pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> AliasSpectra {
     out
 }
 
+/// The smallest 2^a 3^b 5^c ≥ n: a side whose FFT has only small radices (the boxes' natural
+/// sides, (w + 2 margin + 2) 2^k − 1 and w 2^k + 1, padded to twice themselves are often twice
+/// a large prime, e.g. 2 · 463 at w = 32, margin 12, k = 3, which rustfft transforms by Rader's
+/// algorithm at several times the cost per node).
+pub(crate) fn smooth(n: usize) -> usize {
+    let mut best = usize::MAX;
+    let mut p5 = 1;
+    while p5 < 2 * n {
+        let mut p35 = p5;
+        while p35 < 2 * n {
+            let mut m = p35;
+            while m < n {
+                m *= 2;
+            }
+            best = best.min(m);
+            p35 *= 3;
+        }
+        p5 *= 5;
+    }
+    best
+}
+
+/// The zero-padded (free) convolution of an nx × ny block with an even kernel, computed on a
+/// block of [`smooth`] sides ≥ nx × ny with the kernel cut to offsets below nx, ny (the
+/// offsets between two nodes of the block; farther entries never meet a nonzero source that
+/// lands on the block, so the result on the block is the same convolution, to rounding).
+pub(crate) struct Padded {
+    kernel: FreeKernel,
+    nx: usize,
+    ny: usize,
+    py: usize,
+    input: Vec<f64>,
+    output: Vec<f64>,
+}
+
+impl Padded {
+    /// For the kernel `green(di, dj)` (|di| < nx, |dj| < ny), even in each coordinate.
+    pub fn new(nx: usize, ny: usize, green: impl Fn(isize, isize) -> f64) -> Self {
+        let (px, py) = (smooth(nx), smooth(ny));
+        let kernel = FreeKernel::from_green(px, py, |i, j| {
+            if i.unsigned_abs() < nx && j.unsigned_abs() < ny {
+                green(i, j)
+            } else {
+                0.0
+            }
+        });
+        Padded {
+            kernel,
+            nx,
+            ny,
+            py,
+            input: vec![0.0; px * py],
+            output: vec![0.0; px * py],
+        }
+    }
+
+    /// out = the convolution of `z` (both nx × ny, row-major).
+    pub fn apply(&mut self, z: &[f64], out: &mut [f64]) {
+        let (ny, py) = (self.ny, self.py);
+        for (dst, src) in self.input.chunks_mut(py).zip(z.chunks(ny)) {
+            dst[..ny].copy_from_slice(src);
+        }
+        crate::compliance::Compliance::displacement(
+            &mut self.kernel,
+            &self.input,
+            &mut self.output,
+        );
+        for (dst, src) in out.chunks_mut(ny).zip(self.output.chunks(py)).take(self.nx) {
+            dst.copy_from_slice(&src[..ny]);
+        }
+    }
+}
+
 /// The near field of one window: its box with the zero-padded kernel and the base nodes
 /// within `margin` cells of it.
 struct Near {
@@ -311,7 +384,12 @@ struct Near {
     by: usize,
     origin: isize,
     /// Zero-padded convolution on the box.
-    boxk: FreeKernel,
+    boxk: Padded,
+    /// Zero-padded convolution of the hats' circulant C on E (a rectangle of ex × ey base
+    /// nodes from R's first node − margin): C v_E on E, from which C v_F = C v − C v_E there.
+    ek: Padded,
+    ex: usize,
+    ey: usize,
     /// Base nodes within `margin` cells of R.
     in_e: Vec<bool>,
 }
@@ -352,6 +430,9 @@ pub(crate) struct Blocks {
     /// Work arrays kept between applications (a fresh base-grid array per term cost page
     /// faults: ~20 % of a solve's CPU time in system time at 1024², k = 3).
     pool: Vec<Vec<f64>>,
+    /// C v_F by a base-grid transform (the first design; the reference of the local one).
+    #[cfg(test)]
+    far_by_base_transform: bool,
 }
 
 /// A work array of `n` values `fill` from `pool` (or new).
@@ -369,6 +450,16 @@ impl Blocks {
     /// and shared with the preconditioner).
     pub fn new(gs: &[Geometry], kernel: Kernel, alias: &AliasSpectra) -> Self {
         let g0 = gs[0];
+        let mut spectral = Spectral::new(g0.nx, g0.ny);
+        let c = spectral.multiplier(&alias.c);
+        // C in real space (its response to a unit value at base node 0)
+        let c_table = {
+            let mut delta = vec![0.0; g0.nx * g0.ny];
+            delta[0] = 1.0;
+            let mut out = vec![0.0; delta.len()];
+            spectral.convolve_with(&delta, &c, &mut out);
+            out
+        };
         let boxes: Vec<(usize, usize, isize)> = gs.iter().map(|g| g.boxed()).collect();
         let bx_max = boxes.iter().map(|b| b.0).max().expect("a window");
         let by_max = boxes.iter().map(|b| b.1).max().expect("a window");
@@ -379,8 +470,13 @@ impl Blocks {
             .zip(&boxes)
             .map(|(&g, &(bx, by, origin))| {
                 let (rx, ry) = g.region();
-                let boxk = FreeKernel::from_green(bx, by, |i, j| {
+                let boxk = Padded::new(bx, by, |i, j| {
                     t[i.unsigned_abs() * stride + j.unsigned_abs()]
+                });
+                let (ex, ey) = (g.wx + 2 * g.margin + 1, g.wy + 2 * g.margin + 1);
+                let (nx, ny) = (g.nx as isize, g.ny as isize);
+                let ek = Padded::new(ex, ey, |i, j| {
+                    c_table[(i.rem_euclid(nx) * ny + j.rem_euclid(ny)) as usize]
                 });
                 let m = g.margin as isize;
                 let mut in_e = vec![false; g.nx * g.ny];
@@ -397,12 +493,13 @@ impl Blocks {
                     by,
                     origin,
                     boxk,
+                    ek,
+                    ex,
+                    ey,
                     in_e,
                 }
             })
             .collect();
-        let spectral = Spectral::new(g0.nx, g0.ny);
-        let c = spectral.multiplier(&alias.c);
         let cp = spectral.multiplier(&alias.cp);
         let cpp = (gs.len() > 1).then(|| spectral.multiplier(&alias.pt));
         let lag = (0..g0.f)
@@ -417,6 +514,8 @@ impl Blocks {
             cp,
             cpp,
             pool: Vec::new(),
+            #[cfg(test)]
+            far_by_base_transform: false,
         }
     }
 
@@ -436,6 +535,8 @@ impl Blocks {
         let mut off = 0;
         let pool = &mut self.pool;
         let mut ds = Vec::with_capacity(self.near.len());
+        let mut c_v = take(pool, nb, 0.0);
+        self.spectral.convolve_with(v, &self.c, &mut c_v);
         for near in &mut self.near {
             let n = near.rx * near.ry;
             let d = near.remainder(&fine[off..off + n], v, take(pool, n, 0.0));
@@ -446,16 +547,28 @@ impl Blocks {
             }
             let mut cp_vf = take(pool, nb, 0.0);
             self.spectral.convolve_with(&vf, &self.cp, &mut cp_vf);
-            let mut c_vf = take(pool, nb, 0.0);
-            self.spectral.convolve_with(&vf, &self.c, &mut c_vf);
             pool.push(vf);
+            // C v_F is read on E only: C v − C v_E there (a convolution on E, not a base
+            // transform)
+            let c_vf = near.far_on_e(v, &c_v, pool);
+            #[cfg(test)]
+            let c_vf = if self.far_by_base_transform {
+                let vf: Vec<f64> = v
+                    .iter()
+                    .zip(&near.in_e)
+                    .map(|(x, e)| if *e { 0.0 } else { *x })
+                    .collect();
+                let mut c_vf = c_vf;
+                self.spectral.convolve_with(&vf, &self.c, &mut c_vf);
+                c_vf
+            } else {
+                c_vf
+            };
             let w = near.adjoint(&self.lag, &d, take(pool, nb, 0.0));
             parts.push(Part { gz, c_vf, cp_vf, w });
             ds.push(d);
             off += n;
         }
-        let mut c_v = take(pool, nb, 0.0);
-        self.spectral.convolve_with(v, &self.c, &mut c_v);
         let cp_w: Vec<Vec<f64>> = parts
             .iter()
             .map(|p| {
@@ -565,6 +678,30 @@ impl Near {
         d
     }
 
+    /// C v_F on the base nodes of E (NaN elsewhere), as C v − C v_E with C v_E by the
+    /// zero-padded convolution on E.
+    fn far_on_e(&mut self, v: &[f64], c_v: &[f64], pool: &mut Vec<Vec<f64>>) -> Vec<f64> {
+        let (ex, ey, m) = (self.ex, self.ey, self.g.margin as isize);
+        let mut ve = take(pool, ex * ey, 0.0);
+        for a in 0..ex {
+            for b in 0..ey {
+                ve[a * ey + b] = v[self.g.base(a as isize - m, b as isize - m)];
+            }
+        }
+        let mut cve = take(pool, ex * ey, 0.0);
+        self.ek.apply(&ve, &mut cve);
+        let mut out = take(pool, v.len(), f64::NAN);
+        for a in 0..ex {
+            for b in 0..ey {
+                let k = self.g.base(a as isize - m, b as isize - m);
+                out[k] = c_v[k] - cve[a * ey + b];
+            }
+        }
+        pool.push(ve);
+        pool.push(cve);
+        out
+    }
+
     /// G z on the box, z = H v_E + d.
     fn box_field(&mut self, d: &[f64], v: &[f64], pool: &mut Vec<Vec<f64>>) -> Vec<f64> {
         let (rx, ry, bx, by, o) = (self.rx, self.ry, self.bx, self.by, self.origin);
@@ -587,7 +724,7 @@ impl Near {
             });
         }
         let mut gz = take(pool, bx * by, 0.0);
-        crate::compliance::Compliance::displacement(&mut self.boxk, &z, &mut gz);
+        self.boxk.apply(&z, &mut gz);
         pool.push(z);
         gz
     }
@@ -1139,6 +1276,88 @@ mod reference {
         out
     }
 
+    /// The padded convolution is the unpadded one to rounding, on sides whose doubled FFT
+    /// length is twice a prime (the case it is for), and [`smooth`] picks 2^a 3^b 5^c sides.
+    #[test]
+    fn padded_convolution_is_the_free_one() {
+        assert_eq!(
+            [
+                smooth(1),
+                smooth(7),
+                smooth(257),
+                smooth(463),
+                smooth(927),
+                smooth(1855)
+            ],
+            [1, 8, 270, 480, 960, 1875]
+        );
+        let (nx, ny) = (23, 19);
+        let green = |i: isize, j: isize| 1.0 / (0.3 + ((i * i + 2 * j * j) as f64).sqrt());
+        let mut free = FreeKernel::from_green(nx, ny, green);
+        let mut padded = Padded::new(nx, ny, green);
+        let z: Vec<f64> = (0..nx * ny)
+            .map(|k| ((k * 7919) % 101) as f64 / 50.0 - 1.0)
+            .collect();
+        let (mut a, mut b) = (vec![0.0; nx * ny], vec![0.0; nx * ny]);
+        crate::compliance::Compliance::displacement(&mut free, &z, &mut a);
+        padded.apply(&z, &mut b);
+        let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let err = a
+            .iter()
+            .zip(&b)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        // rounding of two FFT pairs of ~10³ nodes on O(10) values
+        assert!(err < 1e-13 * scale, "{err:e} of {scale:e}");
+    }
+
+    /// C v_F computed on E (C v − C v_E by a convolution on E) is the base-grid transform of
+    /// v_F to rounding: the whole blockwise operator, one and two windows.
+    #[test]
+    fn the_local_far_field_is_the_base_transform() {
+        let geometry = |i0, j0| Geometry {
+            nx: 48,
+            ny: 40,
+            lx: 1.0,
+            ly: 0.9,
+            f: 4,
+            i0,
+            j0,
+            wx: 6,
+            wy: 5,
+            margin: 5,
+            order: 8,
+        };
+        for gs in [
+            vec![geometry(30, 37)],
+            vec![geometry(2, 3), geometry(26, 20)],
+        ] {
+            let alias = alias_spectra(&gs[0], Kernel::Compliance);
+            let mut blocks = Blocks::new(&gs, Kernel::Compliance, &alias);
+            let nf: usize = gs.iter().map(|g| g.region().0 * g.region().1).sum();
+            let nb = gs[0].nx * gs[0].ny;
+            let fine: Vec<f64> = (0..nf).map(|k| ((k * 7919) % 97) as f64 / 97.0).collect();
+            let v: Vec<f64> = (0..nb).map(|k| ((k * 104729) % 89) as f64 / 89.0).collect();
+            let (a_fine, a_v) = blocks.apply(&fine, &v);
+            blocks.far_by_base_transform = true;
+            let (b_fine, b_v) = blocks.apply(&fine, &v);
+            let rel = |a: &[f64], b: &[f64]| {
+                let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                a.iter()
+                    .zip(b)
+                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+                    / scale
+            };
+            let (ef, ev) = (rel(&a_fine, &b_fine), rel(&a_v, &b_v));
+            eprintln!(
+                "{} window(s): local against base-transform far field {ef:.1e} (fine), {ev:.1e} (base)",
+                gs.len()
+            );
+            // rounding: the local C v_E (a 34² transform) against the base transform's C v_F
+            // (48 × 40), both on O(1) values and fields of O(10)
+            assert!(ef < 1e-13 && ev < 1e-13, "{ef:e} {ev:e}");
+        }
+    }
+
     /// The tabulated bilinear stencils give the direct interpolant's bits on the whole box
     /// (with and without the mask), across the periodic wrap.
     #[test]
@@ -1159,7 +1378,10 @@ mod reference {
             bx,
             by,
             origin,
-            boxk: FreeKernel::from_green(2, 2, |i, j| {
+            ek: Padded::new(2, 2, |_, _| 1.0),
+            ex: 2,
+            ey: 2,
+            boxk: Padded::new(2, 2, |i, j| {
                 t[(i.unsigned_abs() * 3 + j.unsigned_abs()) % 64]
             }),
             in_e,

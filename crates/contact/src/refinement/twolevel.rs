@@ -23,9 +23,7 @@
 //! Neither needs the box with margins nor the fine lattice: per application one base-grid FFT
 //! pair, one FFT pair on (2 rx) × (2 ry) and passes over R.
 
-use super::blocks::{Geometry, Kernel, hat, table};
-use crate::compliance::Compliance;
-use crate::free_kernel::FreeKernel;
+use super::blocks::{Geometry, Kernel, Padded, hat, table};
 use crate::spectral::Spectral;
 
 /// One window's fine space.
@@ -33,8 +31,8 @@ struct FineSpace {
     g: Geometry,
     rx: usize,
     ry: usize,
-    /// K_f's table on R, applied by zero-padded FFT.
-    fine: FreeKernel,
+    /// K_f's table on R, applied by zero-padded FFT (on [`super::blocks::smooth`] sides).
+    fine: Padded,
     /// The fine nodes of R that belong to the fine space (their scale; 0 outside it).
     in_fine: Vec<f64>,
 }
@@ -99,7 +97,7 @@ impl TwoLevel {
                 g,
                 rx,
                 ry,
-                fine: FreeKernel::from_green(rx, ry, |i, j| {
+                fine: Padded::new(rx, ry, |i, j| {
                     t[(i.unsigned_abs() % fx) * stride + j.unsigned_abs() % fy]
                 }),
                 in_fine: (0..rx * ry)
@@ -174,7 +172,7 @@ impl TwoLevel {
                 .collect();
             off += rx * ry;
             let mut z_r = vec![0.0; rx * ry];
-            sp.fine.displacement(&y_d, &mut z_r);
+            sp.fine.apply(&y_d, &mut z_r);
             for (z, m) in z_r.iter_mut().zip(&sp.in_fine) {
                 *z *= m;
             }
