@@ -103,7 +103,8 @@
 //! interpolant of nodal values on every base node, d the fine remainder on R, zero at R's base
 //! nodes). Then, with E the base nodes within `margin` cells of R and F the rest:
 //! - hats–hats: C = Hᵀ G_f H is a base-grid circulant; its spectrum is an alias sum over the f²
-//!   fine modes of each base mode (exact; setup work f² N_base, memory N_base);
+//!   fine modes of each base mode (exact; setup work f² N_base, memory N_base; computed once
+//!   and shared with the preconditioner, see "Cost at a 1024² base");
 //! - everything supported near R (d and the hats of E): one zero-padded FFT on a box of
 //!   ((w + 2 margin + 2) f)² fine nodes with the real-space table of G_f, computed by two
 //!   passes of 1-D transforms (memory (F/2) × box side, never F²) (exact);
@@ -115,7 +116,12 @@
 //!   operators (32² base): max |A'x − A'_full x| / max |A'_full x| = 6.4e-6 (margin 5, f = 2),
 //!   3.9e-6 (5, f = 4), 2.8e-7 (8), 5.1e-8 (12); symmetric to 1e-14.
 //!
-//! Heights: Pᵀh streamed over the fine lattice by base rows (each fine node evaluated ~twice).
+//! Heights: Pᵀh streamed over the fine lattice by fine rows (each fine node evaluated once, a
+//! row at a time with per-axis tables: [`blocks::FineRows`]).
+//!
+//! C v_F (the hats of F at E's base nodes) is formed on E only, as C v − C v_E with C v_E a
+//! zero-padded convolution on E's (w + 2 margin + 1)² base nodes: the application costs four
+//! base-grid FFT pairs (C v, C' v_F, C' Sᵀ Πᵀ d, and the preconditioner's C⁻¹), not five.
 //!
 //! Measured against the full composite (same discretisation; the difference is the
 //! approximation above):
@@ -358,8 +364,9 @@
 //! - cost: 4.6 s and 36 iterations per warm-started solve (12 windows; one window 0.38 s and
 //!   37 iterations; uniform 1024² 2.6 s per solve in the same run), setup 0.2 s, the flow
 //!   (Kx and Ky, critical::window_flow) 0.4 s per load. Each iteration applies 12 box FFT pairs
-//!   (272²) and ~50 base-grid convolutions (four per window: C' v_F, C v_F, C' w, C'' w); the
-//!   latter dominate and could be cut (restrict C v_F to E, merge the far terms).
+//!   (272²) and ~50 base-grid convolutions (four per window then: C' v_F, C v_F, C' w, C'' w);
+//!   the latter dominate (C v_F is now formed on E, see "Blockwise application": three per
+//!   window; merging the far terms would cut more).
 //!
 //! Hexagonal model, the same set-up (`lattice=hexagonal`; 103 CPU-s with the uniform
 //! reference, 262 MB): p_c/p_fc 0.0317204494 against uniform 1024² 0.0317213933 (−3.0e-5; base

@@ -435,9 +435,20 @@ pub(crate) struct Blocks {
     far_by_base_transform: bool,
 }
 
-/// A work array of `n` values `fill` from `pool` (or new).
+/// A work array of `n` values `fill` from `pool`: the smallest pooled array that holds n
+/// values (so that base-grid, box and window arrays keep to their own sizes and the pool does
+/// not grow every array to the box's size), or a new one.
 fn take(pool: &mut Vec<Vec<f64>>, n: usize, fill: f64) -> Vec<f64> {
-    let mut v = pool.pop().unwrap_or_default();
+    let best = pool
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.capacity() >= n)
+        .min_by_key(|(_, v)| v.capacity())
+        .map(|(k, _)| k);
+    let mut v = match best {
+        Some(k) => pool.swap_remove(k),
+        None => Vec::with_capacity(n),
+    };
     v.clear();
     v.resize(n, fill);
     v
