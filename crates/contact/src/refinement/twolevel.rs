@@ -21,7 +21,8 @@
 //! are disjoint and B is the block-diagonal inverse in the (v, d) basis).
 //!
 //! Neither needs the box with margins nor the fine lattice: per application one base-grid FFT
-//! pair, one FFT pair on (2 rx) × (2 ry) and passes over R.
+//! pair, one FFT pair on twice R's sides rounded up to 2^a 3^b 5^c ([`super::blocks::Padded`]) and
+//! passes over R.
 
 use super::blocks::{Geometry, Kernel, Padded, hat, table};
 use crate::spectral::Spectral;
