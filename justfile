@@ -64,6 +64,7 @@ demo: build
 bench:
     cargo bench -p contact --bench hardwall
     cargo bench -p contact --bench adhesive
+    REFINE_METHOD=blockwise REFINE_MARGIN=12 REFINE_BASE=10 REFINE_LEVELS=${REFINE_LEVELS:-3} REFINE_WINDOWS=32 REFINE_SKIP_REFERENCE=1 REFINE_MAX_ITER=${REFINE_MAX_ITER:-20} cargo bench -p contact --bench refinement
     cargo bench -p reynolds --bench flow
 
 # Side-by-side benchmarks against tamaas, ContactMechanics and PyAMG in a Python venv.

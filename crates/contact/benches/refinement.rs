@@ -24,6 +24,13 @@
 //! of the refined solve alone, e.g. k = 4..6); each refined case then reports the process's
 //! peak resident memory (VmHWM), so run one window per process for a memory figure.
 //!
+//! Cost measurements: `REFINE_MAX_ITER=n` caps the solver's iterations and accepts an
+//! unconverged solve (seconds per iteration without a full solve); `REFINE_SETUP_ONLY=1` builds
+//! each refined discretisation and stops (setup time and peak memory). The paper preset's deep
+//! ladders: `REFINE_METHOD=blockwise REFINE_MARGIN=12 REFINE_BASE=10 REFINE_LEVELS=4
+//! REFINE_WINDOWS=32 REFINE_SKIP_REFERENCE=1` (`just bench` runs it at k = 3 with
+//! `REFINE_MAX_ITER=20`; `REFINE_LEVELS` and `REFINE_MAX_ITER` from the environment override).
+//!
 //! Each case prints one machine-readable line starting with `RESULT`. Measurements are in the
 //! module docs of `contact::refinement`.
 
@@ -41,8 +48,14 @@ fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
 fn solver() -> SolverOptions {
     SolverOptions {
         tol_gap: 1e-13,
+        max_iter: env("REFINE_MAX_ITER", 200_000),
         ..Default::default()
     }
+}
+
+/// Whether an unconverged solve is accepted (`REFINE_MAX_ITER` set: a cost measurement).
+fn capped() -> bool {
+    std::env::var("REFINE_MAX_ITER").is_ok()
 }
 
 /// One discretisation: uniform (or base alone), composite, or coupled.
@@ -110,7 +123,7 @@ impl Disc {
             Disc::Composite(b) => {
                 let (m, warm) = &mut **b;
                 let r = m.solve(load, warm.as_ref()).expect("composite solve");
-                assert!(r.stats.converged, "{:?}", r.stats);
+                assert!(r.stats.converged || capped(), "{:?}", r.stats);
                 let g = r
                     .fine_gap(r.lattice.0 / 2, 0)
                     .expect("saddle in the window");
@@ -217,20 +230,53 @@ fn main() {
         );
     }
     for w in windows {
-        let t = Instant::now();
+        let (t, c0) = (Instant::now(), cpu_seconds());
         let mut d = Disc::new(&s, &method, levels, Some(w));
         let setup = t.elapsed().as_secs_f64();
+        let c1 = cpu_seconds();
+        if env("REFINE_SETUP_ONLY", 0) == 1 {
+            let peak = peak_memory_mib();
+            println!(
+                "{method} window {w}² base cells: setup {setup:.2} s, peak memory {peak:.0} MiB"
+            );
+            println!(
+                "RESULT method={method} window={w} setup_s={setup:.3} setup_cpu_s={:.2} peak_mib={peak:.0}",
+                c1 - c0
+            );
+            continue;
+        }
         let (gap, area, it) = d.solve(&s, load);
         let wall = t.elapsed().as_secs_f64();
+        let per_iter = (wall - setup) / it.max(1) as f64;
+        let (setup_cpu, solve_cpu) = (c1 - c0, cpu_seconds() - c1);
         let rel = gap / g_uni - 1.0;
         let peak = peak_memory_mib();
         println!(
-            "{method} window {w}² base cells: {wall:.2} s (setup {setup:.2} s included), {it} iterations, saddle gap {gap:.12e} (rel {rel:+.3e}), area {area:.8}, peak memory {peak:.0} MiB"
+            "{method} window {w}² base cells: {wall:.2} s (setup {setup:.2} s included), {it} iterations ({per_iter:.3} s each), saddle gap {gap:.12e} (rel {rel:+.3e}), area {area:.8}, peak memory {peak:.0} MiB"
         );
         println!(
-            "RESULT method={method} window={w} wall_s={wall:.3} setup_s={setup:.3} iterations={it} gap={gap:.15e} rel={rel:.3e} area={area:.10} peak_mib={peak:.0}"
+            "RESULT method={method} window={w} wall_s={wall:.3} setup_s={setup:.3} iterations={it} s_per_iteration={per_iter:.4} setup_cpu_s={setup_cpu:.2} cpu_s_per_iteration={:.4} gap={gap:.15e} rel={rel:.3e} area={area:.10} peak_mib={peak:.0}",
+            solve_cpu / it.max(1) as f64
         );
     }
+}
+
+/// CPU time of this process so far (user + system, all threads; s, 10 ms ticks): on a shared
+/// machine the wall time is inflated, the CPU time much less. NaN where /proc is missing.
+fn cpu_seconds() -> f64 {
+    std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            let after = s.rsplit(')').next()?.to_string();
+            let f: Vec<f64> = after
+                .split_whitespace()
+                .skip(11)
+                .take(2)
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            (f.len() == 2).then(|| (f[0] + f[1]) / 100.0)
+        })
+        .unwrap_or(f64::NAN)
 }
 
 /// Peak resident memory of this process (VmHWM, MiB); NaN where /proc is missing.

@@ -103,7 +103,8 @@
 //! interpolant of nodal values on every base node, d the fine remainder on R, zero at R's base
 //! nodes). Then, with E the base nodes within `margin` cells of R and F the rest:
 //! - hats–hats: C = Hᵀ G_f H is a base-grid circulant; its spectrum is an alias sum over the f²
-//!   fine modes of each base mode (exact; setup work f² N_base, memory N_base);
+//!   fine modes of each base mode (exact; setup work f² N_base, memory N_base; computed once
+//!   and shared with the preconditioner, see "Cost at a 1024² base");
 //! - everything supported near R (d and the hats of E): one zero-padded FFT on a box of
 //!   ((w + 2 margin + 2) f)² fine nodes with the real-space table of G_f, computed by two
 //!   passes of 1-D transforms (memory (F/2) × box side, never F²) (exact);
@@ -115,7 +116,12 @@
 //!   operators (32² base): max |A'x − A'_full x| / max |A'_full x| = 6.4e-6 (margin 5, f = 2),
 //!   3.9e-6 (5, f = 4), 2.8e-7 (8), 5.1e-8 (12); symmetric to 1e-14.
 //!
-//! Heights: Pᵀh streamed over the fine lattice by base rows (each fine node evaluated ~twice).
+//! Heights: Pᵀh streamed over the fine lattice by fine rows (each fine node evaluated once, a
+//! row at a time with per-axis tables: [`blocks::FineRows`]).
+//!
+//! C v_F (the hats of F at E's base nodes) is formed on E only, as C v − C v_E with C v_E a
+//! zero-padded convolution on E's (w + 2 margin + 1)² base nodes: the application costs four
+//! base-grid FFT pairs (C v, C' v_F, C' Sᵀ Πᵀ d, and the preconditioner's C⁻¹), not five.
 //!
 //! Measured against the full composite (same discretisation; the difference is the
 //! approximation above):
@@ -257,6 +263,55 @@
 //! modes per base mode, ~8 s then). The iteration count depends on where R's edge cuts the contact lines (207 at k = 5 with window 16², 76 at
 //! k = 6 with 8²), not only on k.
 //!
+//! # Cost at a 1024² base (2026-11-26 #9)
+//! The paper preset's deep ladders: 1024² base, window 32², margin 12 (`REFINE_METHOD=blockwise
+//! REFINE_MARGIN=12 REFINE_BASE=10 REFINE_LEVELS=k REFINE_WINDOWS=32 REFINE_SKIP_REFERENCE=1
+//! cargo bench -p contact --bench refinement`, `REFINE_MAX_ITER=20` at k = 5; square model at
+//! 0.227 p_fc, cold start, tol_gap 1e-13; the bench prints CPU seconds of the setup and per
+//! iteration). The machine was shared (load average 7–13 on 2 cores, wall times 2–3× the CPU
+//! times), so CPU-seconds (all threads, user + system) are the figures; the setup's parts from
+//! the ignored test `blocks::cost::setup_parts` (`SETUP_K=k`).
+//!
+//! | k (fine spacing) | setup CPU-s before → after | CPU-s per iteration | iterations | peak RSS |
+//! |---|---|---|---|---|
+//! | 3 (8192²) | 4.0 → 1.3 | 0.27 → 0.16 | 88, 88 | 275 → 331 MiB |
+//! | 4 (16384²) | 15.9 → 5.1 | 0.59 → 0.27 | 97, 97 | 419 → 480 MiB |
+//! | 5 (32768²) | 65.7 → 21.0 | 1.84 → 0.82 | –, 162 | 939 (20 iterations) → 1104 MiB |
+//!
+//! A whole cold solve: 28.0 → 15.5 CPU-s (k = 3), 72.7 → 31.6 (k = 4), 154 CPU-s after at
+//! k = 5 (5.5 min wall on the loaded machine; before: 20 iterations capped, i.e. ~360 CPU-s
+//! for the 162 iterations, estimated). (k = 3's peak after is from before the pool's best
+//! fit, which took k = 4 from 498 to 480 MiB.) Before, the setup's
+//! parts at k = 4 were: alias sums 1.6 CPU-s, computed twice (the blockwise operator's C and
+//! the preconditioner's C⁻¹), the tables of G on the box and K on R 2.3 and 2.1 (1-D FFTs over
+//! the 16384-node period), and Pᵀh over the 16384² fine lattice 8.2 (three cosines per fine
+//! node through `TrigSurface::height`); after: alias sums 0.9 once, tables 1.3 and 1.1,
+//! Pᵀh 1.7 (square model: no cosine per node). What changed:
+//! - setup, bit for bit the old values (tests `the_fast_setup_is_bitwise_the_direct_one`,
+//!   `fine_rows_are_the_profile_bit_for_bit`; same saddle gap to the 16 digits printed and
+//!   the same iterations in the bench): the alias sums once; wave numbers per axis; the base
+//!   modes a and n_x − a share their aliases' eigenvalues (one hypot and one division per two
+//!   terms); table rows mirrored; the fine heights by rows with per-axis tables
+//!   ([`blocks::FineRows`]: axis-aligned waves tabulated, the triangular and hexagonal
+//!   profiles' oblique waves still one cosine per node each); hat weights tabulated;
+//! - per application, bit for bit: work arrays pooled (a fresh base-grid array per term cost
+//!   5.5 s of system time, page faults, in a 28 CPU-s solve at k = 3), the one-window gradient
+//!   without per-node bookkeeping, bilinear stencils per row and column;
+//! - per application, to rounding (saddle gap +5e-12 relative at k = 3, +7e-12 at k = 4, same
+//!   iterations and contact area): C v_F on E only (four base FFT pairs, not five; test
+//!   `the_local_far_field_is_the_base_transform`, 1e-14), and the box's and R's zero-padded
+//!   convolutions on 2^a 3^b 5^c sides ([`blocks::Padded`]): their natural doubled sides were
+//!   2·463, 2·927 (2·3²·103), 2·1855 (2·5·7·53), 2·257, 2·513 — large primes, transformed by
+//!   Rader's algorithm.
+//!
+//! Peak memory grew by the pooled arrays and the padded blocks' buffers (~60 MiB at k = 4,
+//! more at k = 5). Left: at k = 5 the box (1855² fine nodes, transformed on 3750²) is most of
+//! an iteration; the tables are bound by their 1-D FFTs and the alias sums by hypot; the
+//! triangular and hexagonal Pᵀh still costs two cosines per fine node (1.1e9 nodes at k = 5).
+//! Faster still but not bit for bit: Pᵀh in closed form (the hat filter of each cosine wave,
+//! O(N_base) per wave), the table rows by real or cosine transforms, the alias sums with
+//! sqrt(x² + y²) for hypot.
+//!
 //! # Fit to drive the near-critical ladder?
 //! Not yet below |l| ~ 1e-4. What holds: the discretisation is the composite one (local slopes
 //! within 6.4e-4 of the uniform ones at fixed l), the fine lattice is never allocated, at k = 3
@@ -358,8 +413,9 @@
 //! - cost: 4.6 s and 36 iterations per warm-started solve (12 windows; one window 0.38 s and
 //!   37 iterations; uniform 1024² 2.6 s per solve in the same run), setup 0.2 s, the flow
 //!   (Kx and Ky, critical::window_flow) 0.4 s per load. Each iteration applies 12 box FFT pairs
-//!   (272²) and ~50 base-grid convolutions (four per window: C' v_F, C v_F, C' w, C'' w); the
-//!   latter dominate and could be cut (restrict C v_F to E, merge the far terms).
+//!   (272²) and ~50 base-grid convolutions (four per window then: C' v_F, C v_F, C' w, C'' w);
+//!   the latter dominate (C v_F is now formed on E, see "Blockwise application": three per
+//!   window; merging the far terms would cut more).
 //!
 //! Hexagonal model, the same set-up (`lattice=hexagonal`; 103 CPU-s with the uniform
 //! reference, 262 MB): p_c/p_fc 0.0317204494 against uniform 1024² 0.0317213933 (−3.0e-5; base
@@ -762,6 +818,10 @@ impl Composite {
                 order: ORDER,
             })
             .collect();
+        // the hats' compliance spectrum: the blockwise operator's and the two-level
+        // preconditioner's (computed once)
+        let alias = (margin.is_some() || pre != Preconditioner::Galerkin)
+            .then(|| blocks::alias_spectra(&geometries[0], blocks::Kernel::Compliance));
         let (fine, blocks) = match margin {
             None => {
                 let fine_grid = Grid {
@@ -774,10 +834,18 @@ impl Composite {
                 (Some(ElasticKernel::new(&fine_grid, 1.0)), None)
             }
             Some(_) => {
+                let compliance = alias.as_ref().expect("alias sums");
                 let pair = [
-                    Some(blocks::Blocks::new(&geometries, blocks::Kernel::Compliance)),
-                    (pre == Preconditioner::Galerkin)
-                        .then(|| blocks::Blocks::new(&geometries, blocks::Kernel::Stiffness)),
+                    Some(blocks::Blocks::new(
+                        &geometries,
+                        blocks::Kernel::Compliance,
+                        compliance,
+                    )),
+                    (pre == Preconditioner::Galerkin).then(|| {
+                        let stiffness =
+                            blocks::alias_spectra(&geometries[0], blocks::Kernel::Stiffness);
+                        blocks::Blocks::new(&geometries, blocks::Kernel::Stiffness, &stiffness)
+                    }),
                 ];
                 (None, Some(Box::new(pair)))
             }
@@ -890,6 +958,7 @@ impl Composite {
                 &shapes,
                 &weights,
                 pre == Preconditioner::Hierarchical,
+                &alias.as_ref().expect("alias sums").c,
             )));
         }
         c
@@ -923,6 +992,7 @@ impl Composite {
                 self.out[idx] = gv[k];
             }
         }
+        b.recycle(gv);
         if !stiffness {
             for (o, w) in self.out[..n].iter_mut().zip(&self.weight) {
                 *o /= w;
@@ -1396,7 +1466,9 @@ impl RefinedModel {
                 margin: m,
                 order: ORDER,
             };
-            let hv = blocks::hat_heights(&geometry(&opts.windows[0]), &height);
+            let g0 = geometry(&opts.windows[0]);
+            let rows = blocks::FineRows::new(profile, &g0, (dx, dy), (s0, s1));
+            let hv = blocks::hat_heights(&g0, &|i, out: &mut [f64]| rows.row(i, out));
             let mut out = vec![0.0; n];
             for (w, r) in opts.windows.iter().zip(&comp.regions) {
                 let hr = blocks::window_heights(&geometry(w), &height, &hv);

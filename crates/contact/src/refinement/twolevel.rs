@@ -21,11 +21,10 @@
 //! are disjoint and B is the block-diagonal inverse in the (v, d) basis).
 //!
 //! Neither needs the box with margins nor the fine lattice: per application one base-grid FFT
-//! pair, one FFT pair on (2 rx) × (2 ry) and passes over R.
+//! pair, one FFT pair on twice R's sides rounded up to 2^a 3^b 5^c ([`super::blocks::Padded`]) and
+//! passes over R.
 
-use super::blocks::{Geometry, Kernel, alias_spectra, hat, table};
-use crate::compliance::Compliance;
-use crate::free_kernel::FreeKernel;
+use super::blocks::{Geometry, Kernel, Padded, hat, table};
 use crate::spectral::Spectral;
 
 /// One window's fine space.
@@ -33,8 +32,8 @@ struct FineSpace {
     g: Geometry,
     rx: usize,
     ry: usize,
-    /// K_f's table on R, applied by zero-padded FFT.
-    fine: FreeKernel,
+    /// K_f's table on R, applied by zero-padded FFT (on [`super::blocks::smooth`] sides).
+    fine: Padded,
     /// The fine nodes of R that belong to the fine space (their scale; 0 outside it).
     in_fine: Vec<f64>,
 }
@@ -56,15 +55,17 @@ impl TwoLevel {
     /// w > 1), enter it scaled by 1/w, so that W B W gives them the fine diagonal K_f(0) rather
     /// than w² K_f(0) (up to f⁴/4 too stiff; measured: leaving them out of the fine space, or
     /// not scaling them, costs up to 3× the iterations, see the parent module's docs). The
-    /// windows' fine spaces are disjoint and uncoupled (block diagonal).
+    /// windows' fine spaces are disjoint and uncoupled (block diagonal). `c` is the hats'
+    /// compliance spectrum C ([`super::blocks::alias_spectra`] of `gs[0]`, shared with the
+    /// blockwise operator).
     pub fn new(
         gs: &[Geometry],
         regions: &[(usize, usize)],
         weights: &[&[f64]],
         hierarchical: bool,
+        c: &[f64],
     ) -> Self {
         let g = gs[0];
-        let (c, _, _) = alias_spectra(&g, Kernel::Compliance);
         let nb = (g.nx * g.ny) as f64;
         // `c` includes the 1/(nx ny) of the inverse transform: eigenvalue λ = c nb, and the
         // inverse's multiplier is 1/(λ nb). The mean mode (index 0) is zero up to the rounding
@@ -97,7 +98,7 @@ impl TwoLevel {
                 g,
                 rx,
                 ry,
-                fine: FreeKernel::from_green(rx, ry, |i, j| {
+                fine: Padded::new(rx, ry, |i, j| {
                     t[(i.unsigned_abs() % fx) * stride + j.unsigned_abs() % fy]
                 }),
                 in_fine: (0..rx * ry)
@@ -172,7 +173,7 @@ impl TwoLevel {
                 .collect();
             off += rx * ry;
             let mut z_r = vec![0.0; rx * ry];
-            sp.fine.displacement(&y_d, &mut z_r);
+            sp.fine.apply(&y_d, &mut z_r);
             for (z, m) in z_r.iter_mut().zip(&sp.in_fine) {
                 *z *= m;
             }
@@ -223,8 +224,8 @@ mod tests {
             margin: 0,
             order: 8,
         };
-        let mut t = TwoLevel::new(&[g], &[(17, 13)], &[&[1.0; 17 * 13]], false);
-        let (c, _, _) = alias_spectra(&g, Kernel::Compliance);
+        let c = super::super::blocks::alias_spectra(&g, Kernel::Compliance).c;
+        let mut t = TwoLevel::new(&[g], &[(17, 13)], &[&[1.0; 17 * 13]], false, &c);
         let cm = t.spectral.multiplier(&c);
         let n = g.nx * g.ny;
         let mut x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
