@@ -501,6 +501,15 @@ impl ClosingLoad {
     }
 }
 
+/// The error when no load above 1e-3 of the guess leaves the saddle open.
+fn no_open_load(guess: f64) -> CriticalError {
+    CriticalError::param(
+        "guess",
+        guess,
+        "a load with the saddle open above 1e-3 of it",
+    )
+}
+
 /// The load at which a saddle gap g(p) (> 0 open, ≤ 0 closed, decreasing in p) closes, to
 /// `opts.rel_tol`, from a guess and a relative width (module docs, "The p_c search"). `probe`
 /// returns the saddle gap at a load. Errors if no open load is found above 1e-3 `guess` or no
@@ -557,11 +566,7 @@ pub fn find_closing_load_seeded(
             break;
         }
         if p < 1e-3 * guess {
-            return Err(CriticalError::param(
-                "guess",
-                guess,
-                "a load with the saddle open above 1e-3 of it",
-            ));
+            return Err(no_open_load(guess));
         }
         p *= 0.5;
     }
@@ -730,11 +735,7 @@ fn search_aimed(
             }
         }
         if p < 1e-3 * guess {
-            return Err(CriticalError::param(
-                "guess",
-                guess,
-                "a load with the saddle open above 1e-3 of it",
-            ));
+            return Err(no_open_load(guess));
         }
         step *= 8.0;
         p = if step < 0.5 {

@@ -180,6 +180,13 @@ pub(crate) fn table(g: &Geometry, kernel: Kernel, bx: usize, by: usize) -> Vec<f
             }
         },
     );
+    x_pass(&rows, (fx, fy), bx, by)
+}
+
+/// The second pass of [`table`]: the x transforms of the rows (kx ≤ F_x/2, the upper half
+/// mirrored), normalised, cut to 0 ≤ dx ≤ bx and laid out t[dx·(by+1) + dy].
+fn x_pass(rows: &[f64], (fx, fy): (usize, usize), bx: usize, by: usize) -> Vec<f64> {
+    let half = fx / 2 + 1;
     let fft_x = FftPlanner::<f64>::new().plan_fft_forward(fx);
     let norm = (fx * fy) as f64;
     let cols: Vec<Vec<f64>> = (0..=by)
@@ -1220,28 +1227,7 @@ mod reference {
                     *o = c.re;
                 }
             });
-        let fft_x = FftPlanner::<f64>::new().plan_fft_forward(fx);
-        let norm = (fx * fy) as f64;
-        let cols: Vec<Vec<f64>> = (0..=by)
-            .into_par_iter()
-            .map(|dy| {
-                let mut buf: Vec<num_complex::Complex64> = (0..fx)
-                    .map(|kx| {
-                        let k = if kx < half { kx } else { fx - kx };
-                        num_complex::Complex64::new(rows[k * (by + 1) + dy], 0.0)
-                    })
-                    .collect();
-                fft_x.process(&mut buf);
-                buf[..=bx].iter().map(|c| c.re / norm).collect()
-            })
-            .collect();
-        let mut t = vec![0.0; (bx + 1) * (by + 1)];
-        for (dy, col) in cols.iter().enumerate() {
-            for (dx, v) in col.iter().enumerate() {
-                t[dx * (by + 1) + dy] = *v;
-            }
-        }
-        t
+        super::x_pass(&rows, (fx, fy), bx, by)
     }
 
     /// The direct alias sums (every alias's eigenvalue evaluated, in the order of the first

@@ -228,14 +228,14 @@ pub fn universality_table(pairs: &[Pair]) -> Result<Table> {
     t.push("exponent", s(|r| r.exponent.to_string()))?;
     t.push("model_a", s(|r| r.models.0.to_string()))?;
     t.push("model_b", s(|r| r.models.1.to_string()))?;
-    t.push(
-        "points",
+    let int = |g: fn(&analysis::RangeFit) -> usize| {
         ColumnData::I64(
             rows.iter()
-                .map(|r| r.fit.map_or(0, |f| f.points as i64))
+                .map(|r| r.fit.map_or(0, |f| g(f) as i64))
                 .collect(),
-        ),
-    )?;
+        )
+    };
+    t.push("points", int(|f| f.points))?;
     t.push("l_max", f(|f| f.l_max))?;
     t.push("l_min", f(|f| f.l_min))?;
     t.push("offset", f(|f| f.offset))?;
@@ -243,14 +243,7 @@ pub fn universality_table(pairs: &[Pair]) -> Result<Table> {
     t.push("offset_hi", f(|f| f.offset_hi))?;
     t.push("omega", f(|f| f.omega))?;
     t.push("chi2", f(|f| f.chi2))?;
-    t.push(
-        "dof",
-        ColumnData::I64(
-            rows.iter()
-                .map(|r| r.fit.map_or(0, |f| f.dof as i64))
-                .collect(),
-        ),
-    )?;
+    t.push("dof", int(|f| f.dof))?;
     t.push("omega_vanishing", f(|f| f.omega_vanishing))?;
     t.push("chi2_vanishing", f(|f| f.chi2_vanishing))?;
     t.push(
