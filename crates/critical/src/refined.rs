@@ -312,8 +312,9 @@
 //!   5.4e-4) → 1.2032 (2e-4→1e-4, grid error 9.2e-3) → ~1.20 at 1e-5 (flagged, grid errors
 //!   4–9e-3): it reaches 1.2 near 1e-4 and is still falling there.
 //! - The two models approach each other: 0.088 apart at 0.05→0.02, 0.047 at 5e-4→2e-4, ~0.04
-//!   at 2e-4→1e-4 (triangular not converged there). Neither has a plateau at 6/5; the square
-//!   one stays 0.035–0.045 below it from 2e-4 to 1e-5.
+//!   at 2e-4→1e-4 (triangular not converged there). Neither has a plateau at 6/5; on this
+//!   256² base the square one stays 0.035–0.045 below it from 2e-4 to 1e-5 (the deep ladders,
+//!   1024² base, docs/near-critical.md §5b: 0.051 below at 2e-5→1e-5, converged).
 //! - Hexagonal (2026-11-26, window 16; docs/near-critical.md, "Refined ladders on a 256²
 //!   base"): the ladder runs (4 crossings at every rung, margin changes ≤ 3.4e-4) but the
 //!   neck is narrow (at k = 4: 29, 21, 13, 9 fine nodes at l = −1e-3, −5e-4, −2e-4, −1e-4, the
