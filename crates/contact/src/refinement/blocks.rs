@@ -221,6 +221,21 @@ pub(crate) struct AliasSpectra {
     pub pt: Vec<f64>,
 }
 
+/// The hat's spectral factor φ(k) = sin²(fπk/n) / (f sin²(πk/n)) (f at k = 0) for every fine
+/// mode k < n of an axis of n fine nodes.
+fn hat_factors(f: usize, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|k| {
+            if k == 0 {
+                return f as f64;
+            }
+            let th = std::f64::consts::PI * k as f64 / n as f64;
+            let r = (f as f64 * th).sin() / th.sin();
+            r * r / f as f64
+        })
+        .collect()
+}
+
 /// Half spectra (natural layout, normalised for [`Spectral`]) of C = Hᵀ K H,
 /// C' = (K ∗ hat) sampled on the base lattice and K itself sampled on the base lattice: alias
 /// sums over the f² fine modes of each base mode.
@@ -235,16 +250,7 @@ pub(crate) struct AliasSpectra {
 pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> AliasSpectra {
     let (f, nx, ny) = (g.f, g.nx, g.ny);
     let (fx, fy) = g.fine();
-    let phi = |k: usize, n: usize| -> f64 {
-        if k == 0 {
-            return f as f64;
-        }
-        let th = std::f64::consts::PI * k as f64 / n as f64;
-        let r = (f as f64 * th).sin() / th.sin();
-        r * r / f as f64
-    };
-    let px: Vec<f64> = (0..fx).map(|k| phi(k, fx)).collect();
-    let py: Vec<f64> = (0..fy).map(|k| phi(k, fy)).collect();
+    let (px, py) = (hat_factors(f, fx), hat_factors(f, fy));
     let qx = Geometry::wave_numbers(fx, g.lx);
     let qy = Geometry::wave_numbers(fy, g.ly);
     let m = ny / 2 + 1;
@@ -1235,16 +1241,7 @@ mod reference {
     pub(crate) fn alias_spectra(g: &Geometry, kernel: Kernel) -> AliasSpectra {
         let (f, nx, ny) = (g.f, g.nx, g.ny);
         let (fx, fy) = g.fine();
-        let phi = |k: usize, n: usize| -> f64 {
-            if k == 0 {
-                return f as f64;
-            }
-            let th = std::f64::consts::PI * k as f64 / n as f64;
-            let r = (f as f64 * th).sin() / th.sin();
-            r * r / f as f64
-        };
-        let px: Vec<f64> = (0..fx).map(|k| phi(k, fx)).collect();
-        let py: Vec<f64> = (0..fy).map(|k| phi(k, fy)).collect();
+        let (px, py) = (super::hat_factors(f, fx), super::hat_factors(f, fy));
         let m = ny / 2 + 1;
         let norm = (f * f * nx * ny) as f64;
         let mut out = AliasSpectra {

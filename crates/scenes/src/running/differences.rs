@@ -23,7 +23,6 @@
 //! and `bound_lo`, `bound_hi` (the union of the accepted ranges' intervals).
 
 use super::Row;
-use analysis::difference::local_slopes;
 use analysis::{DiffOptions, DiffPoint, DiffVerdict, DifferenceScaling, difference_scaling};
 use anyhow::Result;
 use critical::running::Exponent;
@@ -157,16 +156,8 @@ pub fn differences_table(pairs: &[Pair]) -> Result<Table> {
     let rows: Vec<(&Common, f64, f64)> = pairs
         .iter()
         .flat_map(|p| {
-            let points: Vec<DiffPoint> = p
-                .common
-                .iter()
-                .map(|c| DiffPoint {
-                    l: (c.l_hi * c.l_lo).abs().sqrt(),
-                    value: c.difference,
-                    error: c.error,
-                })
-                .collect();
-            let slopes = local_slopes(&points).unwrap_or_default();
+            // the scaling's points and slopes run by descending |l|, as `common` does
+            let slopes = &p.scaling.local;
             p.common.iter().enumerate().map(move |(i, c)| {
                 let s = (i > 0).then(|| slopes.get(i - 1)).flatten();
                 (
