@@ -132,15 +132,7 @@ impl TypedKind for LadderKind {
     }
     fn check(&self, params: &LadderParams) -> Result<(), ParamIssue> {
         crate::critical::check_ascending(&params.ns)?;
-        let mut ls = params.ls.clone();
-        ls.sort_by(f64::total_cmp);
-        if ls.windows(2).any(|w| w[1] == w[0]) {
-            return Err(ParamIssue::new(
-                "ls",
-                format!("{ls:?}: allowed distinct reduced loads"),
-            ));
-        }
-        Ok(())
+        check_distinct_ls(&params.ls)
     }
     fn inputs(&self, _params: &LadderParams) -> Vec<InputSpec> {
         vec![
@@ -232,6 +224,20 @@ impl TypedKind for LadderKind {
         ctx.progress(1.0, "written");
         Ok(StageReport::with_stats(json!({ "levels": per_level })))
     }
+}
+
+/// `ls` (key `ls`, any order) without a repeated reduced load: the ladder's and the refined
+/// ladders' check.
+pub(crate) fn check_distinct_ls(ls: &[f64]) -> Result<(), ParamIssue> {
+    let mut ls = ls.to_vec();
+    ls.sort_by(f64::total_cmp);
+    if ls.windows(2).any(|w| w[1] == w[0]) {
+        return Err(ParamIssue::new(
+            "ls",
+            format!("{ls:?}: allowed distinct reduced loads"),
+        ));
+    }
+    Ok(())
 }
 
 /// (L_c, its source, the grid's bisected L_c) for every ladder grid, from the `critical` input.

@@ -136,15 +136,7 @@ pub(crate) fn check_ls(ls: &[f64]) -> Result<(), ParamIssue> {
             format!("{l}: allowed reduced loads with |l| ≥ 1e-12 (p_c itself measures nothing)"),
         ));
     }
-    let mut ls = ls.to_vec();
-    ls.sort_by(f64::total_cmp);
-    if ls.windows(2).any(|w| w[1] == w[0]) {
-        return Err(ParamIssue::new(
-            "ls",
-            format!("{ls:?}: allowed distinct reduced loads"),
-        ));
-    }
-    Ok(())
+    crate::ladder::check_distinct_ls(ls)
 }
 
 /// The `refined_ladder` kind's parameters.

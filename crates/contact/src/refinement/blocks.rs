@@ -119,15 +119,7 @@ impl Geometry {
             ky as f64 - fy as f64
         };
         let tau = 2.0 * std::f64::consts::PI;
-        let k = 0.5 * (tau * sx / self.lx).hypot(tau * sy / self.ly);
-        if k == 0.0 {
-            0.0
-        } else {
-            match kernel {
-                Kernel::Compliance => 1.0 / k,
-                Kernel::Stiffness => k,
-            }
-        }
+        Self::eigen_q(kernel, tau * sx / self.lx, tau * sy / self.ly)
     }
 }
 
