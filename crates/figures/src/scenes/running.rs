@@ -2,8 +2,10 @@
 //! slope between neighbouring ladder rungs against |l| (log axis, the pair's geometric mean),
 //! one colour and marker per model (the refined ladder's pairs: diamonds in the model's colour,
 //! joined by a dashed line; a deeper refined ladder's, chained below it: diamonds joined by a
-//! dotted line, "(deep)" in the legend), error bars grid error ⊕ fit error, flagged pairs (grid error above
-//! the bound or unknown) drawn hollow, the paper's value as a grey band (its error;
+//! dotted line, "(deep)" in the legend; the pairs from the neck's gap field (υ: rms width, χ:
+//! rise length, from below; `neck` curves): stars in the model's colour joined by a
+//! dash-dotted line, "(neck)" or "(neck, deep)" in the legend), error bars grid error ⊕ fit
+//! error, flagged pairs (grid error above the bound or unknown) drawn hollow, the paper's value as a grey band (its error;
 //! a dashed line when it gives none) and the conjecture as a dotted black line.
 
 use std::path::{Path, PathBuf};
@@ -14,7 +16,7 @@ use crate::axes::Axis;
 use crate::canvas::Rect;
 use crate::figure::Figure;
 use crate::style::{
-    BLACK, COLUMN_WIDTH, GREY, LIGHT_GREY, Marker, MarkerStyle, Model, Stroke, model_color,
+    BLACK, COLUMN_WIDTH, Dash, GREY, LIGHT_GREY, Marker, MarkerStyle, Model, Stroke, model_color,
     model_marker,
 };
 use crate::xy::{Annotation, LegendPos, Series, XyPanel};
@@ -42,6 +44,9 @@ pub struct RunningCurve {
     /// From a deeper refined ladder (the pipeline's `refined_deep_*`, chained below the refined
     /// one): diamonds too (with `refined`), a dotted line, "(deep)" in the legend.
     pub deep: bool,
+    /// From the neck's gap field (rms width, rise length) instead of the contact line: stars
+    /// and a dash-dotted line, "(neck)" in the legend (with `deep`: "(neck, deep)").
+    pub neck: bool,
     /// Its pairs (any order; drawn by ascending |l|).
     pub points: Vec<RunningPoint>,
 }
@@ -108,7 +113,9 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
         let mut pts = c.points.clone();
         pts.sort_by(|a, b| a.l_mid.total_cmp(&b.l_mid));
         let col = model_color(c.model);
-        let m = if c.refined {
+        let m = if c.neck {
+            Marker::Star
+        } else if c.refined {
             Marker::Diamond
         } else {
             model_marker(c.model)
@@ -118,7 +125,9 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
         p.series.push(Series::line(
             x,
             y,
-            if c.deep {
+            if c.neck {
+                Stroke::solid(line_col).dash(Dash::DashDot).width(0.8)
+            } else if c.deep {
                 Stroke::dotted(line_col).width(0.8)
             } else if c.refined {
                 Stroke::dashed(line_col).width(0.8)
@@ -140,7 +149,13 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
             )
             .y_err(sel.iter().map(|p| p.error).collect());
             if !flagged {
-                s = s.label(&if c.deep {
+                s = s.label(&if c.neck {
+                    format!(
+                        "{} (neck{})",
+                        c.model.title(),
+                        if c.deep { ", deep" } else { "" }
+                    )
+                } else if c.deep {
                     format!("{} (deep)", c.model.title())
                 } else if c.refined {
                     format!("{} (refined)", c.model.title())
@@ -229,19 +244,29 @@ mod tests {
                             model: Model::Square,
                             refined: false,
                             deep: false,
+                            neck: false,
                             points: vec![pt(0.03, 1.22, false), pt(1e-3, 1.18, true)],
                         },
                         RunningCurve {
                             model: Model::Square,
                             refined: true,
                             deep: false,
+                            neck: false,
                             points: vec![pt(2e-4, 1.165, false), pt(1.4e-5, 1.155, true)],
                         },
                         RunningCurve {
                             model: Model::Square,
                             refined: true,
                             deep: true,
+                            neck: false,
                             points: vec![pt(3e-5, 1.154, false), pt(1.4e-5, 1.153, false)],
+                        },
+                        RunningCurve {
+                            model: Model::Square,
+                            refined: true,
+                            deep: true,
+                            neck: true,
+                            points: vec![pt(3e-5, 1.156, false), pt(1.4e-5, 1.157, true)],
                         },
                     ],
                 },
