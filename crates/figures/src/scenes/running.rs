@@ -71,7 +71,9 @@ pub struct RunningData {
     pub panels: Vec<RunningPanel>,
 }
 
-fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
+/// One panel; `neck_labels_only`: label only the neck curves (the panel that carries their
+/// legend, [`figure`]).
+fn panel(d: &RunningPanel, x_range: (f64, f64), neck_labels_only: bool) -> XyPanel {
     // y range: every value, the paper's band and the conjecture, 8 % margin; error bars may
     // leave it (flagged pairs can carry huge ones that would squash the rest)
     let mut ys: Vec<f64> = d
@@ -96,8 +98,13 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
     if pv.is_finite() {
         let x = vec![x_range.0, x_range.1];
         let line = Series::line(x.clone(), vec![pv; 2], Stroke::dashed(GREY).width(1.0));
-        p.series.push(if pe.is_finite() {
-            line.band(vec![pv - pe; 2], vec![pv + pe; 2]).label("paper")
+        let line = if pe.is_finite() {
+            line.band(vec![pv - pe; 2], vec![pv + pe; 2])
+        } else {
+            line
+        };
+        p.series.push(if neck_labels_only {
+            line
         } else {
             line.label("paper")
         });
@@ -148,7 +155,7 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
                 style.size(5.0),
             )
             .y_err(sel.iter().map(|p| p.error).collect());
-            if !flagged {
+            if !flagged && (c.neck || !neck_labels_only) {
                 s = s.label(&if c.neck {
                     format!(
                         "{} (neck{})",
@@ -171,7 +178,8 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
 }
 
 /// Builds the figure (two columns wide, one row per two panels). The legend (models, paper) is
-/// in the first panel; hollow markers are explained in the caption (module docs). The |l| axis
+/// in the first panel; that of the neck curves (stars) in the last panel that has them, bottom
+/// left, with only their entries; hollow markers are explained in the caption (module docs). The |l| axis
 /// spans the points, or 1e-5 … 5e-2 (the ladder) when there are none.
 pub fn figure(d: &RunningData) -> Result<Figure> {
     ensure!(!d.panels.is_empty(), "running-exponent figure: no panels");
@@ -193,6 +201,10 @@ pub fn figure(d: &RunningData) -> Result<Figure> {
         )
     };
     let x_range = (lo / 1.6, hi * 1.6);
+    let neck_panel = d
+        .panels
+        .iter()
+        .rposition(|p| p.curves.iter().any(|c| c.neck));
     let n_rows = d.panels.len().div_ceil(2);
     let (w, h, gap) = (2.0 * COLUMN_WIDTH, 300.0, 10.0);
     let total = h * n_rows as f64 + gap * (n_rows - 1) as f64;
@@ -207,10 +219,13 @@ pub fn figure(d: &RunningData) -> Result<Figure> {
             );
         }
         let cell = rows[k / 2].columns(&[1.0, 1.0], gap)[k % 2];
-        let mut p = panel(d, x_range);
+        let neck_legend = k > 0 && Some(k) == neck_panel;
+        let mut p = panel(d, x_range, neck_legend);
         p.tag = Some(format!("({})", (b'a' + k as u8) as char));
         if k == 0 {
             p.legend = LegendPos::BottomRight;
+        } else if neck_legend {
+            p.legend = LegendPos::BottomLeft;
         }
         f.xy(cell, p);
     }
