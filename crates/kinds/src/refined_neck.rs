@@ -120,3 +120,90 @@ pub fn read_window(r: &ArtefactReader) -> Result<Option<NeckDisc>> {
         rungs,
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use formats::records::Record;
+    use store::ArtefactWriter;
+
+    fn rung(l: f64, neck_nodes: usize) -> RefinedRungRow {
+        RefinedRungRow {
+            l,
+            load: 1.0,
+            saddle_gap: 1e-3,
+            contact_area: 0.5,
+            iterations: 10,
+            wall_s: 0.1,
+            neck_nodes,
+            flagged: false,
+            half_width: f64::NAN,
+            half_width_error: f64::NAN,
+            half_length: f64::NAN,
+            half_length_error: f64::NAN,
+            conductance: f64::NAN,
+            conductance_error: f64::NAN,
+        }
+    }
+
+    /// Writes `d/0` (with neck datasets of `n` values each, or none) and `d/1` (with them),
+    /// the layout of `refined_ladder::write_rungs`.
+    fn artefact(dir: &std::path::Path, neck: Option<usize>) -> std::path::PathBuf {
+        let path = dir.join("r.h5");
+        let mut w = ArtefactWriter::create(&path).unwrap();
+        let rows = [rung(-0.01, 21), rung(-0.005, 15)];
+        for (i, levels) in [(0, 2i64), (1, 3)] {
+            let at = format!("d/{i}");
+            RefinedRungRow::write(&rows, &mut w, &at).unwrap();
+            w.write_strings(&format!("{at}/flag"), &["", "solve not converged"])
+                .unwrap();
+            let n = if i == 0 { neck } else { Some(2) };
+            if let Some(n) = n {
+                for (k, name) in NECK_DATASETS.iter().enumerate() {
+                    let v: Vec<f64> = (0..n).map(|j| (k * 10 + j) as f64).collect();
+                    w.write_f64_1d(&format!("{at}/{name}"), &v).unwrap();
+                }
+            }
+            w.set_attr_at(&at, "levels", levels).unwrap();
+            w.set_attr_at(&at, "margin", 8i64).unwrap();
+            w.set_attr_at(&at, "spacing", 1e-3 / levels as f64).unwrap();
+        }
+        w.publish().unwrap();
+        path
+    }
+
+    /// The stored rungs come back with their lengths; an artefact without the neck datasets
+    /// reads as `None` (not zeros); a dataset of the wrong length is an error naming the file
+    /// and dataset.
+    #[test]
+    fn reads_the_neck_datasets_or_says_they_are_absent() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = artefact(dir.path(), Some(2));
+        let d = read_ladder(&ArtefactReader::open(&p).unwrap())
+            .unwrap()
+            .unwrap();
+        assert_eq!(d.len(), 2);
+        assert_eq!((d[1].levels, d[1].margin), (3, 8));
+        assert_eq!(d[0].rungs[1].lengths, [1.0, 11.0, 21.0]);
+        assert_eq!(d[0].rungs[1].flag, "solve not converged");
+        assert_eq!(d[0].rungs[0].neck_nodes, 21);
+        std::fs::remove_file(&p).unwrap();
+        let p = artefact(dir.path(), None);
+        assert!(
+            read_ladder(&ArtefactReader::open(&p).unwrap())
+                .unwrap()
+                .is_none()
+        );
+        std::fs::remove_file(&p).unwrap();
+        let p = artefact(dir.path(), Some(3));
+        let e = read_ladder(&ArtefactReader::open(&p).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("r.h5")
+                && e.contains("d/0/neck_width_rms")
+                && e.contains("3 values for 2 rungs"),
+            "{e}"
+        );
+    }
+}

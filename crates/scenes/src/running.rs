@@ -12,8 +12,9 @@
 //! rows of their own; optional `window`: `refined_window` stages, each folded into the ladder
 //! it checks (`kinds::refined_chain::read_linked`).
 //!
-//! Output `running_exponents.csv`, one row per model, exponent, neighbouring pair of rungs and
-//! method (uniform rows first, then the refined ones, then the deep ones):
+//! Output `running_exponents.csv`, one row per model, exponent, measure, neighbouring pair of
+//! rungs and method (uniform rows first, then the refined ones, then the deep ones, then the
+//! neck rows of the refined and deep ladders, [`neck`]):
 //! `model`, `exponent`, `l_hi` (the rung farther from L_c, signed), `l_lo` (the nearer one),
 //! `value`, `grid_error` (|value − value on the next coarser level|, NaN if unknown; for β the
 //! larger of that and |value − the same slope of the conductivity across|, the isotropy check
@@ -40,17 +41,42 @@
 //! two-terminal conductance (one refined window cannot give their cell's K; the neck's
 //! conductance has the same exponent).
 //!
+//! The last column, `measure`, names the quantity whose slope the row is, on every row:
+//! `saddle_gap` (ζ), `half_width` (υ: the contact-line fit r_c), `half_length` (χ from above:
+//! the Hertz fit a), `flux` (β) — the rows that existed before — and, on the refined and deep
+//! ladders, the neck lengths from the gap field ([`neck`]: `neck_width_rms` and
+//! `neck_width_level` (υ), `neck_rise_length` (χ from below), all with that ladder's error
+//! model). Why a column and not new `method` values: `method` says which ladder (which
+//! discretisation) a row comes from, and the neck rows come from the same ladders as the
+//! contact-line rows of the same pair — a neck υ and a contact-line υ of one refined pair share
+//! their solves, their resolution and their level/margin/window comparisons; folding the
+//! estimator into `method` would make one column mean two things and break every reader that
+//! maps `method` to a ladder depth (`differences`, the smoke test). A column also names the
+//! estimator of the old rows (which `method` never did), and it is appended last, so the
+//! existing columns keep their positions and, without it, the existing rows are byte for byte
+//! what they were (checked on the draft and smoke presets, docs/near-critical.md §12). A reader
+//! that selects rows by `exponent` must now also select the measure (`differences`, the figure
+//! and the tests do).
+//!
+//! Output `identity.csv` ([`identity`]): per refined and deep pair with a flux row,
+//! β_identity = 3ζ_eff + υ_eff(rms width) − χ_eff(rise length, from below) against β_eff
+//! (flux), with the difference, its error and flags.
+//!
 //! Output figure `running_exponents` (PNG, SVG; `figures::scenes::running`): one panel per
 //! exponent, the local slope against the pair's geometric-mean |l| (log axis), the three models,
 //! error bars grid error ⊕ fit error (an unknown grid error counts as 0 in the bar: those pairs
 //! are flagged), the refined pairs as diamonds in the model's colour (the deep ones too, joined
-//! by a dotted line, "(deep)" in the legend), flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
+//! by a dotted line, "(deep)" in the legend), the neck rows (υ: rms width in the υ panel, χ:
+//! rise length, from below, in the χ panel) as stars joined by dash-dotted lines (legend in
+//! the χ panel), flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
 //! gives no error), the conjecture as a dotted line.
 //!
 //! Between the models ([`differences`]): `model_differences.csv` (the difference of two models'
-//! running exponents at every pair both measured usably, and its own local slope) and
-//! `universality.csv` (whether that difference vanishes as |l| → 0: fits Δ = c|l|^ω against
-//! Δ = Δ∞ + c|l|^ω over every range of the smallest-|l| pairs, `analysis::difference`).
+//! running exponents at every pair both measured usably with the same measure, and its own
+//! local slope) and `universality.csv` (whether that difference vanishes as |l| → 0: fits
+//! Δ = c|l|^ω against Δ = Δ∞ + c|l|^ω over every range of the smallest-|l| pairs,
+//! `analysis::difference`), each exponent's own measure first (the rows as before), then the
+//! neck measures, both tables with a last column `measure`.
 //!
 //! Measurements that fail on a rung (a closed saddle node, an unresolved edge) are left out and
 //! reported as stage warnings.
@@ -334,10 +360,10 @@ impl Scene for Running {
         "running"
     }
     fn doc(&self) -> &'static str {
-        "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors, from the uniform ladders and (optional) the refined ones (table and figure)"
+        "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors, from the uniform ladders and (optional) the refined ones, there also υ and χ (from below) from the neck's gap field and the identity β = 3ζ + υ − χ per pair (tables and figure)"
     }
     fn code_version(&self) -> u64 {
-        6
+        7
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
