@@ -375,12 +375,14 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
 
     // 7b. the deep refined ladders (refined_deep_*) reach the tables as `refined_deep` rows
     assert!(all.contains("refined_deep_square") && all.contains("refined_deep_triangular"));
-    for t in ["running_exponents", "refined_running", "refined_rungs"] {
+    // (`method` is the last column but in running_exponents.csv, where `measure` follows it)
+    for (t, end) in [
+        ("running_exponents", ",refined_deep,saddle_gap\n"),
+        ("refined_running", ",refined_deep\n"),
+        ("refined_rungs", ",refined_deep\n"),
+    ] {
         let text = std::fs::read_to_string(root.join(format!("results/tables/{t}.csv"))).unwrap();
-        assert!(
-            text.contains(",refined_deep\n"),
-            "{t}.csv has no refined_deep row"
-        );
+        assert!(text.contains(end), "{t}.csv has no refined_deep row");
     }
     // 7c. the deep ladders' window checks (refined_deep_window_*, kinds::refined_window): every
     // deep pair gets a window change (the smoke loads give every pair on both windows) or is
@@ -451,25 +453,48 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
             ("value", ColumnType::F64),
             ("flag", ColumnType::Str),
             ("method", ColumnType::Str),
+            ("measure", ColumnType::Str),
+            ("grid_error", ColumnType::F64),
+            ("fit_error", ColumnType::F64),
+            ("resolution", ColumnType::F64),
         ],
     )
     .unwrap();
-    // the pairs every two models both measured unflagged, counted here from running_exponents
+    // the pairs every two models both measured unflagged with one measure, counted here from
+    // running_exponents (each exponent's own measure, then the neck's)
     let mut expected = 0;
-    let (rm, rx, rh, rl, rf) = (
+    let (rm, rx, rh, rl, rf, rq) = (
         re.str("model").unwrap(),
         re.str("exponent").unwrap(),
         re.f64("l_hi").unwrap(),
         re.f64("l_lo").unwrap(),
         re.str("flag").unwrap(),
+        re.str("measure").unwrap(),
     );
     let models = ["square", "triangular", "hexagonal"];
-    for e in ["zeta", "upsilon", "chi", "beta"] {
+    let measures = [
+        ("zeta", "saddle_gap"),
+        ("upsilon", "half_width"),
+        ("chi", "half_length"),
+        ("beta", "flux"),
+        ("upsilon", "neck_width_rms"),
+        ("upsilon", "neck_width_level"),
+        ("chi", "neck_rise_length"),
+    ];
+    for k in 0..re.n_rows() {
+        assert!(
+            measures.contains(&(rx[k].as_str(), rq[k].as_str())),
+            "row {k}: exponent {} with measure {}",
+            rx[k],
+            rq[k]
+        );
+    }
+    for (e, q) in measures {
         for (i, a) in models.iter().enumerate() {
             for b in &models[i + 1..] {
                 let pairs = |m: &str| -> BTreeSet<(i64, i64)> {
                     (0..re.n_rows())
-                        .filter(|&k| rm[k] == m && rx[k] == e && rf[k].is_empty())
+                        .filter(|&k| rm[k] == m && rx[k] == e && rq[k] == q && rf[k].is_empty())
                         .map(|k| ((rh[k] * 1e9).round() as i64, (rl[k] * 1e9).round() as i64))
                         .collect()
                 };
@@ -494,6 +519,7 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
                 ("difference", ColumnType::F64),
                 ("method_a", ColumnType::Str),
                 ("method_b", ColumnType::Str),
+                ("measure", ColumnType::Str),
             ],
         )
         .unwrap();
@@ -502,11 +528,12 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
                 .iter()
                 .position(|d| *d == m)
         };
-        let value_of = |model: &str, e: &str, hi: f64, lo: f64| -> Option<(f64, String)> {
+        let value_of = |model: &str, e: &str, q: &str, hi: f64, lo: f64| -> Option<(f64, String)> {
             (0..re.n_rows())
                 .filter(|&k| {
                     re.str("model").unwrap()[k] == model
                         && re.str("exponent").unwrap()[k] == e
+                        && rq[k] == q
                         && re.str("flag").unwrap()[k].is_empty()
                         && (re.f64("l_hi").unwrap()[k] - hi).abs() <= 1e-9 * hi.abs()
                         && (re.f64("l_lo").unwrap()[k] - lo).abs() <= 1e-9 * lo.abs()
@@ -526,8 +553,9 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
                 &md.str("model_b").unwrap()[k],
             );
             let (hi, lo) = (md.f64("l_hi").unwrap()[k], md.f64("l_lo").unwrap()[k]);
-            let (va, ma) = value_of(a, e, hi, lo).expect("model_a measured the pair unflagged");
-            let (vb, mb) = value_of(b, e, hi, lo).expect("model_b measured the pair unflagged");
+            let q = &md.str("measure").unwrap()[k];
+            let (va, ma) = value_of(a, e, q, hi, lo).expect("model_a measured the pair unflagged");
+            let (vb, mb) = value_of(b, e, q, hi, lo).expect("model_b measured the pair unflagged");
             assert!(
                 (md.f64("difference").unwrap()[k] - (vb - va)).abs() <= 1e-12,
                 "row {k}: difference is b − a"
@@ -553,6 +581,149 @@ fn smoke_pipeline_outputs_and_incremental_reruns() {
         un.str("verdict").unwrap().iter().all(|v| !v.is_empty()),
         "every universality row has a verdict"
     );
+
+    // 7e. the neck rows (scene running, module `neck`): each recomputes from its ladder's
+    // artefact — the slope of the stored length between two neighbouring rungs below p_c that
+    // measure it, on the finest discretisation (the first with the most levels) —, its
+    // resolution is the ladder's finest spacing, its fit error a positive bound, and an
+    // unflagged row has a known grid error ≤ 0.005
+    let artefact = |name: &str| {
+        let s = plan
+            .stages
+            .iter()
+            .find(|s| s.name == name)
+            .unwrap_or_else(|| panic!("no stage {name}"));
+        store::ArtefactReader::open(
+            root.join("results/cache")
+                .join(&s.kind)
+                .join(format!("{}.h5", s.key)),
+        )
+        .unwrap()
+    };
+    let (rv, rg, rfe, rr, rme) = (
+        re.f64("value").unwrap(),
+        re.f64("grid_error").unwrap(),
+        re.f64("fit_error").unwrap(),
+        re.f64("resolution").unwrap(),
+        re.str("method").unwrap(),
+    );
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+    let mut necks = BTreeSet::new();
+    for k in 0..re.n_rows() {
+        if !rq[k].starts_with("neck_") {
+            continue;
+        }
+        let stage = match rme[k].as_str() {
+            "refined" => format!("refined_ladder_{}", rm[k]),
+            "refined_deep" => format!("refined_deep_{}", rm[k]),
+            m => panic!("row {k}: a neck row of method {m}"),
+        };
+        necks.insert((rm[k].clone(), rq[k].clone(), rme[k].clone()));
+        let a = artefact(&stage);
+        let mut names = a.members("d").unwrap();
+        names.sort_by_key(|n| n.parse::<usize>().unwrap());
+        let levels = |n: &String| a.attr_i64_at(&format!("d/{n}"), "levels").unwrap();
+        let top = names.iter().map(levels).max().unwrap();
+        let finest = names.iter().find(|n| levels(n) == top).unwrap();
+        let l = a.read_f64_1d(&format!("d/{finest}/l")).unwrap();
+        let y = a.read_f64_1d(&format!("d/{finest}/{}", rq[k])).unwrap();
+        let mut pts: Vec<(f64, f64)> = l
+            .into_iter()
+            .zip(y)
+            .filter(|(l, y)| *l < 0.0 && y.is_finite() && *y > 0.0)
+            .collect();
+        pts.sort_by(|p, q| q.0.abs().total_cmp(&p.0.abs()));
+        let i = pts
+            .iter()
+            .position(|p| same(p.0, rh[k]))
+            .unwrap_or_else(|| panic!("row {k}: l_hi {} not a measuring rung", rh[k]));
+        let (hi, lo) = (pts[i], pts[i + 1]);
+        assert!(
+            same(lo.0, rl[k]),
+            "row {k}: l_lo is the next measuring rung"
+        );
+        let want = (hi.1 / lo.1).ln() / (hi.0 / lo.0).ln();
+        assert!(same(rv[k], want), "row {k}: {} vs {want}", rv[k]);
+        assert_eq!(rr[k], a.attr_f64("spacing").unwrap(), "row {k}: resolution");
+        assert!(rfe[k] > 0.0 && rfe[k].is_finite(), "row {k}: fit error");
+        if rf[k].is_empty() {
+            assert!(
+                rg[k] <= 0.005,
+                "row {k}: unflagged with grid error {}",
+                rg[k]
+            );
+        }
+    }
+    assert!(
+        necks.iter().any(|n| n.1 == "neck_width_rms"),
+        "no neck row: {necks:?}"
+    );
+
+    // 7f. identity.csv: one row per flux row of a refined ladder, 3ζ + υ − χ from that
+    // ladder's saddle-gap, rms-width and rise-length rows of the same pair (NaN and flagged
+    // where one is missing), minus the flux's β. (On the smoke grids the rise length is never
+    // measured — the crossing at 2 g_s lies beyond the 8-cell windows — so every row here takes
+    // the missing-term branch; the formula itself is checked by the scene's unit test
+    // `identity_of_known_exponents` and wherever all three terms exist.)
+    let id = tables::read_csv(
+        &root.join("results/tables/identity.csv"),
+        &[
+            ("model", ColumnType::Str),
+            ("method", ColumnType::Str),
+            ("l_hi", ColumnType::F64),
+            ("l_lo", ColumnType::F64),
+            ("zeta", ColumnType::F64),
+            ("upsilon", ColumnType::F64),
+            ("chi", ColumnType::F64),
+            ("beta_identity", ColumnType::F64),
+            ("beta_flux", ColumnType::F64),
+            ("difference", ColumnType::F64),
+            ("error", ColumnType::F64),
+            ("flag", ColumnType::Str),
+        ],
+    )
+    .unwrap();
+    let find = |model: &str, method: &str, q: &str, hi: f64, lo: f64| {
+        (0..re.n_rows())
+            .find(|&k| {
+                rm[k] == model
+                    && rme[k] == method
+                    && rq[k] == q
+                    && same(rh[k], hi)
+                    && same(rl[k], lo)
+            })
+            .map(|k| rv[k])
+    };
+    let flux_rows = (0..re.n_rows())
+        .filter(|&k| rq[k] == "flux" && rme[k] != "uniform")
+        .count();
+    assert_eq!(id.n_rows(), flux_rows);
+    for k in 0..id.n_rows() {
+        let (m, me) = (&id.str("model").unwrap()[k], &id.str("method").unwrap()[k]);
+        let (hi, lo) = (id.f64("l_hi").unwrap()[k], id.f64("l_lo").unwrap()[k]);
+        let get = |q: &str| find(m, me, q, hi, lo);
+        assert_eq!(Some(id.f64("beta_flux").unwrap()[k]), get("flux"));
+        let bi = id.f64("beta_identity").unwrap()[k];
+        match (
+            get("saddle_gap"),
+            get("neck_width_rms"),
+            get("neck_rise_length"),
+        ) {
+            (Some(z), Some(u), Some(c)) => {
+                assert!((bi - (3.0 * z + u - c)).abs() <= 1e-12, "row {k}");
+                let d = id.f64("difference").unwrap()[k];
+                assert!((d - (bi - id.f64("beta_flux").unwrap()[k])).abs() <= 1e-12);
+                assert!(id.f64("error").unwrap()[k] > 0.0);
+            }
+            _ => {
+                assert!(bi.is_nan(), "row {k}: a missing term gives NaN");
+                assert!(
+                    id.str("flag").unwrap()[k].contains("not measured"),
+                    "row {k}"
+                );
+            }
+        }
+    }
 
     // 8. unchanged rerun: nothing runs
     let events = run_smoke(root, &[]);

@@ -40,6 +40,7 @@ pub mod mock;
 pub mod record_table;
 pub mod refined_chain;
 pub mod refined_ladder;
+pub mod refined_neck;
 pub mod refined_window;
 pub mod resolution;
 pub mod selfaffine;

@@ -12,8 +12,9 @@
 //! rows of their own; optional `window`: `refined_window` stages, each folded into the ladder
 //! it checks (`kinds::refined_chain::read_linked`).
 //!
-//! Output `running_exponents.csv`, one row per model, exponent, neighbouring pair of rungs and
-//! method (uniform rows first, then the refined ones, then the deep ones):
+//! Output `running_exponents.csv`, one row per model, exponent, measure, neighbouring pair of
+//! rungs and method (uniform rows first, then the refined ones, then the deep ones, then the
+//! neck rows of the refined and deep ladders, [`neck`]):
 //! `model`, `exponent`, `l_hi` (the rung farther from L_c, signed), `l_lo` (the nearer one),
 //! `value`, `grid_error` (|value − value on the next coarser level|, NaN if unknown; for β the
 //! larger of that and |value − the same slope of the conductivity across|, the isotropy check
@@ -40,22 +41,49 @@
 //! two-terminal conductance (one refined window cannot give their cell's K; the neck's
 //! conductance has the same exponent).
 //!
+//! The last column, `measure`, names the quantity whose slope the row is, on every row:
+//! `saddle_gap` (ζ), `half_width` (υ: the contact-line fit r_c), `half_length` (χ from above:
+//! the Hertz fit a), `flux` (β) — the rows that existed before — and, on the refined and deep
+//! ladders, the neck lengths from the gap field ([`neck`]: `neck_width_rms` and
+//! `neck_width_level` (υ), `neck_rise_length` (χ from below), all with that ladder's error
+//! model). Why a column and not new `method` values: `method` says which ladder (which
+//! discretisation) a row comes from, and the neck rows come from the same ladders as the
+//! contact-line rows of the same pair — a neck υ and a contact-line υ of one refined pair share
+//! their solves, their resolution and their level/margin/window comparisons; folding the
+//! estimator into `method` would make one column mean two things and break every reader that
+//! maps `method` to a ladder depth (`differences`, the smoke test). A column also names the
+//! estimator of the old rows (which `method` never did), and it is appended last, so the
+//! existing columns keep their positions and, without it, the existing rows are byte for byte
+//! what they were (checked on the draft and smoke presets, docs/near-critical.md §12). A reader
+//! that selects rows by `exponent` must now also select the measure (`differences`, the figure
+//! and the tests do).
+//!
+//! Output `identity.csv` ([`identity`]): per refined and deep pair with a flux row,
+//! β_identity = 3ζ_eff + υ_eff(rms width) − χ_eff(rise length, from below) against β_eff
+//! (flux), with the difference, its error and flags.
+//!
 //! Output figure `running_exponents` (PNG, SVG; `figures::scenes::running`): one panel per
 //! exponent, the local slope against the pair's geometric-mean |l| (log axis), the three models,
 //! error bars grid error ⊕ fit error (an unknown grid error counts as 0 in the bar: those pairs
 //! are flagged), the refined pairs as diamonds in the model's colour (the deep ones too, joined
-//! by a dotted line, "(deep)" in the legend), flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
+//! by a dotted line, "(deep)" in the legend), the neck rows (υ: rms width in the υ panel, χ:
+//! rise length, from below, in the χ panel) as stars joined by dash-dotted lines (legend in
+//! the χ panel), flagged pairs hollow, the paper's value as a band (β: a dashed line, the paper
 //! gives no error), the conjecture as a dotted line.
 //!
 //! Between the models ([`differences`]): `model_differences.csv` (the difference of two models'
-//! running exponents at every pair both measured usably, and its own local slope) and
-//! `universality.csv` (whether that difference vanishes as |l| → 0: fits Δ = c|l|^ω against
-//! Δ = Δ∞ + c|l|^ω over every range of the smallest-|l| pairs, `analysis::difference`).
+//! running exponents at every pair both measured usably with the same measure, and its own
+//! local slope) and `universality.csv` (whether that difference vanishes as |l| → 0: fits
+//! Δ = c|l|^ω against Δ = Δ∞ + c|l|^ω over every range of the smallest-|l| pairs,
+//! `analysis::difference`), each exponent's own measure first (the rows as before), then the
+//! neck measures, both tables with a last column `measure`.
 //!
 //! Measurements that fail on a rung (a closed saddle node, an unresolved edge) are left out and
 //! reported as stage warnings.
 
 pub mod differences;
+pub mod identity;
+pub mod neck;
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::{Context, Result};
@@ -66,9 +94,12 @@ use figures::style::Model;
 use kinds::exponents::asymptotic::{GRID_BOUND, resolutions};
 use kinds::exponents::{CONJECTURED, PAPER, symbol};
 use kinds::ladder::LadderData;
-use kinds::refined_chain::{Depth, read_linked};
+use kinds::refined_chain::{Depth, Linked, read_linked};
 use kinds::refined_ladder::RefinedData;
+use kinds::refined_window::WindowCheck;
+use neck::{Measure, NeckLadder, NeckWindow};
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
+use store::ArtefactReader;
 use store::ArtefactWriter;
 use tables::{ColumnData, Table};
 
@@ -106,12 +137,15 @@ pub struct Row {
     /// Which ladder it comes from: `uniform`, or the refined input's
     /// [`kinds::refined_chain::Depth::name`] (`refined`, `refined_deep`).
     pub method: &'static str,
+    /// What it measures (column `measure`; module docs).
+    pub measure: Measure,
 }
 
 impl From<RunningRecord> for Row {
     fn from(rec: RunningRecord) -> Self {
         let flag = rec.flag.as_ref().map_or(String::new(), |f| f.to_string());
         Row {
+            measure: Measure::of(rec.exponent),
             rec,
             flag,
             method: Source::Uniform.name(),
@@ -142,8 +176,76 @@ pub fn refined_rows(d: &RefinedData, depth: Depth) -> Vec<Row> {
             },
             flag: p.flag.clone(),
             method: depth.name(),
+            measure: Measure::of(match p.exponent {
+                Measured::SaddleGap => Exponent::Zeta,
+                Measured::OpenHalfWidth => Exponent::Upsilon,
+                Measured::BlockedHalfLength => Exponent::Chi,
+                Measured::Flux => Exponent::Beta,
+            }),
         })
         .collect()
+}
+
+/// The neck rows of one refined ladder ([`neck`]): `r` its artefact, `windows` the window
+/// checks' artefacts (input `window`; the one that checks it, if any, gives the window term).
+/// `Ok(None)` if its artefact, or its window check's, has no neck lengths (written before they
+/// were stored): the caller warns.
+pub fn neck_rows(
+    link: &Linked,
+    r: &ArtefactReader,
+    windows: &[ArtefactReader],
+) -> Result<(Vec<Row>, Option<String>)> {
+    let d = &link.data;
+    let Some(discs) = kinds::refined_neck::read_ladder(r)? else {
+        return Ok((
+            Vec::new(),
+            Some(format!(
+                "{} `{}` ladder ({}): no neck lengths in the artefact (written before they were stored): no neck rows",
+                d.lattice.name(),
+                link.depth.input(),
+                r.path().display()
+            )),
+        ));
+    };
+    let base = r.attr_i64("base")? as u32;
+    let mut check = None;
+    for w in windows {
+        if WindowCheck::read(w)?.checks(d, base) {
+            check = Some(w);
+        }
+    }
+    let check_disc = match check {
+        Some(w) => kinds::refined_neck::read_window(w)?,
+        None => None,
+    };
+    let window = match (check, &check_disc) {
+        (None, _) => NeckWindow::None,
+        (Some(_), Some(c)) => NeckWindow::Check(c),
+        (Some(_), None) => NeckWindow::Unknown,
+    };
+    let note = match window {
+        NeckWindow::Unknown => Some(format!(
+            "{} `{}` ladder: its window check has no neck lengths (written before they were stored): every neck pair's window change unknown (flagged)",
+            d.lattice.name(),
+            link.depth.input()
+        )),
+        _ => None,
+    };
+    let ladder = NeckLadder {
+        discs: &discs,
+        zeta: d
+            .running
+            .iter()
+            .filter(|p| p.exponent == Measured::SaddleGap)
+            .map(|p| (p.row.l_hi, p.row.l_lo, p.flag.clone()))
+            .collect(),
+        window,
+    };
+    let pairs = neck::pairs(&ladder);
+    Ok((
+        neck::rows(d.lattice, &pairs, link.depth.name(), d.spacing),
+        note,
+    ))
 }
 
 /// The cells of [`RunningRecord::COLUMNS`], in that order (one list of names).
@@ -179,53 +281,65 @@ pub fn table(rows: &[Row]) -> Result<Table> {
         "method",
         ColumnData::Str(rows.iter().map(|r| r.method.to_string()).collect()),
     )?;
+    t.push(
+        "measure",
+        ColumnData::Str(rows.iter().map(|r| r.measure.name().to_string()).collect()),
+    )?;
     Ok(t)
 }
 
-/// The figure's data (module docs): one panel per exponent, one curve per model and method.
+/// A row as a point of the figure: error bar grid ⊕ fit (an unknown one counts as 0: those
+/// pairs are flagged and drawn hollow).
+fn point(r: &Row) -> RunningPoint {
+    let nan0 = |v: f64| if v.is_nan() { 0.0 } else { v };
+    RunningPoint {
+        l_mid: (r.rec.l_hi * r.rec.l_lo).abs().sqrt(),
+        value: r.rec.value,
+        error: nan0(r.rec.grid_error).hypot(nan0(r.rec.fit_error)),
+        flagged: !r.flag.is_empty(),
+    }
+}
+
+/// The figure's data (module docs): one panel per exponent, one curve per model and method of
+/// the exponent's own measure, and in the υ and χ panels one per model and refined method of
+/// the neck's rms width and rise length.
 pub fn figure_data(rows: &[Row]) -> RunningData {
+    let methods = [
+        Source::Uniform.name(),
+        Depth::Refined.name(),
+        Depth::Deep.name(),
+    ];
     let panels = Exponent::ALL
         .iter()
         .enumerate()
         .map(|(k, &e)| {
-            let curves = Model::ALL
-                .iter()
-                .flat_map(|&m| {
-                    [
-                        Source::Uniform.name(),
-                        Depth::Refined.name(),
-                        Depth::Deep.name(),
-                    ]
-                    .map(|method| (m, method))
+            let neck = match e {
+                Exponent::Upsilon => Some(Measure::NeckWidthRms),
+                Exponent::Chi => Some(Measure::NeckRiseLength),
+                _ => None,
+            };
+            let measures = std::iter::once(Measure::of(e)).chain(neck);
+            let curves = measures
+                .flat_map(|measure| {
+                    Model::ALL
+                        .iter()
+                        .flat_map(move |&m| methods.map(|method| (measure, m, method)))
                 })
-                .filter_map(|(m, method)| {
+                .filter_map(|(measure, m, method)| {
                     let points: Vec<RunningPoint> = rows
                         .iter()
                         .filter(|r| {
-                            r.rec.exponent == e
+                            r.measure == measure
                                 && r.rec.model.name() == m.name()
                                 && r.method == method
                         })
-                        .map(|r| RunningPoint {
-                            l_mid: (r.rec.l_hi * r.rec.l_lo).abs().sqrt(),
-                            value: r.rec.value,
-                            error: if r.rec.grid_error.is_nan() {
-                                0.0
-                            } else {
-                                r.rec.grid_error
-                            }
-                            .hypot(if r.rec.fit_error.is_nan() {
-                                0.0
-                            } else {
-                                r.rec.fit_error
-                            }),
-                            flagged: !r.flag.is_empty(),
-                        })
+                        .map(point)
                         .collect();
                     (!points.is_empty()).then_some(RunningCurve {
                         model: m,
                         refined: method != Source::Uniform.name(),
                         deep: method == Depth::Deep.name(),
+                        neck: measure.is_neck(),
                         points,
                     })
                 })
@@ -246,10 +360,10 @@ impl Scene for Running {
         "running"
     }
     fn doc(&self) -> &'static str {
-        "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors, from the uniform ladders and (optional) the refined ones (table and figure)"
+        "running exponents ζ, υ, χ, β between neighbouring ladder rungs, with grid and fit errors, from the uniform ladders and (optional) the refined ones, there also υ and χ (from below) from the neck's gap field and the identity β = 3ζ + υ − χ per pair (tables and figure)"
     }
     fn code_version(&self) -> u64 {
-        6
+        7
     }
     fn inputs(&self, _params: &Params) -> Vec<InputSpec> {
         vec![
@@ -270,6 +384,7 @@ impl Scene for Running {
             OutputSpec::table("running", "running_exponents.csv"),
             OutputSpec::table("differences", "model_differences.csv"),
             OutputSpec::table("universality", "universality.csv"),
+            OutputSpec::table("identity", "identity.csv"),
             OutputSpec::figure("figure", "running_exponents"),
         ]
     }
@@ -286,8 +401,15 @@ impl Scene for Running {
             let d = LadderData::read(r)?;
             rows.extend(records(&d, &mut notes)?.into_iter().map(Row::from));
         }
-        for (l, _) in read_linked(inputs)? {
+        let linked = read_linked(inputs)?;
+        for (l, _) in &linked {
             rows.extend(refined_rows(&l.data, l.depth));
+        }
+        // the neck rows after every other row (module docs)
+        for (l, r) in &linked {
+            let (neck, note) = neck_rows(l, r, inputs.all("window"))?;
+            rows.extend(neck);
+            notes.extend(note);
         }
         for n in notes {
             ctx.warn(n);
@@ -296,7 +418,11 @@ impl Scene for Running {
         let mut out = Outputs::new()
             .table("running", table(&rows)?)
             .table("differences", differences::differences_table(&pairs)?)
-            .table("universality", differences::universality_table(&pairs)?);
+            .table("universality", differences::universality_table(&pairs)?)
+            .table(
+                "identity",
+                identity::identity_table(&identity::identity(&rows))?,
+            );
         if rows.is_empty() {
             ctx.warn("no running exponent on any ladder: figure running_exponents not drawn");
         } else {

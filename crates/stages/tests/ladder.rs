@@ -201,9 +201,24 @@ inputs = { refined = ["ref"] }
             );
         }
     }
-    // the refined rows are refined_running.csv's, in order, ζ, υ, χ and β
+    // the refined rows are refined_running.csv's, in order, ζ, υ, χ and β; then the neck rows
+    // (column `measure`: the exponent's own measure on every other row)
+    let measure = t.str("measure").unwrap();
+    let own = ["saddle_gap", "half_width", "half_length", "flux"];
+    let n_own = measure.iter().filter(|m| own.contains(&m.as_str())).count();
+    assert!(
+        measure[n_own..].iter().all(|m| m.starts_with("neck_")),
+        "the neck rows come last: {measure:?}"
+    );
+    for (k, e) in t.str("exponent").unwrap()[..n_own].iter().enumerate() {
+        let want = ["zeta", "upsilon", "chi", "beta"]
+            .iter()
+            .position(|x| x == e)
+            .map(|i| own[i]);
+        assert_eq!(Some(measure[k].as_str()), want, "row {k}");
+    }
     let r = read(dir.path(), "refined_running.csv");
-    assert_eq!(method.len() - n_uniform, r.n_rows());
+    assert_eq!(n_own - n_uniform, r.n_rows());
     assert!(r.n_rows() >= 3);
     let (ex, rex) = (t.str("exponent").unwrap(), r.str("exponent").unwrap());
     let (v, rv) = (t.f64("value").unwrap(), r.f64("value").unwrap());

@@ -2,8 +2,10 @@
 //! slope between neighbouring ladder rungs against |l| (log axis, the pair's geometric mean),
 //! one colour and marker per model (the refined ladder's pairs: diamonds in the model's colour,
 //! joined by a dashed line; a deeper refined ladder's, chained below it: diamonds joined by a
-//! dotted line, "(deep)" in the legend), error bars grid error ⊕ fit error, flagged pairs (grid error above
-//! the bound or unknown) drawn hollow, the paper's value as a grey band (its error;
+//! dotted line, "(deep)" in the legend; the pairs from the neck's gap field (υ: rms width, χ:
+//! rise length, from below; `neck` curves): stars in the model's colour joined by a
+//! dash-dotted line, "(neck)" or "(neck, deep)" in the legend), error bars grid error ⊕ fit
+//! error, flagged pairs (grid error above the bound or unknown) drawn hollow, the paper's value as a grey band (its error;
 //! a dashed line when it gives none) and the conjecture as a dotted black line.
 
 use std::path::{Path, PathBuf};
@@ -14,7 +16,7 @@ use crate::axes::Axis;
 use crate::canvas::Rect;
 use crate::figure::Figure;
 use crate::style::{
-    BLACK, COLUMN_WIDTH, GREY, LIGHT_GREY, Marker, MarkerStyle, Model, Stroke, model_color,
+    BLACK, COLUMN_WIDTH, Dash, GREY, LIGHT_GREY, Marker, MarkerStyle, Model, Stroke, model_color,
     model_marker,
 };
 use crate::xy::{Annotation, LegendPos, Series, XyPanel};
@@ -42,6 +44,9 @@ pub struct RunningCurve {
     /// From a deeper refined ladder (the pipeline's `refined_deep_*`, chained below the refined
     /// one): diamonds too (with `refined`), a dotted line, "(deep)" in the legend.
     pub deep: bool,
+    /// From the neck's gap field (rms width, rise length) instead of the contact line: stars
+    /// and a dash-dotted line, "(neck)" in the legend (with `deep`: "(neck, deep)").
+    pub neck: bool,
     /// Its pairs (any order; drawn by ascending |l|).
     pub points: Vec<RunningPoint>,
 }
@@ -66,7 +71,9 @@ pub struct RunningData {
     pub panels: Vec<RunningPanel>,
 }
 
-fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
+/// One panel; `neck_labels_only`: label only the neck curves (the panel that carries their
+/// legend, [`figure`]).
+fn panel(d: &RunningPanel, x_range: (f64, f64), neck_labels_only: bool) -> XyPanel {
     // y range: every value, the paper's band and the conjecture, 8 % margin; error bars may
     // leave it (flagged pairs can carry huge ones that would squash the rest)
     let mut ys: Vec<f64> = d
@@ -91,8 +98,13 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
     if pv.is_finite() {
         let x = vec![x_range.0, x_range.1];
         let line = Series::line(x.clone(), vec![pv; 2], Stroke::dashed(GREY).width(1.0));
-        p.series.push(if pe.is_finite() {
-            line.band(vec![pv - pe; 2], vec![pv + pe; 2]).label("paper")
+        let line = if pe.is_finite() {
+            line.band(vec![pv - pe; 2], vec![pv + pe; 2])
+        } else {
+            line
+        };
+        p.series.push(if neck_labels_only {
+            line
         } else {
             line.label("paper")
         });
@@ -108,7 +120,9 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
         let mut pts = c.points.clone();
         pts.sort_by(|a, b| a.l_mid.total_cmp(&b.l_mid));
         let col = model_color(c.model);
-        let m = if c.refined {
+        let m = if c.neck {
+            Marker::Star
+        } else if c.refined {
             Marker::Diamond
         } else {
             model_marker(c.model)
@@ -118,7 +132,9 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
         p.series.push(Series::line(
             x,
             y,
-            if c.deep {
+            if c.neck {
+                Stroke::solid(line_col).dash(Dash::DashDot).width(0.8)
+            } else if c.deep {
                 Stroke::dotted(line_col).width(0.8)
             } else if c.refined {
                 Stroke::dashed(line_col).width(0.8)
@@ -139,8 +155,14 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
                 style.size(5.0),
             )
             .y_err(sel.iter().map(|p| p.error).collect());
-            if !flagged {
-                s = s.label(&if c.deep {
+            if !flagged && (c.neck || !neck_labels_only) {
+                s = s.label(&if c.neck {
+                    format!(
+                        "{} (neck{})",
+                        c.model.title(),
+                        if c.deep { ", deep" } else { "" }
+                    )
+                } else if c.deep {
                     format!("{} (deep)", c.model.title())
                 } else if c.refined {
                     format!("{} (refined)", c.model.title())
@@ -156,7 +178,8 @@ fn panel(d: &RunningPanel, x_range: (f64, f64)) -> XyPanel {
 }
 
 /// Builds the figure (two columns wide, one row per two panels). The legend (models, paper) is
-/// in the first panel; hollow markers are explained in the caption (module docs). The |l| axis
+/// in the first panel; that of the neck curves (stars) in the last panel that has them, bottom
+/// left, with only their entries; hollow markers are explained in the caption (module docs). The |l| axis
 /// spans the points, or 1e-5 … 5e-2 (the ladder) when there are none.
 pub fn figure(d: &RunningData) -> Result<Figure> {
     ensure!(!d.panels.is_empty(), "running-exponent figure: no panels");
@@ -178,6 +201,10 @@ pub fn figure(d: &RunningData) -> Result<Figure> {
         )
     };
     let x_range = (lo / 1.6, hi * 1.6);
+    let neck_panel = d
+        .panels
+        .iter()
+        .rposition(|p| p.curves.iter().any(|c| c.neck));
     let n_rows = d.panels.len().div_ceil(2);
     let (w, h, gap) = (2.0 * COLUMN_WIDTH, 300.0, 10.0);
     let total = h * n_rows as f64 + gap * (n_rows - 1) as f64;
@@ -192,10 +219,13 @@ pub fn figure(d: &RunningData) -> Result<Figure> {
             );
         }
         let cell = rows[k / 2].columns(&[1.0, 1.0], gap)[k % 2];
-        let mut p = panel(d, x_range);
+        let neck_legend = k > 0 && Some(k) == neck_panel;
+        let mut p = panel(d, x_range, neck_legend);
         p.tag = Some(format!("({})", (b'a' + k as u8) as char));
         if k == 0 {
             p.legend = LegendPos::BottomRight;
+        } else if neck_legend {
+            p.legend = LegendPos::BottomLeft;
         }
         f.xy(cell, p);
     }
@@ -229,19 +259,29 @@ mod tests {
                             model: Model::Square,
                             refined: false,
                             deep: false,
+                            neck: false,
                             points: vec![pt(0.03, 1.22, false), pt(1e-3, 1.18, true)],
                         },
                         RunningCurve {
                             model: Model::Square,
                             refined: true,
                             deep: false,
+                            neck: false,
                             points: vec![pt(2e-4, 1.165, false), pt(1.4e-5, 1.155, true)],
                         },
                         RunningCurve {
                             model: Model::Square,
                             refined: true,
                             deep: true,
+                            neck: false,
                             points: vec![pt(3e-5, 1.154, false), pt(1.4e-5, 1.153, false)],
+                        },
+                        RunningCurve {
+                            model: Model::Square,
+                            refined: true,
+                            deep: true,
+                            neck: true,
+                            points: vec![pt(3e-5, 1.156, false), pt(1.4e-5, 1.157, true)],
                         },
                     ],
                 },

@@ -1,28 +1,33 @@
 //! Between the models: the difference of two models' running exponents pair by pair, and
 //! whether it vanishes as |l| → 0 (`analysis::difference`). Part of the `running` scene.
 //!
-//! For every exponent and every two models, the points are the pairs of neighbouring rungs
-//! both models measured usably: each model's row of that pair without a flag (so with a known
+//! For every measure (`running_exponents.csv`'s `measure`: first each exponent's own —
+//! saddle gap, contact-line half-width, Hertz half-length, flux: the rows and tables as before
+//! the neck rows —, then the neck's rms width, level width and rise length, [`MEASURES`]) and
+//! every two models, the points are the pairs of neighbouring rungs both models measured
+//! usably with that measure: each model's row of that pair without a flag (so with a known
 //! grid error ≤ 0.005), from its deepest ladder (deep refined, then refined, then uniform).
 //! Δ = value(b) − value(a), its error the grid and fit errors of both in quadrature.
 //!
-//! Output `model_differences.csv`, one row per exponent, model pair and common pair of rungs,
+//! Output `model_differences.csv`, one row per measure, model pair and common pair of rungs,
 //! descending |l|: `exponent`, `model_a`, `model_b`, `l_hi`, `l_lo` (signed, as in
 //! `running_exponents.csv`), `difference` (b − a), `error`, `method_a`, `method_b`,
 //! `local_slope` (d ln|Δ| / d ln|l| from the previous row of the same exponent and model pair:
 //! the difference's own running exponent ω_eff; NaN on the first row or where Δ changes sign),
-//! `local_slope_error`.
+//! `local_slope_error`, `measure` (last, so that the columns before it are as they were).
 //!
-//! Output `universality.csv`, one row per exponent, model pair and fit range (the k common
+//! Output `universality.csv`, one row per measure, model pair and fit range (the k common
 //! pairs of smallest |l|, k = 4 … n; one row with NaNs when there are fewer than 4): `exponent`,
 //! `model_a`, `model_b`, `points`, `l_max`, `l_min` (|l| of the range's outer pairs), `offset`,
 //! `offset_lo`, `offset_hi` (Δ∞ of Δ = Δ∞ + c|l|^ω and its 2σ profile interval), `omega`,
 //! `chi2`, `dof`, `omega_vanishing`, `chi2_vanishing` (Δ = c|l|^ω), `accepted` (the offset fit
 //! describes the range: χ²/dof ≤ 3), and for the model pair as a whole `verdict` (Δ∞ = 0 allowed
 //! by every accepted range, excluded by every one, neither, or fewer than two accepted ranges)
-//! and `bound_lo`, `bound_hi` (the union of the accepted ranges' intervals).
+//! and `bound_lo`, `bound_hi` (the union of the accepted ranges' intervals), `measure` (last).
+//! The neck measures' rows come after all others in both tables.
 
 use super::Row;
+use super::neck::Measure;
 use analysis::{DiffOptions, DiffPoint, DiffVerdict, DifferenceScaling, difference_scaling};
 use anyhow::Result;
 use critical::running::Exponent;
@@ -46,6 +51,8 @@ fn depth(method: &str) -> u8 {
 pub struct Common {
     /// The exponent.
     pub exponent: Exponent,
+    /// What its rows measure (`running_exponents.csv`'s `measure`).
+    pub measure: Measure,
     /// The two models (b − a).
     pub models: (Lattice, Lattice),
     /// The pair's loads (signed, a's row).
@@ -60,14 +67,11 @@ pub struct Common {
     pub methods: (&'static str, &'static str),
 }
 
-/// The usable row of each model's pair: unflagged, the deepest method.
-fn usable(rows: &[Row], model: Lattice, exponent: Exponent) -> Vec<&Row> {
+/// The usable row of each model's pair of one measure: unflagged, the deepest method.
+fn usable(rows: &[Row], model: Lattice, measure: Measure) -> Vec<&Row> {
     let mut out: Vec<&Row> = Vec::new();
     for r in rows.iter().filter(|r| {
-        r.rec.model == model
-            && r.rec.exponent == exponent
-            && r.flag.is_empty()
-            && r.rec.value.is_finite()
+        r.rec.model == model && r.measure == measure && r.flag.is_empty() && r.rec.value.is_finite()
     }) {
         match out.iter_mut().find(|o| {
             analysis::same_load(o.rec.l_hi, r.rec.l_hi)
@@ -86,10 +90,10 @@ fn nan0(v: f64) -> f64 {
     if v.is_nan() { 0.0 } else { v }
 }
 
-/// The common pairs of `a` and `b` for `exponent`, descending |l|.
-pub fn common(rows: &[Row], exponent: Exponent, a: Lattice, b: Lattice) -> Vec<Common> {
-    let rb = usable(rows, b, exponent);
-    usable(rows, a, exponent)
+/// The common pairs of `a` and `b` for `measure`, descending |l|.
+pub fn common(rows: &[Row], measure: Measure, a: Lattice, b: Lattice) -> Vec<Common> {
+    let rb = usable(rows, b, measure);
+    usable(rows, a, measure)
         .into_iter()
         .filter_map(|x| {
             let y = rb.iter().find(|y| {
@@ -98,7 +102,8 @@ pub fn common(rows: &[Row], exponent: Exponent, a: Lattice, b: Lattice) -> Vec<C
             })?;
             let err = |r: &Row| nan0(r.rec.grid_error).hypot(nan0(r.rec.fit_error));
             Some(Common {
-                exponent,
+                exponent: measure.exponent(),
+                measure,
                 models: (a, b),
                 l_hi: x.rec.l_hi,
                 l_lo: x.rec.l_lo,
@@ -118,7 +123,19 @@ pub struct Pair {
     pub scaling: DifferenceScaling,
 }
 
-/// Every exponent and model pair of `rows` (models ordered square, triangular, hexagonal:
+/// The measures analysed, in table order: each exponent's own (the rows before the neck
+/// rows: saddle gap, contact-line half-width, Hertz half-length, flux), then the neck's.
+pub const MEASURES: [Measure; 7] = [
+    Measure::SaddleGap,
+    Measure::HalfWidth,
+    Measure::HalfLength,
+    Measure::Flux,
+    Measure::NeckWidthRms,
+    Measure::NeckWidthLevel,
+    Measure::NeckRiseLength,
+];
+
+/// Every measure and model pair of `rows` (models ordered square, triangular, hexagonal:
 /// Δ = the later one's exponent − the earlier one's).
 pub fn analyse(rows: &[Row]) -> Result<Vec<Pair>> {
     const ORDER: [&str; 3] = ["square", "triangular", "hexagonal"];
@@ -131,10 +148,10 @@ pub fn analyse(rows: &[Row]) -> Result<Vec<Pair>> {
     }
     models.sort_by_key(rank);
     let mut out = Vec::new();
-    for &e in &Exponent::ALL {
+    for &m in &MEASURES {
         for (i, &a) in models.iter().enumerate() {
             for &b in &models[i + 1..] {
-                let common = common(rows, e, a, b);
+                let common = common(rows, m, a, b);
                 let points: Vec<DiffPoint> = common
                     .iter()
                     .map(|c| DiffPoint {
@@ -182,6 +199,7 @@ pub fn differences_table(pairs: &[Pair]) -> Result<Table> {
     t.push("method_b", s(|c| c.methods.1.to_string()))?;
     t.push("local_slope", v(|r| r.1))?;
     t.push("local_slope_error", v(|r| r.2))?;
+    t.push("measure", s(|c| c.measure.name().to_string()))?;
     Ok(t)
 }
 
@@ -189,6 +207,7 @@ pub fn differences_table(pairs: &[Pair]) -> Result<Table> {
 pub fn universality_table(pairs: &[Pair]) -> Result<Table> {
     struct R<'a> {
         exponent: &'static str,
+        measure: &'static str,
         models: (&'static str, &'static str),
         fit: Option<&'a analysis::RangeFit>,
         verdict: DiffVerdict,
@@ -201,6 +220,7 @@ pub fn universality_table(pairs: &[Pair]) -> Result<Table> {
         };
         let head = |fit| R {
             exponent: c.exponent.name(),
+            measure: c.measure.name(),
             models: (c.models.0.name(), c.models.1.name()),
             fit,
             verdict: p.scaling.verdict,
@@ -250,6 +270,7 @@ pub fn universality_table(pairs: &[Pair]) -> Result<Table> {
         "bound_hi",
         ColumnData::F64(rows.iter().map(|r| r.bound.1).collect()),
     )?;
+    t.push("measure", s(|r| r.measure.to_string()))?;
     Ok(t)
 }
 
@@ -273,6 +294,7 @@ mod tests {
             },
             flag: flag.to_string(),
             method,
+            measure: Measure::SaddleGap,
         }
     }
 
@@ -292,7 +314,7 @@ mod tests {
             row(sq, p3, 1.18, "", "refined_deep"),
             row(tri, p3, 9.99, "window change", "refined_deep"),
         ];
-        let c = common(&rows, Exponent::Zeta, sq, tri);
+        let c = common(&rows, Measure::SaddleGap, sq, tri);
         assert_eq!(c.len(), 2, "{c:?}");
         assert!((c[0].difference - (1.30 - 1.21)).abs() < 1e-12);
         assert_eq!(c[0].methods, ("refined", "uniform"));
@@ -302,8 +324,8 @@ mod tests {
             "grid errors in quadrature"
         );
         let pairs = analyse(&rows).unwrap();
-        // four exponents, one model pair each
-        assert_eq!(pairs.len(), 4);
+        // seven measures (four exponents' own, three of the neck), one model pair each
+        assert_eq!(pairs.len(), 7);
         assert_eq!(pairs[0].scaling.verdict, DiffVerdict::TooFewPoints);
         let t = differences_table(&pairs).unwrap();
         assert_eq!(t.n_rows(), 2);
