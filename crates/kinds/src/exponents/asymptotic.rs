@@ -254,7 +254,8 @@ pub struct Combined {
     /// `uniform+refined below |l| = 5e-4+refined_deep below |l| = 1e-4`).
     pub method: String,
     /// Why a refined ladder of the chain did not extend the ladder, if given and one did not
-    /// (naming its input when the chain has more than one link).
+    /// (naming its input when the chain has more than one link or its one link is not the
+    /// `refined` input).
     pub note: Option<String>,
     /// Rungs of the combined ladder (uniform, refined: all links).
     pub rungs: (usize, usize),
@@ -324,8 +325,12 @@ pub fn estimate_combined(
         method += &format!("+{} below |l| = {:e}", name(i), j.abs());
     }
     let any_points = links.iter().any(|l| !l.points.is_empty());
+    // the note names the link's input unless it is the one `refined` ladder (a deep ladder
+    // alone, as the hexagonal model's, is named too)
     let note = c.note.clone().map(|n| match c.note_link {
-        Some(i) if chain.len() > 1 => format!("{}: {n}", chain[i].depth.name()),
+        Some(i) if chain.len() > 1 || chain[i].depth != crate::refined_chain::Depth::Refined => {
+            format!("{}: {n}", chain[i].depth.name())
+        }
         _ => n,
     });
     let info = Combined {
@@ -729,7 +734,11 @@ mod tests {
         assert_eq!(est.unwrap(), uniform);
         assert_eq!(how.method, "uniform");
         let note = how.note.unwrap();
-        assert!(note.contains("no rung at the junction l = -1e-3"), "{note}");
+        assert!(
+            note.starts_with("refined_deep: ")
+                && note.contains("no rung at the junction l = -1e-3"),
+            "{note}"
+        );
         // no uniform levels: the deep ladder alone, from its first usable pair
         let all = [deep(&LS[4..], 99)];
         let (est, how) = estimate_combined(lattice, Which::Zeta, &[], &chain_of(&all, lattice));
