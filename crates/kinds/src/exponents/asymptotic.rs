@@ -254,7 +254,8 @@ pub struct Combined {
     /// `uniform+refined below |l| = 5e-4+refined_deep below |l| = 1e-4`).
     pub method: String,
     /// Why a refined ladder of the chain did not extend the ladder, if given and one did not
-    /// (naming its input when the chain has more than one link).
+    /// (naming its input when the chain has more than one link or its one link is not the
+    /// `refined` input).
     pub note: Option<String>,
     /// Rungs of the combined ladder (uniform, refined: all links).
     pub rungs: (usize, usize),
@@ -324,8 +325,12 @@ pub fn estimate_combined(
         method += &format!("+{} below |l| = {:e}", name(i), j.abs());
     }
     let any_points = links.iter().any(|l| !l.points.is_empty());
+    // the note names the link's input unless it is the one `refined` ladder (a deep ladder
+    // alone, as the hexagonal model's, is named too)
     let note = c.note.clone().map(|n| match c.note_link {
-        Some(i) if chain.len() > 1 => format!("{}: {n}", chain[i].depth.name()),
+        Some(i) if chain.len() > 1 || chain[i].depth != crate::refined_chain::Depth::Refined => {
+            format!("{}: {n}", chain[i].depth.name())
+        }
         _ => n,
     });
     let info = Combined {
@@ -517,15 +522,20 @@ mod tests {
     /// β likewise from a flux 0.05|l|^3.45 (1 − 0.6|l|^0.4) whose refined conductance is 2.5×
     /// the uniform flux (another quantity, the same law: the rescaling at the junction absorbs
     /// the factor).
-    #[test]
-    fn combined_estimate_uses_the_refined_ladder_below_the_uniform_one() {
-        use crate::refined_chain::{Depth, Linked, chain_of};
+    /// A synthetic refined ladder of model `lattice` (square-law data: [`corrected`] ×1.003, its
+    /// conductance 2.5 × [`flux`], another discretisation's prefactors) at the rungs `rls`
+    /// (|l|, l < 0) and fine spacing `spacing`, with its ζ and β pairs, the pair of index
+    /// `flagged` flagged (grid error above the bound; 99: none).
+    fn synthetic_refined(
+        lattice: Lattice,
+        rls: &[f64],
+        spacing: f64,
+        flagged: usize,
+    ) -> crate::refined_ladder::RefinedData {
         use crate::refined_ladder::{
             RefinedData, RefinedLevel, RefinedPair, RefinedPairRow, RefinedRungRow,
         };
-        let (ls, g) = (LS, corrected);
-        let levels = [level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)];
-        let rls = &ls[4..];
+        let g = corrected;
         let rung = |&a: &f64| {
             (
                 RefinedRungRow {
@@ -547,18 +557,18 @@ mod tests {
                 String::new(),
             )
         };
-        let refined = |flagged: usize| RefinedData {
-            lattice: Lattice::Square,
+        RefinedData {
+            lattice,
             p_fc: 1.0,
             window: 16,
-            spacing: 1.0 / 8192.0,
+            spacing,
             tol_gap: 0.0,
             flux_method: "series".into(),
             levels: vec![RefinedLevel {
                 levels: 5,
                 margin: 12,
                 p_c: 1.0,
-                spacing: 1.0 / 8192.0,
+                spacing,
                 rungs: rls.iter().map(rung).collect(),
             }],
             running: [Measured::SaddleGap, Measured::Flux]
@@ -583,7 +593,18 @@ mod tests {
                     },
                 })
                 .collect(),
-        };
+        }
+    }
+
+    #[test]
+    fn combined_estimate_uses_the_refined_ladder_below_the_uniform_one() {
+        use crate::refined_chain::{Depth, Linked, chain_of};
+        use crate::refined_ladder::RefinedData;
+        let ls = LS;
+        let levels = [level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)];
+        let rls = &ls[4..];
+        let refined =
+            |flagged: usize| synthetic_refined(Lattice::Square, rls, 1.0 / 8192.0, flagged);
         let link = |flagged: usize| Linked::new(Depth::Refined, refined(flagged));
         let uniform = estimate(&levels).unwrap();
         assert_eq!(uniform.l_min, 1e-3);
@@ -669,6 +690,63 @@ mod tests {
             note.starts_with("refined_deep: refined link 2 of 2: ") && note.contains("flagged"),
             "{note}"
         );
+    }
+
+    /// A deep ladder directly after the uniform one (no `refined` link: the hexagonal model's
+    /// chain in the paper preset, issue 13): uniform levels converged down to 1e-3, a deep
+    /// ladder of the same law from 2e-3 to 1e-5 continues them at 1e-3 and ζ comes out exactly;
+    /// a deep ladder whose rungs start below that junction (5e-4 …) cannot be rescaled onto the
+    /// uniform ladder and leaves the uniform estimate, with a note naming the junction; without
+    /// uniform levels the deep ladder alone.
+    #[test]
+    fn a_deep_ladder_continues_the_uniform_one_without_a_refined_link() {
+        use crate::refined_chain::{Depth, Linked, chain_of};
+        let lattice = Lattice::Hexagonal;
+        let levels = [level(1.0 / 2048.0, 0.0), level(1.0 / 1024.0, 0.03)];
+        let uniform = estimate(&levels).unwrap();
+        assert_eq!(uniform.l_min, 1e-3);
+        let deep = |rls: &[f64], flagged: usize| {
+            Linked::new(
+                Depth::Deep,
+                synthetic_refined(lattice, rls, 1.0 / 16384.0, flagged),
+            )
+        };
+        let all = [deep(&LS[4..], 99)];
+        let chain = chain_of(&all, lattice);
+        assert_eq!(chain.len(), 1);
+        let (est, how) = estimate_combined(lattice, Which::Zeta, &levels, &chain);
+        let a = est.unwrap();
+        // exact data rescaled at the junction: the direct fit's tolerance (1e-8) and rounding
+        assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
+        assert_eq!(a.l_min, 1e-5);
+        assert_eq!(how.method, "uniform+refined_deep below |l| = 1e-3");
+        assert_eq!(how.rungs, (6, 6));
+        assert_eq!(how.junctions, [(Depth::Deep, -1e-3)]);
+        assert!(how.note.is_none(), "{:?}", how.note);
+        // flagged at its pair 1e-4 → 5e-5 (index 4 of 2e-3 …): the fit stops at 1e-4
+        let all = [deep(&LS[4..], 4)];
+        let (est, how) = estimate_combined(lattice, Which::Zeta, &levels, &chain_of(&all, lattice));
+        assert_eq!(est.unwrap().l_min, 1e-4);
+        assert_eq!(how.rungs, (6, 3));
+        // rungs from 5e-4 only: no rung at the uniform junction, the uniform estimate exactly
+        let all = [deep(&LS[6..], 99)];
+        let (est, how) = estimate_combined(lattice, Which::Zeta, &levels, &chain_of(&all, lattice));
+        assert_eq!(est.unwrap(), uniform);
+        assert_eq!(how.method, "uniform");
+        let note = how.note.unwrap();
+        assert!(
+            note.starts_with("refined_deep: ")
+                && note.contains("no rung at the junction l = -1e-3"),
+            "{note}"
+        );
+        // no uniform levels: the deep ladder alone, from its first usable pair
+        let all = [deep(&LS[4..], 99)];
+        let (est, how) = estimate_combined(lattice, Which::Zeta, &[], &chain_of(&all, lattice));
+        let a = est.unwrap();
+        assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
+        assert_eq!(how.method, "refined_deep from |l| = 2e-3");
+        // eight rungs, seven deep pairs (`rungs` counts a ladder's first rung as its top)
+        assert_eq!(how.rungs, (1, 7));
     }
 
     #[test]
