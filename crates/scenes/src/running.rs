@@ -141,6 +141,15 @@ pub struct Row {
     pub measure: Measure,
 }
 
+impl Row {
+    /// Its error bar: grid error ⊕ fit error, an unknown (NaN) term counting as 0 (such a row is
+    /// flagged). The figure's bars, the model differences and the identity use it.
+    pub fn error(&self) -> f64 {
+        let nan0 = |v: f64| if v.is_nan() { 0.0 } else { v };
+        nan0(self.rec.grid_error).hypot(nan0(self.rec.fit_error))
+    }
+}
+
 impl From<RunningRecord> for Row {
     fn from(rec: RunningRecord) -> Self {
         let flag = rec.flag.as_ref().map_or(String::new(), |f| f.to_string());
@@ -291,11 +300,10 @@ pub fn table(rows: &[Row]) -> Result<Table> {
 /// A row as a point of the figure: error bar grid ⊕ fit (an unknown one counts as 0: those
 /// pairs are flagged and drawn hollow).
 fn point(r: &Row) -> RunningPoint {
-    let nan0 = |v: f64| if v.is_nan() { 0.0 } else { v };
     RunningPoint {
         l_mid: (r.rec.l_hi * r.rec.l_lo).abs().sqrt(),
         value: r.rec.value,
-        error: nan0(r.rec.grid_error).hypot(nan0(r.rec.fit_error)),
+        error: r.error(),
         flagged: !r.flag.is_empty(),
     }
 }

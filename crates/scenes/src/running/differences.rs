@@ -86,10 +86,6 @@ fn usable(rows: &[Row], model: Lattice, measure: Measure) -> Vec<&Row> {
     out
 }
 
-fn nan0(v: f64) -> f64 {
-    if v.is_nan() { 0.0 } else { v }
-}
-
 /// The common pairs of `a` and `b` for `measure`, descending |l|.
 pub fn common(rows: &[Row], measure: Measure, a: Lattice, b: Lattice) -> Vec<Common> {
     let rb = usable(rows, b, measure);
@@ -100,7 +96,6 @@ pub fn common(rows: &[Row], measure: Measure, a: Lattice, b: Lattice) -> Vec<Com
                 analysis::same_load(x.rec.l_hi, y.rec.l_hi)
                     && analysis::same_load(x.rec.l_lo, y.rec.l_lo)
             })?;
-            let err = |r: &Row| nan0(r.rec.grid_error).hypot(nan0(r.rec.fit_error));
             Some(Common {
                 exponent: measure.exponent(),
                 measure,
@@ -108,7 +103,7 @@ pub fn common(rows: &[Row], measure: Measure, a: Lattice, b: Lattice) -> Vec<Com
                 l_hi: x.rec.l_hi,
                 l_lo: x.rec.l_lo,
                 difference: y.rec.value - x.rec.value,
-                error: err(x).hypot(err(y)),
+                error: x.error().hypot(y.error()),
                 methods: (x.method, y.method),
             })
         })

@@ -72,14 +72,6 @@ const TERMS: [(Measure, f64); 3] = [
     (Measure::NeckRiseLength, -1.0),
 ];
 
-fn nan0(v: f64) -> f64 {
-    if v.is_nan() { 0.0 } else { v }
-}
-
-fn error(r: &Row) -> f64 {
-    nan0(r.rec.grid_error).hypot(nan0(r.rec.fit_error))
-}
-
 /// The identity on every flux pair of the refined ladders of `rows` (module docs).
 pub fn identity(rows: &[Row]) -> Vec<IdentityRow> {
     rows.iter()
@@ -96,13 +88,13 @@ pub fn identity(rows: &[Row]) -> Vec<IdentityRow> {
             };
             let mut flags = Vec::new();
             let mut values = [f64::NAN; 3];
-            let (mut sum, mut var) = (0.0, error(b).powi(2));
+            let (mut sum, mut var) = (0.0, b.error().powi(2));
             for (k, (m, w)) in TERMS.iter().enumerate() {
                 match find(*m) {
                     Some(r) => {
                         values[k] = r.rec.value;
                         sum += w * r.rec.value;
-                        var += (w * error(r)).powi(2);
+                        var += (w * r.error()).powi(2);
                         if !r.flag.is_empty() {
                             flags.push(format!(
                                 "{} ({}): {}",
