@@ -1,22 +1,112 @@
-//! The neck lengths of the refined kinds' artefacts as the `running` scene reads them (issue 13,
-//! docs/near-critical.md §11–12): per discretisation, every rung's reduced load, open fine nodes
-//! across the neck (`neck_nodes`), flag and the three lengths `critical::refined::NeckRecord`
-//! records (`neck_width_rms`, `neck_width_level`, `neck_rise_length`, λ, NaN where not
-//! measured), which `refined_ladder::write_rungs` writes beside the rung records of a
-//! `refined_ladder` artefact (`d/<i>/*`) and of a `refined_window` artefact (`rungs/*`).
+//! The neck lengths of the refined kinds' artefacts (issue 13, docs/near-critical.md §11–12):
+//! per discretisation, every rung's reduced load, open fine nodes across the neck
+//! (`neck_nodes`), flag and the three lengths `critical::refined::NeckRecord` records
+//! (`neck_width_rms`, `neck_width_level`, `neck_rise_length`, λ, NaN where not measured), which
+//! `refined_ladder::write_rungs` writes beside the rung records of a `refined_ladder` artefact
+//! (`d/<i>/*`) and of a `refined_window` artefact (`rungs/*`); and their running pairs with the
+//! refined ladders' error model ([`pairs`]), as the `running` scene's neck rows and the
+//! `exponents` kind's asymptotic υ and χ from below
+//! (`crate::exponents::asymptotic::estimate_neck`) take them.
 //!
-//! A reader only: kept apart from `refined_ladder` and `refined_window` so that those compute
-//! kinds' code identities (and their expensive caches) stay as they are. An artefact written
-//! before the neck lengths were stored has no such datasets: the readers then return `None`
-//! (the caller says so), never zeros.
+//! A reader and pure functions only: kept apart from `refined_ladder` and `refined_window` so
+//! that those compute kinds' code identities (and their expensive caches) stay as they are. An
+//! artefact written before the neck lengths were stored has no such datasets: the readers then
+//! return `None` (the caller says so), never zeros.
+//!
+//! # The running pairs ([`pairs`]; the refined rows' error model, `crate::refined_ladder`)
+//! Per neck length ([`NeckMeasure`]): υ_eff from the rms width W_2 (`neck_width_rms`) and, as a
+//! second measure, from the level width at g_s/2 (`neck_width_level`); χ_eff **from below** from
+//! the rise length to 2 g_s along the channel (`neck_rise_length`); pair by pair of
+//! neighbouring rungs below p_c that measure the length:
+//! - `value`: Δ ln y / Δ ln|l| on the ladder's finest discretisation D (the first with the most
+//!   levels, [`finest`]), y the length.
+//! - `grid_error`: the largest of |value − value on the discretisation with one level fewer
+//!   (same margin)|, |value − value on the margin check (same level, other margin)| if the
+//!   ladder has one, and |Δw| of a window check that covers the ladder (input `window`, the
+//!   change at the check's level from the larger window, `crate::refined_window::fold`); NaN
+//!   (unknown) if any of these is unknown: a comparison discretisation lacks the pair or has a
+//!   rung of it flagged.
+//! - `fit_error`: the estimator's numerical bound (§11, measured on a synthetic neck over 40
+//!   contact-line positions: relative e = 0.6 n^−4 for W_2, 0.65 n^−4 for the level width and
+//!   the rise length) at both rungs, propagated to the slope as a bound:
+//!   (e_hi + e_lo) / ln(|l_hi|/|l_lo|) (added, not in quadrature: a worst case, not a 1σ).
+//!   n, the open nodes from the saddle to the edge the estimator resolves: for the widths
+//!   (neck_nodes − 1)/2 with `neck_nodes` the stored open fine nodes across the channel through
+//!   the saddle (the run is centred on the saddle node; an asymmetric run has one shorter side,
+//!   which the artefact does not keep), for the rise length its own length over the fine spacing
+//!   (nodes from the saddle to the crossing).
+//! - `flag` (first reason): a flagged rung of the pair (`rung l = …: window too small / solve
+//!   not converged / saddle closed`, as stored); the window's contact set unchanged between the
+//!   two rungs (taken from the stored ζ pairs of the same D: every ζ pair between the two
+//!   rungs says so; a set that changes and changes back between non-neighbouring rungs is not
+//!   seen: the artefact keeps no contact sets); grid error unknown or above 0.005; then the
+//!   window check's flag (`window change unknown / … > 5e-3`). A comparison pair counts only if
+//!   neither of its rungs is flagged (its contact set is not stored: not checked there, as in
+//!   `crate::refined_window::level_slopes`).
 
-use crate::refined_ladder::RefinedRungRow;
+use crate::refined_chain::Linked;
+use crate::refined_ladder::{GRID_BOUND, RefinedRungRow};
+use crate::refined_window::{Slope, WindowCheck, fold, window_change};
+use analysis::ScalingPoint;
 use anyhow::{Result, anyhow};
+use critical::refined::{LadderPair, Measured, PairFlag};
+use critical::running::Exponent;
 use formats::records::read_in;
 use store::ArtefactReader;
 
-/// The neck datasets beside a rung record, in [`NeckRung::lengths`] order.
+/// The neck datasets beside a rung record, in [`NeckRung::lengths`] order (the names of
+/// [`NeckMeasure::ALL`]).
 pub const NECK_DATASETS: [&str; 3] = ["neck_width_rms", "neck_width_level", "neck_rise_length"];
+
+/// A neck length (module docs): the quantity whose logarithmic slope against |l| a neck pair is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NeckMeasure {
+    /// υ: the neck's rms width W_2 from the gap field.
+    WidthRms,
+    /// υ: the neck's width at g_s/2 from the gap field.
+    WidthLevel,
+    /// χ from below: the rise length to 2 g_s along the channel.
+    RiseLength,
+}
+
+impl NeckMeasure {
+    /// Every neck length, in [`NECK_DATASETS`] order.
+    pub const ALL: [NeckMeasure; 3] = [
+        NeckMeasure::WidthRms,
+        NeckMeasure::WidthLevel,
+        NeckMeasure::RiseLength,
+    ];
+
+    /// Index into [`NeckRung::lengths`] and [`NECK_DATASETS`].
+    pub fn column(self) -> usize {
+        match self {
+            NeckMeasure::WidthRms => 0,
+            NeckMeasure::WidthLevel => 1,
+            NeckMeasure::RiseLength => 2,
+        }
+    }
+
+    /// The artefact's dataset name (also the `measure` of the tables' neck rows).
+    pub fn name(self) -> &'static str {
+        NECK_DATASETS[self.column()]
+    }
+
+    /// The exponent it gives (υ for the widths, χ from below for the rise length).
+    pub fn exponent(self) -> Exponent {
+        match self {
+            NeckMeasure::WidthRms | NeckMeasure::WidthLevel => Exponent::Upsilon,
+            NeckMeasure::RiseLength => Exponent::Chi,
+        }
+    }
+
+    /// The relative error law's coefficient c of c n^−4 (module docs).
+    pub fn bound_coefficient(self) -> f64 {
+        match self {
+            NeckMeasure::WidthRms => 0.6,
+            _ => 0.65,
+        }
+    }
+}
 
 /// One rung's neck data as stored.
 #[derive(Clone, Debug, PartialEq)]
@@ -118,6 +208,357 @@ pub fn read_window(r: &ArtefactReader) -> Result<Option<NeckDisc>> {
         margin: r.attr_i64("margin")? as u32,
         spacing: r.attr_f64("spacing")?,
         rungs,
+    }))
+}
+
+/// One measured rung: (l, length, n of the error law, rung flag).
+#[derive(Clone, Debug, PartialEq)]
+struct Point<'a> {
+    l: f64,
+    y: f64,
+    n: f64,
+    flag: &'a str,
+}
+
+/// The rungs of `d` below p_c that measure `m` (a finite positive length), by descending |l|.
+fn measured(d: &NeckDisc, m: NeckMeasure) -> Vec<Point<'_>> {
+    let mut p: Vec<Point> = d
+        .rungs
+        .iter()
+        .filter(|r| r.l < 0.0)
+        .filter_map(|r: &NeckRung| {
+            let y = r.lengths[m.column()];
+            (y.is_finite() && y > 0.0).then(|| Point {
+                l: r.l,
+                y,
+                n: if m == NeckMeasure::RiseLength {
+                    y / d.spacing
+                } else {
+                    (r.neck_nodes as f64 - 1.0) / 2.0
+                },
+                flag: r.flag.as_str(),
+            })
+        })
+        .collect();
+    p.sort_by(|a, b| b.l.abs().total_cmp(&a.l.abs()));
+    p
+}
+
+/// One neighbouring pair of one discretisation: the slope, its propagated bound, and its own
+/// flag (a flagged rung; empty: usable).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NeckSlope {
+    /// The rung farther from p_c (signed).
+    pub l_hi: f64,
+    /// The nearer one.
+    pub l_lo: f64,
+    /// Δ ln y / Δ ln |l|.
+    pub value: f64,
+    /// (e_hi + e_lo) / ln(|l_hi|/|l_lo|), e = c n^−4 (module docs).
+    pub fit_error: f64,
+    /// `rung l = …: …` of the first flagged rung (empty: none).
+    pub flag: String,
+}
+
+/// The running pairs of `m` between neighbouring measuring rungs of `d`.
+pub fn slopes(d: &NeckDisc, m: NeckMeasure) -> Vec<NeckSlope> {
+    let c = m.bound_coefficient();
+    measured(d, m)
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (&w[0], &w[1]);
+            let span = (a.l.abs() / b.l.abs()).ln();
+            let flag = [a, b]
+                .iter()
+                .find(|x| !x.flag.is_empty())
+                .map_or(String::new(), |x| format!("rung l = {:e}: {}", x.l, x.flag));
+            NeckSlope {
+                l_hi: a.l,
+                l_lo: b.l,
+                value: (a.y / b.y).ln() / span,
+                fit_error: c * (a.n.powi(-4) + b.n.powi(-4)) / span,
+                flag,
+            }
+        })
+        .collect()
+}
+
+fn as_slopes(s: &[NeckSlope]) -> Vec<Slope> {
+    s.iter()
+        .map(|p| Slope {
+            l_hi: p.l_hi,
+            l_lo: p.l_lo,
+            value: p.value,
+            flag: p.flag.clone(),
+        })
+        .collect()
+}
+
+/// The window check of a ladder as the neck pairs take it.
+#[derive(Clone, Copy, Debug)]
+pub enum NeckWindow<'a> {
+    /// No window check covers the ladder: no window term.
+    None,
+    /// The check's own discretisation ([`read_window`]: the larger window at the check's level
+    /// and margin, which it is compared with).
+    Check(&'a NeckDisc),
+    /// A check covers the ladder but has no neck lengths (written before they were stored):
+    /// the window change is unknown at every pair.
+    Unknown,
+}
+
+/// A refined ladder's neck data ([`read_ladder`]) with what its neck pairs need beside it.
+#[derive(Clone, Debug)]
+pub struct NeckLadder<'a> {
+    /// Every discretisation, as stored (coarse to fine, then the margin check).
+    pub discs: &'a [NeckDisc],
+    /// The finest D's stored ζ pairs (l_hi, l_lo, flag): their "contact set unchanged" flags.
+    pub zeta: Vec<(f64, f64, String)>,
+    /// Its window check.
+    pub window: NeckWindow<'a>,
+}
+
+/// One neck pair of the finest discretisation with its error terms.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NeckPair {
+    /// Which length.
+    pub measure: NeckMeasure,
+    /// The pair on the finest D.
+    pub slope: NeckSlope,
+    /// |change from one level fewer| (NaN: unknown).
+    pub error_levels: f64,
+    /// |change from the margin check| (NaN: unknown or no margin check).
+    pub error_margin: f64,
+    /// Δw of the window check (NaN: unknown or none).
+    pub window_change: f64,
+    /// The grid error (module docs).
+    pub grid_error: f64,
+    /// Empty, or why it must not be used silently (module docs).
+    pub flag: String,
+    /// The finest D's fine spacing (λ).
+    pub spacing: f64,
+}
+
+/// Whether the window's contact set was unchanged between `hi` and `lo` by the stored ζ pairs:
+/// the ζ pairs from `hi` to `lo` chain without a gap and every one is flagged for it.
+fn frozen(zeta: &[(f64, f64, String)], hi: f64, lo: f64) -> bool {
+    let tag = PairFlag::Frozen.to_string();
+    let Some(start) = zeta.iter().position(|z| analysis::same_load(z.0, hi)) else {
+        return false;
+    };
+    let mut at = hi;
+    for z in &zeta[start..] {
+        if !analysis::same_load(z.0, at) || z.2 != tag {
+            return false;
+        }
+        at = z.1;
+        if analysis::same_load(at, lo) {
+            return true;
+        }
+    }
+    false
+}
+
+/// The finest discretisation (module docs): the first with the most levels; None without one.
+pub fn finest(discs: &[NeckDisc]) -> Option<&NeckDisc> {
+    let k = discs.iter().map(|d| d.levels).max()?;
+    discs.iter().find(|d| d.levels == k)
+}
+
+/// Every neck pair of `ladder`'s finest discretisation for every neck measure, in
+/// [`NeckMeasure::ALL`] order (module docs); empty without discretisations.
+pub fn pairs(ladder: &NeckLadder) -> Vec<NeckPair> {
+    let discs = ladder.discs;
+    let Some(fine) = finest(discs) else {
+        return Vec::new();
+    };
+    let k = fine.levels;
+    let coarser = discs
+        .iter()
+        .filter(|d| d.margin == fine.margin && d.levels < k)
+        .max_by_key(|d| d.levels);
+    let margin = discs
+        .iter()
+        .find(|d| d.levels == k && d.margin != fine.margin);
+    // the checked D at the check's level and margin (None: no check, or no such D: every
+    // window change unknown, as for a check without neck lengths)
+    let checked = match ladder.window {
+        NeckWindow::Check(c) => discs
+            .iter()
+            .find(|d| d.levels == c.levels && d.margin == c.margin)
+            .map(|d| (d, c)),
+        _ => None,
+    };
+    let checked_at_all = !matches!(ladder.window, NeckWindow::None);
+    let mut out = Vec::new();
+    for m in NeckMeasure::ALL {
+        let other = |d: Option<&NeckDisc>| d.map(|d| as_slopes(&slopes(d, m)));
+        let (co, ma) = (other(coarser), other(margin));
+        let change = |set: &Option<Vec<Slope>>, s: &NeckSlope| {
+            set.as_ref()
+                .and_then(|v| {
+                    v.iter()
+                        .find(|c| {
+                            analysis::same_load(c.l_hi, s.l_hi)
+                                && analysis::same_load(c.l_lo, s.l_lo)
+                        })
+                        .filter(|c| c.usable())
+                        .map(|c| (s.value - c.value).abs())
+                })
+                .unwrap_or(f64::NAN)
+        };
+        let win = checked.map(|(d, c)| (as_slopes(&slopes(d, m)), as_slopes(&slopes(c, m))));
+        for s in slopes(fine, m) {
+            let el = change(&co, &s);
+            let em = change(&ma, &s);
+            let grid = if el.is_nan() || (margin.is_some() && em.is_nan()) {
+                f64::NAN
+            } else {
+                el.max(if em.is_nan() { 0.0 } else { em })
+            };
+            let mut flag = if !s.flag.is_empty() {
+                s.flag.clone()
+            } else if frozen(&ladder.zeta, s.l_hi, s.l_lo) {
+                PairFlag::Frozen.to_string()
+            } else if grid.is_nan() {
+                PairFlag::Unknown.to_string()
+            } else if grid > GRID_BOUND {
+                PairFlag::GridError {
+                    error: grid,
+                    bound: GRID_BOUND,
+                }
+                .to_string()
+            } else {
+                String::new()
+            };
+            let (mut grid_error, mut dw) = (grid, f64::NAN);
+            if checked_at_all {
+                if let Some((checked, check)) = &win {
+                    dw = window_change(checked, check, s.l_hi, s.l_lo);
+                }
+                (grid_error, flag) = fold(grid, &flag, dw, GRID_BOUND);
+            }
+            out.push(NeckPair {
+                measure: m,
+                error_levels: el,
+                error_margin: em,
+                window_change: dw,
+                grid_error,
+                flag,
+                spacing: fine.spacing,
+                slope: s,
+            });
+        }
+    }
+    out
+}
+
+/// The rungs of `ladder`'s finest discretisation below p_c that measure `m`, as the asymptotic
+/// fit takes them (signed l, the length, σ = 0: the estimator's bound is a worst case, not a
+/// 1σ, so the fits are unweighted and scaled by their misfit, `analysis::corrections`), by
+/// descending |l|.
+pub fn points(ladder: &NeckLadder, m: NeckMeasure) -> Vec<ScalingPoint> {
+    finest(ladder.discs).map_or(Vec::new(), |d| {
+        measured(d, m)
+            .iter()
+            .map(|p| ScalingPoint::new(p.l, p.y, 0.0))
+            .collect()
+    })
+}
+
+/// The neck pairs of `m` in `pairs` as `critical::refined::chained_ladder` takes them: usable
+/// where unflagged (module docs: the flag holds the grid error, the window change, the rungs'
+/// own flags and a frozen contact set) with a finite value.
+pub fn ladder_pairs(pairs: &[NeckPair], m: NeckMeasure) -> Vec<LadderPair> {
+    pairs
+        .iter()
+        .filter(|p| p.measure == m)
+        .map(|p| LadderPair {
+            l_hi: p.slope.l_hi,
+            l_lo: p.slope.l_lo,
+            usable: p.flag.is_empty() && p.slope.value.is_finite(),
+        })
+        .collect()
+}
+
+/// A refined ladder's neck data as read ([`read_linked`]): owns what a [`NeckLadder`] borrows.
+#[derive(Clone, Debug)]
+pub struct LinkedNeck {
+    /// Every discretisation ([`read_ladder`]).
+    pub discs: Vec<NeckDisc>,
+    /// The finest D's stored ζ pairs (l_hi, l_lo, flag), as [`NeckLadder::zeta`].
+    pub zeta: Vec<(f64, f64, String)>,
+    /// Whether a window check covers the ladder.
+    pub checked: bool,
+    /// That check's discretisation ([`read_window`]; None: no check, or one without neck
+    /// lengths).
+    pub check: Option<NeckDisc>,
+    /// A note for the stage's warnings (a window check without neck lengths).
+    pub note: Option<String>,
+}
+
+impl LinkedNeck {
+    /// The ladder its pairs are taken from.
+    pub fn ladder(&self) -> NeckLadder<'_> {
+        NeckLadder {
+            discs: &self.discs,
+            zeta: self.zeta.clone(),
+            window: match (self.checked, &self.check) {
+                (false, _) => NeckWindow::None,
+                (true, Some(c)) => NeckWindow::Check(c),
+                (true, None) => NeckWindow::Unknown,
+            },
+        }
+    }
+}
+
+/// The neck data of one refined ladder of a chain (`crate::refined_chain::read_linked`): `r`
+/// its artefact, `windows` the window checks' artefacts (input `window`; the one that checks it,
+/// if any, gives the window term). `Ok(Err(note))` if its artefact has no neck lengths (written
+/// before they were stored): the caller warns.
+pub fn read_linked(
+    link: &Linked,
+    r: &ArtefactReader,
+    windows: &[ArtefactReader],
+) -> Result<std::result::Result<LinkedNeck, String>> {
+    let d = &link.data;
+    let Some(discs) = read_ladder(r)? else {
+        return Ok(Err(format!(
+            "{} `{}` ladder ({}): no neck lengths in the artefact (written before they were stored)",
+            d.lattice.name(),
+            link.depth.input(),
+            r.path().display()
+        )));
+    };
+    let base = r.attr_i64("base")? as u32;
+    let mut check = None;
+    for w in windows {
+        if WindowCheck::read(w)?.checks(d, base) {
+            check = Some(w);
+        }
+    }
+    let check_disc = match check {
+        Some(w) => read_window(w)?,
+        None => None,
+    };
+    let note = (check.is_some() && check_disc.is_none()).then(|| {
+        format!(
+            "{} `{}` ladder: its window check has no neck lengths (written before they were stored): every neck pair's window change unknown (flagged)",
+            d.lattice.name(),
+            link.depth.input()
+        )
+    });
+    Ok(Ok(LinkedNeck {
+        discs,
+        zeta: d
+            .running
+            .iter()
+            .filter(|p| p.exponent == Measured::SaddleGap)
+            .map(|p| (p.row.l_hi, p.row.l_lo, p.flag.clone()))
+            .collect(),
+        checked: check.is_some(),
+        check: check_disc,
+        note,
     }))
 }
 

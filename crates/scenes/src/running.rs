@@ -96,8 +96,7 @@ use kinds::exponents::{CONJECTURED, PAPER, symbol};
 use kinds::ladder::LadderData;
 use kinds::refined_chain::{Depth, Linked, read_linked};
 use kinds::refined_ladder::RefinedData;
-use kinds::refined_window::WindowCheck;
-use neck::{Measure, NeckLadder, NeckWindow};
+use neck::Measure;
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactReader;
 use store::ArtefactWriter;
@@ -195,65 +194,24 @@ pub fn refined_rows(d: &RefinedData, depth: Depth) -> Vec<Row> {
         .collect()
 }
 
-/// The neck rows of one refined ladder ([`neck`]): `r` its artefact, `windows` the window
-/// checks' artefacts (input `window`; the one that checks it, if any, gives the window term).
-/// `Ok(None)` if its artefact, or its window check's, has no neck lengths (written before they
-/// were stored): the caller warns.
+/// The neck rows of one refined ladder ([`neck`]; its pairs `kinds::refined_neck::pairs`): `r`
+/// its artefact, `windows` the window checks' artefacts (input `window`; the one that checks
+/// it, if any, gives the window term). With a note for the caller to warn if its artefact, or
+/// its window check's, has no neck lengths (written before they were stored).
 pub fn neck_rows(
     link: &Linked,
     r: &ArtefactReader,
     windows: &[ArtefactReader],
 ) -> Result<(Vec<Row>, Option<String>)> {
     let d = &link.data;
-    let Some(discs) = kinds::refined_neck::read_ladder(r)? else {
-        return Ok((
-            Vec::new(),
-            Some(format!(
-                "{} `{}` ladder ({}): no neck lengths in the artefact (written before they were stored): no neck rows",
-                d.lattice.name(),
-                link.depth.input(),
-                r.path().display()
-            )),
-        ));
+    let neck = match kinds::refined_neck::read_linked(link, r, windows)? {
+        Ok(n) => n,
+        Err(note) => return Ok((Vec::new(), Some(format!("{note}: no neck rows")))),
     };
-    let base = r.attr_i64("base")? as u32;
-    let mut check = None;
-    for w in windows {
-        if WindowCheck::read(w)?.checks(d, base) {
-            check = Some(w);
-        }
-    }
-    let check_disc = match check {
-        Some(w) => kinds::refined_neck::read_window(w)?,
-        None => None,
-    };
-    let window = match (check, &check_disc) {
-        (None, _) => NeckWindow::None,
-        (Some(_), Some(c)) => NeckWindow::Check(c),
-        (Some(_), None) => NeckWindow::Unknown,
-    };
-    let note = match window {
-        NeckWindow::Unknown => Some(format!(
-            "{} `{}` ladder: its window check has no neck lengths (written before they were stored): every neck pair's window change unknown (flagged)",
-            d.lattice.name(),
-            link.depth.input()
-        )),
-        _ => None,
-    };
-    let ladder = NeckLadder {
-        discs: &discs,
-        zeta: d
-            .running
-            .iter()
-            .filter(|p| p.exponent == Measured::SaddleGap)
-            .map(|p| (p.row.l_hi, p.row.l_lo, p.flag.clone()))
-            .collect(),
-        window,
-    };
-    let pairs = neck::pairs(&ladder);
+    let pairs = neck::pairs(&neck.ladder());
     Ok((
         neck::rows(d.lattice, &pairs, link.depth.name(), d.spacing),
-        note,
+        neck.note,
     ))
 }
 

@@ -3,7 +3,7 @@
 //! per-rung warnings.
 
 use super::asymptotic::Asymptotic;
-use super::{Exponent, LevelMeasure, ModelExponents, NAMES};
+use super::{Exponent, LevelMeasure, ModelExponents, NAMES, NECK_ROWS};
 use crate::refined_chain::Depth;
 use anyhow::{Result, bail};
 use critical::scaling::ExponentFit;
@@ -341,6 +341,12 @@ pub fn read(r: &ArtefactReader) -> Result<Vec<ModelExponents>> {
             uniform_asymptotic[k] = Asymptotic::read(r, &at, &format!("{nm}_uniform"))?;
             asymptotic_method[k] = r.attr_str_at(&at, &format!("{nm}_asymptotic_method"))?;
         }
+        let mut neck_asymptotic = [Asymptotic::NONE; 2];
+        let mut neck_method: [String; 2] = Default::default();
+        for (k, (nm, _, _)) in NECK_ROWS.iter().enumerate() {
+            neck_asymptotic[k] = Asymptotic::read(r, &at, nm)?;
+            neck_method[k] = r.attr_str_at(&at, &format!("{nm}_asymptotic_method"))?;
+        }
         out.push(ModelExponents {
             exponents: exps,
             asymptotic,
@@ -348,6 +354,9 @@ pub fn read(r: &ArtefactReader) -> Result<Vec<ModelExponents>> {
             asymptotic_method,
             beta_identity_uniform: Asymptotic::read(r, &at, "beta_identity_uniform")?,
             beta_identity_asymptotic: Asymptotic::read(r, &at, "beta_identity")?,
+            neck_asymptotic,
+            neck_method,
+            beta_identity_neck: Asymptotic::read(r, &at, "beta_identity_neck")?,
             zeta_lc_free: (a("zeta_lc_free")?, a("zeta_lc_free_error")?),
             beta_identity: (a("beta_identity")?, a("beta_identity_error")?),
             eta: a("eta")?,

@@ -3,8 +3,10 @@
 //! ([`WINDOW`]), each with an error bar from the fit and from the spread across the ladder's
 //! grid resolutions; the asymptotic estimate (l → 0) with corrections to scaling from the finest
 //! grid's grid-converged rungs, extended below by the model's refined ladder where one is given
-//! and grid-converged ([`asymptotic`], "The combined ladder"); and the identity β = 3ζ + υ − χ checked both
-//! ways. The table `exponents.csv` is built by [`table`]; the artefact is read by [`read`].
+//! and grid-converged ([`asymptotic`], "The combined ladder"); υ and χ from below also from the
+//! refined ladders' neck lengths ([`asymptotic`], "The neck rows"); and the identity
+//! β = 3ζ + υ − χ checked both ways. The table `exponents.csv` is built by [`table`]; the
+//! artefact is read by [`read`].
 //!
 //! # Per grid
 //! - ζ: the gap at the saddle node against |l| (l < 0), power law in log–log; also with L_c free
@@ -35,7 +37,9 @@
 //! [`asymptotic::Asymptotic::FIELDS`]; NaN without an estimate; from the combined ladder), the
 //! uniform-only ones `<e>_uniform_asymptotic_<field>` (e also `beta_identity`), the string
 //! `<e>_asymptotic_method` (e in zeta, upsilon, chi, beta), `zeta_lc_free`,
-//! `zeta_lc_free_error`, `l_c_fit`, `beta_identity`, `beta_identity_error`, `eta`; per grid
+//! `zeta_lc_free_error`, `l_c_fit`, `beta_identity`, `beta_identity_error`, `eta`; the neck
+//! estimates `<r>_asymptotic_<field>` and `<r>_asymptotic_method` for r in `upsilon_neck`,
+//! `chi_below` ([`NECK_ROWS`]) and `beta_identity_neck_asymptotic_<field>`; per grid
 //! `model/<lattice>/level/<n>`: the same fit attributes and datasets ([`OpenRow`]) `l_open`,
 //! `load_open`, `saddle_gap`, `half_width`, `half_width_error`, `flux` and ([`BlockedRow`])
 //! `l_blocked`, `half_length`, `half_length_error` (NaN where a measurement failed).
@@ -71,6 +75,7 @@ pub use io::{
 
 use crate::ladder::{LadderData, LadderLevel};
 use crate::refined_chain::{Linked, chain_of, read_linked};
+use crate::refined_neck::{self, LinkedNeck, NeckMeasure};
 use anyhow::{Result, bail};
 use asymptotic::Asymptotic;
 use critical::scaling::{
@@ -85,7 +90,7 @@ use store::ArtefactWriter;
 pub struct ExponentsKind;
 
 /// Bump when the artefact's content changes for the same inputs.
-pub const CODE_VERSION: u64 = 7;
+pub const CODE_VERSION: u64 = 8;
 
 /// The paper's fitting window of |l| (inclusive; a relative 1e-9 of slack for rounding).
 pub const WINDOW: (f64, f64) = (0.002, 0.02);
@@ -98,6 +103,15 @@ pub fn in_window(l: f64) -> bool {
 
 /// The exponents, in table order.
 pub const NAMES: [&str; 4] = ["zeta", "upsilon", "chi", "beta"];
+
+/// The asymptotic estimates from the refined ladders' neck lengths ([`asymptotic::estimate_neck`]),
+/// in table order: (row and attribute name, the neck length, index of the exponent in
+/// [`NAMES`] whose paper value, conjecture and verdict rule apply): υ from the rms width W_2,
+/// χ from below from the rise length.
+pub const NECK_ROWS: [(&str, NeckMeasure, usize); 2] = [
+    ("upsilon_neck", NeckMeasure::WidthRms, 1),
+    ("chi_below", NeckMeasure::RiseLength, 2),
+];
 
 /// The paper's values (Dapp & Müser 2015): ζ, υ, χ ± 0.01, β = 3.45 (no error given).
 pub const PAPER: [(f64, f64); 4] = [(1.20, 0.01), (0.45, 0.01), (0.60, 0.01), (3.45, f64::NAN)];
@@ -348,6 +362,12 @@ pub struct ModelExponents {
     pub beta_identity_uniform: Asymptotic,
     /// 3ζ + υ − χ of the asymptotic estimates.
     pub beta_identity_asymptotic: Asymptotic,
+    /// The asymptotic estimates from the neck lengths, in [`NECK_ROWS`] order.
+    pub neck_asymptotic: [Asymptotic; 2],
+    /// Which ladders and measure each of them used (`neck_width_rms: refined from |l| = …`).
+    pub neck_method: [String; 2],
+    /// 3ζ + υ − χ of the asymptotic ζ, υ from the neck's rms width and χ from below.
+    pub beta_identity_neck: Asymptotic,
     /// ζ with L_c free (finest grid) and its fit error.
     pub zeta_lc_free: (f64, f64),
     /// 3ζ + υ − χ and its error.
@@ -403,7 +423,7 @@ impl TypedKind for ExponentsKind {
         CODE_VERSION
     }
     fn doc(&self) -> &str {
-        "near-critical exponents ζ, υ, χ, β per model from `ladder` stages, with fit and grid-spread error bars; the identity β = 3ζ + υ − χ"
+        "near-critical exponents ζ, υ, χ, β per model from `ladder` stages, with fit and grid-spread error bars; asymptotic estimates over the chain of refined ladders (υ and χ from below also from their neck lengths) with a verdict; the identity β = 3ζ + υ − χ"
     }
     fn params(&self) -> Vec<ParamSpec> {
         vec![
@@ -422,13 +442,13 @@ impl TypedKind for ExponentsKind {
             InputSpec::many("ladder", &["ladder"]).doc("one `ladder` stage per model"),
             InputSpec::many("refined", &["refined_ladder"])
                 .optional()
-                .doc("at most one `refined_ladder` stage per model (optional): extends the asymptotic fits of ζ, υ, χ, β below the uniform grids' reach"),
+                .doc("at most one `refined_ladder` stage per model (optional): extends the asymptotic fits of ζ, υ, χ, β below the uniform grids' reach; its neck lengths give υ and χ from below"),
             InputSpec::many("deep", &["refined_ladder"])
                 .optional()
                 .doc("at most one deeper `refined_ladder` stage per model (optional; the pipeline's `refined_deep_*`): chained below the `refined` one, ordered by depth (finest spacing)"),
             InputSpec::many("window", &["refined_window"])
                 .optional()
-                .doc("window checks (optional; the pipeline's `refined_deep_window_*`): each folds its window change into the grid error and flags of the ladder it checks (kinds::refined_window)"),
+                .doc("window checks (optional; the pipeline's `refined_deep_window_*`): each folds its window change into the grid error and flags of the ladder it checks, its neck pairs too (kinds::refined_window, kinds::refined_neck)"),
         ]
     }
     fn cost(&self, _params: &ExponentsParams) -> f64 {
@@ -449,7 +469,26 @@ impl TypedKind for ExponentsKind {
         let mut flux_points = Vec::new();
         let mut heads = Vec::new();
         let mut summary = serde_json::Map::new();
-        let refined: Vec<Linked> = read_linked(inputs)?.into_iter().map(|(l, _)| l).collect();
+        let linked = read_linked(inputs)?;
+        // each refined ladder's neck lengths (None: its artefact has none), in `refined` order
+        let mut necks: Vec<Option<LinkedNeck>> = Vec::with_capacity(linked.len());
+        for (l, r) in &linked {
+            match refined_neck::read_linked(l, r, inputs.all("window"))? {
+                Ok(n) => {
+                    if let Some(note) = &n.note {
+                        ctx.warn(note.clone());
+                    }
+                    necks.push(Some(n));
+                }
+                Err(note) => {
+                    ctx.warn(format!(
+                        "{note}: left out of the asymptotic υ and χ from the neck"
+                    ));
+                    necks.push(None);
+                }
+            }
+        }
+        let refined: Vec<Linked> = linked.into_iter().map(|(l, _)| l).collect();
         for r in inputs.all("ladder") {
             let d = LadderData::read(r)?;
             let name = d.lattice.name();
@@ -458,8 +497,31 @@ impl TypedKind for ExponentsKind {
             }
             models.push(name);
             let chain = chain_of(&refined, d.lattice);
-            let stats =
-                model::run_model(ctx, out, &d, &chain, &opts, &mut heads, &mut flux_points)?;
+            // the chain's neck ladders, in chain order
+            let neck_ladders: Vec<_> = chain
+                .iter()
+                .map(|c| {
+                    let i = refined
+                        .iter()
+                        .position(|x| std::ptr::eq(x, *c))
+                        .expect("the chain's links are in `refined`");
+                    necks[i].as_ref().map(LinkedNeck::ladder)
+                })
+                .collect();
+            let neck_chain: Vec<_> = chain
+                .iter()
+                .zip(&neck_ladders)
+                .map(|(c, n)| (c.depth, n.as_ref()))
+                .collect();
+            let stats = model::run_model(
+                ctx,
+                out,
+                &d,
+                (&chain, &neck_chain),
+                &opts,
+                &mut heads,
+                &mut flux_points,
+            )?;
             summary.insert(name.to_string(), stats);
         }
         if models.is_empty() {

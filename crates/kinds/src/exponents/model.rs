@@ -8,12 +8,13 @@ use super::io::{
     write_refined_flux_curve,
 };
 use super::{
-    Exponent, NAMES, PAPER, combine, group_notes, identity, level_fits, measure, normalised_flux,
-    symbol,
+    Exponent, NAMES, NECK_ROWS, PAPER, combine, group_notes, identity, level_fits, measure,
+    normalised_flux, symbol,
 };
 use crate::headline::Headline;
 use crate::ladder::LadderData;
 use crate::refined_chain::{Depth, Linked};
+use crate::refined_neck::NeckLadder;
 use analysis::same_load;
 use anyhow::Result;
 use critical::refined::Measured;
@@ -25,14 +26,18 @@ use store::ArtefactWriter;
 /// Per exponent, the (grid, fit) of every level.
 type PerLevel = [Vec<(u32, Option<ExponentFit>)>; 4];
 
+/// A model's chain of refined ladders (ordered by depth) and, per link, its neck ladder (None:
+/// no neck lengths in its artefact).
+pub(super) type Chain<'a, 'b> = (&'a [&'a Linked], &'a [(Depth, Option<&'a NeckLadder<'b>>)]);
+
 /// Fits, writes and reports one model's ladder (the asymptotic estimates with its refined
-/// ladder, if given); appends its headlines and its finest grid's normalised flux curve;
-/// returns its report statistics.
+/// ladders, if given, and from their neck lengths); appends its headlines and its finest grid's
+/// normalised flux curve; returns its report statistics.
 pub(super) fn run_model(
     ctx: &mut StageContext,
     out: &mut ArtefactWriter,
     d: &LadderData,
-    chain: &[&Linked],
+    (chain, neck_chain): Chain<'_, '_>,
     opts: &EdgeOptions,
     heads: &mut Vec<Headline>,
     flux_points: &mut Vec<(Vec<f64>, Vec<f64>)>,
@@ -53,6 +58,9 @@ pub(super) fn run_model(
     let asy_identity = asymptotic::identity(&asy[0], &asy[1], &asy[2]);
     asy_identity.write(out, &at, "beta_identity")?;
     asymptotic::identity(&uni[0], &uni[1], &uni[2]).write(out, &at, "beta_identity_uniform")?;
+    let neck = neck_asymptotics(out, &at, neck_chain, &mut notes)?;
+    let neck_identity = asymptotic::identity(&asy[0], &neck[0], &neck[1]);
+    neck_identity.write(out, &at, "beta_identity_neck")?;
     let (bi, be) = identity(&ex[0], &ex[1], &ex[2]);
     out.set_attr_at(&at, "beta_identity", bi)?;
     out.set_attr_at(&at, "beta_identity_error", be)?;
@@ -76,6 +84,9 @@ pub(super) fn run_model(
             "chi": [asy[2].value, asy[2].error],
             "beta": [asy[3].value, asy[3].error],
             "beta_identity": [asy_identity.value, asy_identity.error],
+            "upsilon_neck": [neck[0].value, neck[0].error],
+            "chi_below": [neck[1].value, neck[1].error],
+            "beta_identity_neck": [neck_identity.value, neck_identity.error],
         },
         "uniform_asymptotic": {
             "zeta": [uni[0].value, uni[0].error],
@@ -335,6 +346,39 @@ fn asymptotics(
         out.set_attr_at(at, &format!("{}_asymptotic_method", NAMES[k]), how.method)?;
     }
     Ok((asy, uni, junctions))
+}
+
+/// The asymptotic υ and χ from below from the chain's neck lengths ([`NECK_ROWS`],
+/// [`asymptotic::estimate_neck`]), written under `at` as `<row>_asymptotic_*` and
+/// `<row>_asymptotic_method`; a failed one is NONE with a note.
+fn neck_asymptotics(
+    out: &mut ArtefactWriter,
+    at: &str,
+    chain: &[(Depth, Option<&NeckLadder<'_>>)],
+    notes: &mut Vec<String>,
+) -> Result<[Asymptotic; 2]> {
+    let mut est = [Asymptotic::NONE; 2];
+    for (k, (name, m, e)) in NECK_ROWS.iter().enumerate() {
+        let (a, how) = asymptotic::estimate_neck(*m, chain);
+        if let Err(why) = &a {
+            notes.push(format!(
+                "no asymptotic {} from {}: {why}",
+                symbol(NAMES[*e]),
+                m.name()
+            ));
+        }
+        if let Some(n) = &how.note {
+            notes.push(format!(
+                "{} ({}): refined ladder not used: {n}",
+                symbol(NAMES[*e]),
+                m.name()
+            ));
+        }
+        est[k] = a.unwrap_or(Asymptotic::NONE);
+        est[k].write(out, at, name)?;
+        out.set_attr_at(at, &format!("{name}_asymptotic_method"), how.method)?;
+    }
+    Ok(est)
 }
 
 #[cfg(test)]

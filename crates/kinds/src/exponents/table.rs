@@ -3,7 +3,12 @@
 //! Rows per model: `zeta`, `upsilon`, `chi`, `beta` (from the flux), `zeta_lc_free` (the window
 //! fit with L_c free; no asymptotic estimate), `beta_identity` (3ζ + υ − χ, window and
 //! asymptotic), `beta_minus_identity` (β − (3ζ + υ − χ), expected 0: the `paper` column holds
-//! 0, no conjecture, no verdict).
+//! 0, no conjecture, no verdict); then (appended, session #11) the asymptotic estimates from the
+//! refined ladders' neck lengths ([`super::asymptotic::estimate_neck`], [`super::NECK_ROWS`]):
+//! `upsilon_neck` (υ from the neck's rms width), `chi_below` (χ from below, the neck's rise
+//! length), and `beta_identity_neck` (3ζ + υ − χ of the asymptotic ζ and those two). The neck
+//! rows have no window fit (the uniform ladders measure no neck lengths: `value` … `points`
+//! NaN or 0, `deviation` NaN); their `paper`, `conjectured` and verdict rule are υ's, χ's and β's.
 //!
 //! Columns: `model`, `exponent`; the window fit (0.002 ≤ |l| ≤ 0.02, [`super::WINDOW`]):
 //! `value`, `fit_error`, `grid_spread`, `error`, `n` (grid of the value), `points`; the paper:
@@ -16,10 +21,15 @@
 //! where the model's refined ladder took over, and `+refined_deep below |l| = …` where a deep
 //! refined ladder chained below it took over, [`super::asymptotic::estimate_combined`]) and
 //! the uniform-only estimate as it was before the refined ladder fed the fit:
-//! `uniform_asymptotic_value`, `uniform_asymptotic_error`, `uniform_asymptotic_l_min`.
+//! `uniform_asymptotic_value`, `uniform_asymptotic_error`, `uniform_asymptotic_l_min`. The neck
+//! rows' `asymptotic_method` names the measure and the ladders
+//! (`neck_width_rms: refined from |l| = 5e-2+refined_deep below |l| = 5e-4`, or
+//! `neck_width_rms: none`); `beta_identity_neck`'s joins its three parts' (`3ζ + υ − χ: …; …; …`).
+//! The identity rows' `asymptotic_l_min` is the largest of their parts' (the depth rule,
+//! [`super::asymptotic::verdict`]).
 
 use super::asymptotic::{Asymptotic, verdict};
-use super::{CONJECTURED, Exponent, ModelExponents, NAMES, PAPER};
+use super::{CONJECTURED, Exponent, ModelExponents, NAMES, NECK_ROWS, PAPER};
 use tables::{ColumnData, Table};
 
 /// One row of the table.
@@ -177,6 +187,27 @@ pub fn rows(e: &ModelExponents) -> Vec<Row> {
     );
     diff.paper = (0.0, f64::NAN);
     out.push(diff);
+    // the neck rows (module docs): no window fit (the uniform ladders measure no neck lengths)
+    for (k, (name, _, x)) in NECK_ROWS.iter().enumerate() {
+        out.push(Row {
+            method: e.neck_method[k].clone(),
+            ..row(name, Exponent::NONE, Some(*x), e.neck_asymptotic[k])
+        });
+    }
+    let methods = [
+        &e.asymptotic_method[0],
+        &e.neck_method[0],
+        &e.neck_method[1],
+    ];
+    out.push(Row {
+        method: format!("3ζ + υ − χ: {}", methods.map(String::as_str).join("; ")),
+        ..row(
+            "beta_identity_neck",
+            Exponent::NONE,
+            Some(3),
+            e.beta_identity_neck,
+        )
+    });
     out
 }
 
@@ -211,4 +242,140 @@ pub fn table(ex: &[ModelExponents]) -> anyhow::Result<Table> {
         t.push(*name, cell(c))?;
     }
     Ok(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A model with every estimate `value ± 0.004` reaching |l| = 1e-5 (so only the numbers
+    /// decide the verdicts).
+    fn model() -> ModelExponents {
+        let a = |v: f64| Asymptotic {
+            l_min: 1e-5,
+            stat_error: 1e-3,
+            range_spread: 1e-3,
+            ..Asymptotic::of(v, 0.004)
+        };
+        let w = |v: f64| Exponent {
+            value: v,
+            error: 0.01,
+            ..Exponent::NONE
+        };
+        ModelExponents {
+            lattice: "square".into(),
+            exponents: [w(1.21), w(0.46), w(0.61), w(3.5)],
+            asymptotic: [a(1.2), Asymptotic::NONE, Asymptotic::NONE, a(3.45)],
+            uniform_asymptotic: [Asymptotic::NONE; 4],
+            asymptotic_method: [
+                "uniform+refined below |l| = 1e-3".into(),
+                "uniform".into(),
+                "uniform".into(),
+                "uniform".into(),
+            ],
+            beta_identity_uniform: Asymptotic::NONE,
+            beta_identity_asymptotic: Asymptotic::NONE,
+            neck_asymptotic: [a(0.47), a(0.58)],
+            neck_method: [
+                "neck_width_rms: refined from |l| = 5e-2".into(),
+                "neck_rise_length: refined from |l| = 5e-2".into(),
+            ],
+            beta_identity_neck: super::super::asymptotic::identity(&a(1.2), &a(0.47), &a(0.58)),
+            zeta_lc_free: (1.2, 0.01),
+            beta_identity: (3.45, 0.03),
+            eta: 1.0,
+            levels: Vec::new(),
+        }
+    }
+
+    /// The rows in the documented order (the neck rows and their identity last, after the
+    /// rows that existed before them), the columns in the documented order, and the neck rows'
+    /// cells: no window fit, the paper's and the conjectured υ and χ, their estimates, method
+    /// and verdicts.
+    #[test]
+    fn the_table_has_the_neck_rows_and_columns_in_order() {
+        let t = table(&[model()]).unwrap();
+        let rows = t.str("exponent").unwrap();
+        assert_eq!(
+            rows,
+            [
+                "zeta",
+                "upsilon",
+                "chi",
+                "beta",
+                "zeta_lc_free",
+                "beta_identity",
+                "beta_minus_identity",
+                "upsilon_neck",
+                "chi_below",
+                "beta_identity_neck"
+            ]
+        );
+        let names: Vec<String> = t.columns().iter().map(|c| c.name.clone()).collect();
+        let want = [
+            "model",
+            "exponent",
+            "value",
+            "fit_error",
+            "grid_spread",
+            "error",
+            "n",
+            "points",
+            "paper",
+            "paper_error",
+            "conjectured",
+            "conjectured_value",
+            "asymptotic_value",
+            "asymptotic_error",
+            "asymptotic_stat_error",
+            "asymptotic_range_spread",
+            "asymptotic_form_spread",
+            "asymptotic_omega",
+            "asymptotic_points",
+            "asymptotic_l_min",
+            "deviation",
+            "deviation_sigma",
+            "asymptotic_sigma",
+            "verdict",
+            "asymptotic_method",
+            "uniform_asymptotic_value",
+            "uniform_asymptotic_error",
+            "uniform_asymptotic_l_min",
+        ];
+        assert_eq!(names, want);
+        assert_eq!(names, column_names());
+        let (value, conj) = (t.f64("value").unwrap(), t.str("conjectured").unwrap());
+        let (asy, verdict) = (
+            t.f64("asymptotic_value").unwrap(),
+            t.str("verdict").unwrap(),
+        );
+        let method = t.str("asymptotic_method").unwrap();
+        assert!(value[7..].iter().all(|v| v.is_nan()));
+        assert_eq!(&conj[7..], ["9/20", "3/5", "69/20"]);
+        assert_eq!(t.f64("paper").unwrap()[7], 0.45);
+        assert_eq!((asy[7], asy[8]), (0.47, 0.58));
+        // 3·1.2 + 0.47 − 0.58 = 3.49
+        assert!((asy[9] - 3.49).abs() < 1e-12);
+        // υ 0.47 ± 0.004: +5σ; χ 0.58 ± 0.004: −5σ; the identity ± 0.004·√11: +3.0σ
+        assert!(
+            verdict[7].starts_with("not consistent with 9/20 (+5.0σ)"),
+            "{}",
+            verdict[7]
+        );
+        assert!(
+            verdict[8].starts_with("not consistent with 3/5 (-5.0σ)"),
+            "{}",
+            verdict[8]
+        );
+        assert!(
+            verdict[9].starts_with("not consistent with 69/20 (+3.0σ)"),
+            "{}",
+            verdict[9]
+        );
+        assert_eq!(method[7], "neck_width_rms: refined from |l| = 5e-2");
+        assert_eq!(
+            method[9],
+            "3ζ + υ − χ: uniform+refined below |l| = 1e-3; neck_width_rms: refined from |l| = 5e-2; neck_rise_length: refined from |l| = 5e-2"
+        );
+    }
 }
