@@ -64,7 +64,8 @@
 //!   chains that reach 1e-5 have fit-range spreads of 0.05–0.09 (ζ), while the hexagonal ζ's
 //!   chain, ending at 2e-4, had a spread of 0.005 and read "not consistent with 6/5 (−12σ)"
 //!   (session #10). An identity row is as deep as its shallowest part ([`identity`]) and is
-//!   judged at β's depth. The other rules come after this one;
+//!   judged at β's depth. Checked right after "no estimate" and before the rules below, so a
+//!   short chain is named as the reason even where another rule also applies;
 //! - **undecided** when there is no estimate or its error exceeds [`DECISIVE`] (0.02 for ζ, υ,
 //!   χ; 0.05 for β): the three models' window fits differ by 0.04–0.12 in ζ and by 0.1–0.35 in
 //!   β, so a larger error bar cannot tell a model-dependent exponent from a universal one;
