@@ -963,3 +963,23 @@ pub fn restore_side_outputs(ws: &Workspace, s: &PlannedStage) -> Result<Vec<Stri
     }
     Ok(restored)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::share_cores;
+
+    #[test]
+    fn stages_starting_together_share_the_free_cores_and_get_at_least_one() {
+        // two stages starting together on two cores: one thread each
+        assert_eq!(share_cores(2, 0, 2), 1);
+        assert_eq!(share_cores(2, 1, 1), 1);
+        // a stage that starts alone gets every free core
+        assert_eq!(share_cores(2, 0, 1), 2);
+        assert_eq!(share_cores(8, 2, 1), 6);
+        assert_eq!(share_cores(8, 0, 3), 2);
+        // no free core (a lone stage holds them all): still one thread, never zero
+        assert_eq!(share_cores(2, 2, 1), 1);
+        assert_eq!(share_cores(1, 0, 2), 1);
+        assert_eq!(share_cores(2, 0, 0), 2);
+    }
+}
