@@ -1,8 +1,9 @@
 # saddleflow tasks. `./bootstrap` installs just and the HDF5 library first.
 
 bin := env_var_or_default("CARGO_TARGET_DIR", "target") / "release/saddleflow"
-# Stages run in parallel on every core by default (stages share one rayon pool, so a
-# multithreaded stage and a single-threaded one beside it do not oversubscribe the cores).
+# Stages run in parallel on every core by default; each stage gets a thread pool of its own,
+# the free cores shared among the stages that start together (two stages on two cores: one
+# thread each, no thread hand-offs on small grids; a stage that starts alone: every core).
 jobs := env_var_or_default("SADDLEFLOW_JOBS", num_cpus())
 # The scenes that report headline numbers (see `saddleflow tradeoff`).
 headline_scenes := "--only critical_table --only fig3 --only fig6 --only near_critical"

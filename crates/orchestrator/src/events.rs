@@ -97,6 +97,12 @@ pub enum What {
         warnings: Vec<String>,
         /// Artefact size, bytes.
         bytes: u64,
+        /// Processor time of the stage's thread pool, seconds (local executor on Linux).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        cpu_s: Option<f64>,
+        /// Threads of the stage's pool (local executor).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        threads: Option<usize>,
     },
     /// Failed; nothing was published.
     Failed {

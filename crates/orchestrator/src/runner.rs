@@ -286,6 +286,11 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
     };
     let slurm = cluster.as_ref().map(|c| c.slurm.as_ref());
 
+    // the local executor's cores (the global rayon pool's size: one per core, or
+    // RAYON_NUM_THREADS), shared out among the stages it runs at once (see `share_cores`)
+    let cores = rayon::current_num_threads();
+    let mut busy = 0usize;
+    let mut held: BTreeMap<usize, usize> = BTreeMap::new();
     let result = std::thread::scope(|scope| -> Result<()> {
         let mut running = 0usize;
         loop {
@@ -294,6 +299,11 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
                     break;
                 };
                 let s = &plan.stages[i];
+                // this stage and the ready ones that start beside it now
+                let starting = 1 + sched.ready.len().min(jobs - running - 1);
+                let threads = share_cores(cores, busy, starting);
+                busy += threads;
+                held.insert(i, threads);
                 log.push(&s.name, &s.kind, &s.key, What::Started);
                 let sink = progress.started(&s.name, &s.kind, s.cost);
                 let tx = tx.clone();
@@ -301,7 +311,7 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
                 let log = &log;
                 scope.spawn(move || {
                     let r = match slurm {
-                        None => execute(&ws, plan, s, Some(sink), jobs == 1),
+                        None => execute_local(&ws, plan, s, Some(sink), jobs == 1, threads),
                         Some(c) => crate::slurm::execute_stage(c, &ws, s, log),
                     };
                     let _ = tx.send((i, r));
@@ -313,6 +323,7 @@ pub fn run(ws: &Workspace, plan: &Plan, opts: &RunOptions) -> Result<RunSummary>
             }
             let (i, result) = rx.recv().map_err(|_| anyhow!("a stage worker vanished"))?;
             running -= 1;
+            busy -= held.remove(&i).unwrap_or(0);
             let s = &plan.stages[i];
             match result {
                 Ok(x) => {
@@ -496,6 +507,8 @@ fn report_ran(
             wall_s: x.wall_s,
             warnings: x.warnings,
             bytes: x.bytes,
+            cpu_s: x.cpu_s,
+            threads: x.threads,
         },
     );
     summary.ran.push(s.name.clone());
@@ -725,6 +738,60 @@ pub(crate) struct Executed {
     pub(crate) wall_s: f64,
     pub(crate) warnings: Vec<String>,
     pub(crate) bytes: u64,
+    /// Processor time of the stage's own thread pool (local executor on Linux; else `None`).
+    pub(crate) cpu_s: Option<f64>,
+    /// Threads of the stage's pool (local executor; else `None`).
+    pub(crate) threads: Option<usize>,
+}
+
+/// Threads for a stage that starts now, `starting` stages (this one included) starting
+/// together, when the running ones hold `busy` of the `cores`: the free cores shared evenly,
+/// at least one. A stage that starts alone gets every free core; two stages that start
+/// together on two cores get one each, so that a stage's parallel kernels do not hand tiny
+/// grids between threads that another stage needs (on the draft's 32²…512² grids the thread
+/// hand-offs cost more processor time than they save: docs/pipeline.md, "Draft costs"). A
+/// pool cannot grow while its stage runs, so a stage that started beside another keeps its
+/// share after that one ends. The number of threads does not change a result: every parallel
+/// reduction of the kernels combines fixed chunks in a fixed order (tested in crates contact and
+/// reynolds), and the SLURM executor already runs stages with pools of their own size.
+pub(crate) fn share_cores(cores: usize, busy: usize, starting: usize) -> usize {
+    (cores.saturating_sub(busy) / starting.max(1)).max(1)
+}
+
+/// [`execute`] in a rayon pool of its own with `threads` threads; its processor time is that
+/// pool's threads' (fresh threads, so all of it is this stage's).
+fn execute_local(
+    ws: &Workspace,
+    plan: &Plan,
+    s: &PlannedStage,
+    sink: Option<Arc<dyn ProgressSink>>,
+    alone: bool,
+    threads: usize,
+) -> Result<Executed> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("stage-{i}"))
+        .build()
+        .context("cannot start the stage's thread pool")?;
+    let mut x = pool.install(|| execute(ws, plan, s, sink, alone))?;
+    x.cpu_s = pool
+        .broadcast(|_| thread_cpu_s())
+        .into_iter()
+        .sum::<Option<f64>>();
+    x.threads = Some(threads);
+    Ok(x)
+}
+
+/// Processor time (user + system) of the calling thread so far, seconds, from
+/// `/proc/thread-self/stat` (fields 14 and 15, USER_HZ = 100 ticks per second on every Linux
+/// architecture); `None` where that is not readable.
+fn thread_cpu_s() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: u64 = f.get(14 - 3)?.parse().ok()?;
+    let stime: u64 = f.get(15 - 3)?.parse().ok()?;
+    Some((utime + stime) as f64 / 100.0)
 }
 
 fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
@@ -849,6 +916,8 @@ fn execute(
         wall_s,
         warnings,
         bytes: file_size(&path),
+        cpu_s: None,
+        threads: None,
     })
 }
 
@@ -893,4 +962,24 @@ pub fn restore_side_outputs(ws: &Workspace, s: &PlannedStage) -> Result<Vec<Stri
         restored.push(rec.path.clone());
     }
     Ok(restored)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::share_cores;
+
+    #[test]
+    fn stages_starting_together_share_the_free_cores_and_get_at_least_one() {
+        // two stages starting together on two cores: one thread each
+        assert_eq!(share_cores(2, 0, 2), 1);
+        assert_eq!(share_cores(2, 1, 1), 1);
+        // a stage that starts alone gets every free core
+        assert_eq!(share_cores(2, 0, 1), 2);
+        assert_eq!(share_cores(8, 2, 1), 6);
+        assert_eq!(share_cores(8, 0, 3), 2);
+        // no free core (a lone stage holds them all): still one thread, never zero
+        assert_eq!(share_cores(2, 2, 1), 1);
+        assert_eq!(share_cores(1, 0, 2), 1);
+        assert_eq!(share_cores(2, 0, 0), 2);
+    }
 }

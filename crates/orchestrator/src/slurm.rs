@@ -896,6 +896,8 @@ pub(crate) fn execute_stage(
         wall_s: prov.wall_s,
         warnings: prov.warnings,
         bytes: file_size(&path),
+        cpu_s: None,
+        threads: None,
     })
 }
 

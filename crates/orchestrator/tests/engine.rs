@@ -619,3 +619,40 @@ fn interrupt_with(signal: &str) {
         .collect();
     assert_eq!(logs.len(), 2);
 }
+
+#[test]
+fn stages_started_together_share_the_cores_and_report_their_threads_and_processor_time() {
+    let p = Project::new(PIPELINE, "");
+    let add = Add::new();
+    let reg = registry(&add);
+    let s = p.run(&reg, &RunOptions { jobs: 2, ..quiet() });
+    assert!(s.ok());
+    let cores = rayon::current_num_threads();
+    let order: Vec<&str> = s
+        .events
+        .iter()
+        .filter(|e| matches!(e.what, orchestrator::What::Started))
+        .map(|e| e.stage.as_str())
+        .collect();
+    let threads = |stage: &str| {
+        s.events
+            .iter()
+            .find_map(|e| match &e.what {
+                orchestrator::What::Ran { threads, cpu_s, .. } if e.stage == stage => {
+                    if cfg!(target_os = "linux") {
+                        assert!(cpu_s.is_some_and(|c| c >= 0.0), "{stage}: {cpu_s:?}");
+                    }
+                    *threads
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("{stage}: no threads in its ran event"))
+    };
+    // a, b and e are ready at the start: the first two share the cores
+    let first = threads(order[0]);
+    assert_eq!(first, (cores / 2).max(1), "{order:?}");
+    assert_eq!(threads(order[1]), (cores - first).max(1), "{order:?}");
+    for st in &order {
+        assert!(threads(st) >= 1);
+    }
+}
