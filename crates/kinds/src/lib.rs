@@ -37,6 +37,7 @@ pub mod headline;
 pub mod ladder;
 pub mod leakage;
 pub mod mock;
+pub mod neck_truncation;
 pub mod record_table;
 pub mod refined_chain;
 pub mod refined_ladder;

@@ -302,7 +302,8 @@ fn refined_curves(
     warn: &mut Vec<String>,
 ) -> Result<Vec<ModelCurves>> {
     let mut out: Vec<ModelCurves> = Vec::new();
-    let linked = read_linked(inputs)?;
+    let mut linked = read_linked(inputs)?;
+    kinds::neck_truncation::apply(&mut linked)?;
     let profiles_of: Vec<Vec<RefinedProfile>> = linked
         .iter()
         .map(|(_, r)| read_profiles(r))

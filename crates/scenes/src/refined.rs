@@ -158,7 +158,9 @@ impl Scene for Refined {
         inputs: &Inputs,
         _out: &mut ArtefactWriter,
     ) -> Result<Outputs> {
-        let data: Vec<Linked> = read_linked(inputs)?.into_iter().map(|(l, _)| l).collect();
+        let mut linked = read_linked(inputs)?;
+        kinds::neck_truncation::apply(&mut linked)?;
+        let data: Vec<Linked> = linked.into_iter().map(|(l, _)| l).collect();
         let flagged = data
             .iter()
             .flat_map(|l| &l.data.running)

@@ -367,7 +367,8 @@ impl Scene for Running {
             let d = LadderData::read(r)?;
             rows.extend(records(&d, &mut notes)?.into_iter().map(Row::from));
         }
-        let linked = read_linked(inputs)?;
+        let mut linked = read_linked(inputs)?;
+        kinds::neck_truncation::apply(&mut linked)?;
         for (l, _) in &linked {
             rows.extend(refined_rows(&l.data, l.depth));
         }

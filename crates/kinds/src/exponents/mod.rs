@@ -469,7 +469,8 @@ impl TypedKind for ExponentsKind {
         let mut flux_points = Vec::new();
         let mut heads = Vec::new();
         let mut summary = serde_json::Map::new();
-        let linked = read_linked(inputs)?;
+        let mut linked = read_linked(inputs)?;
+        crate::neck_truncation::apply(&mut linked)?;
         // each refined ladder's neck lengths (None: its artefact has none), in `refined` order
         let mut necks: Vec<Option<LinkedNeck>> = Vec::with_capacity(linked.len());
         for (l, r) in &linked {
