@@ -30,6 +30,21 @@
 //! 256²), the rest streaming passes; clipping happened in 57 of 74 iterations (hundreds of
 //! nodes each, so a sparse correction of σ would not pay).
 //!
+//! Measured again in session #12 (perf, single thread, cold, square model, p̄ = 1.47 on 256²
+//! and 0.53 on 512²): clipping now happens in 4–15 of 40–60 iterations (2.1–2.3 transform pairs
+//! per iteration on average); the line search took 3.4 slope passes per iteration over the
+//! 35–60 % of the nodes within reach, each node a division, a libm exponential and two more
+//! divisions: with libm's exp ≈ 13 % of all time, the slope loop was the largest single cost
+//! (≈ 30 %). Under adhesion the slope pass is now `Ray::adhesive_sums`: γ(g + αd) = −γ0
+//! e^(c + αw) with c = −g/ρ, w = −d/ρ set once per ray, so an evaluation is one
+//! multiplication, one branch-free exponential (`exp_fast`) and the sums in four lanes
+//! (vectorised); and the search stops at `LINE_TOL` = 1e-3 of |φ'(0)| instead of 1e-6 (1.9–2.6
+//! passes per iteration). After that (512², p̄ = 0.53): transforms ≈ 34 % (a third of it the
+//! column gather/scatter of `spectral`), streaming passes of the iteration ≈ 27 %, slope
+//! passes ≈ 16 %, the gradient pass with libm's exponential ≈ 14 %. The gradient pass with
+//! `exp_fast` in a separate vectorised pass was measured and was not faster (the extra pass
+//! costs what the exponential saves).
+//!
 //! Convergence: the force residual of FIRE (largest unbalanced pressure off the wall, largest
 //! pull at the wall) at most `tol_force`, on a freshly computed σ.
 //!
@@ -106,6 +121,18 @@
 //! ignores the wall, put 3× too many nodes on the wall, and releasing them took ~40 iterations;
 //! a step is therefore capped where it would put more than [`CONTACT_GROWTH`] × max(contact,
 //! n/64) new nodes on the wall.
+//!
+//! The same holds for cold starts under adhesion (session #12, 256², p̄ = 1.47, 50
+//! iterations): the contact grows 1 → 18 490 nodes in four steps, the fifth (at the growth cap)
+//! puts it at 55 470 against 37 783 at the solution, and 28 iterations release the excess one
+//! ring of edge nodes at a time (500–1300 per iteration: a held node is released only once it
+//! is pulled, and only the edge is); then 17 iterations take the residual down 9 decades. Tried
+//! against it, not kept (iterations cold, 256² at p̄ = 1.47, 0.84, 0.53, 0 and 512²; the same
+//! states): a growth factor of 1 for the cold adhesive start (50, 39, 40, 55 → 28, 46, 40, 40;
+//! 60, 50, 47, 56 → 35, 55, 43, 57: total CPU −5 %, not consistently), 1.5 or 0.25 (worse); a
+//! hard-wall Polonsky–Keer solve to 1e-2 or 1e-4 at the same load as the start (50 → 23
+//! iterations at p̄ = 1.47 on 256², 60 → 29 on 512², but 8–15 Polonsky–Keer iterations more and
+//! no gain at 0.84 and 0.53).
 
 use crate::stop_monitor::StopMonitor;
 use crate::{
@@ -224,7 +251,8 @@ const LANES: usize = 4;
 /// e^y to about one ulp for |y| ≤ 700 (clamped beyond), without branches or calls so that a
 /// loop over it vectorises: y = k ln 2 + r with |r| ≤ ln 2 / 2 (Cody–Waite, the ln 2 split of
 /// fdlibm), e^r by its Taylor polynomial to degree 13 (remainder < r¹⁴/14! ≤ 4e-18), 2^k put
-/// into the exponent bits. No fused multiply–add: bit-identical on every x86-64.
+/// into the exponent bits. Plain IEEE operations in a fixed order (Rust does not contract them
+/// into fused multiply–adds): the same bits on every target and instruction set.
 #[inline(always)]
 fn exp_fast(y: f64) -> f64 {
     // 1.5 · 2^52 + 1023: y log2(e) + SHIFT rounds to an integer k + 1023 + 1.5 · 2^52 whose
@@ -232,7 +260,7 @@ fn exp_fast(y: f64) -> f64 {
     const SHIFT: f64 = 6_755_399_441_056_767.0;
     const LN2_HI: f64 = 6.931_471_803_691_238e-1;
     const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
-    let y = y.max(-700.0).min(700.0);
+    let y = y.clamp(-700.0, 700.0);
     let s = y * std::f64::consts::LOG2_E + SHIFT;
     let k = s - SHIFT;
     let r = (y - k * LN2_HI) - k * LN2_LO;
