@@ -5,6 +5,7 @@ Rey, Anciaux & Molinari 2017) on the square model, γ0 = 0.2, ρ = 0.04.
   python adhesive_peers.py tamaas DIR N MEAN_GAP   # solve, write DIR/tamaas_g_nN.f64 + case
   python adhesive_peers.py metric DIR N OURS.txt   # one metric for both codes' gap fields,
                                                    # CPU ratios from our bench's RESULT lines
+  python adhesive_peers.py pairs DIR PAIRS.txt     # before/after table of adhesive_pair.sh
 
 tamaas runs at an imposed mean gap; its mean traction is then the load at which ours solves
 (bench/peers/adhesive.sh). The common metric is computed by one routine, `metric`, from each
@@ -105,8 +106,46 @@ def run_metric(d, n, ours_txt=None):
         ratios(ours_txt, case["cpu"], tg)
 
 
+def run_pairs(d, pairs_txt):
+    """The before/after table of adhesive_pair.sh: per grid and mean gap the smallest CPU time
+    of each binary's repeats (cold at tamaas's accuracy and at 1e-10, warm at 1e-10), its
+    iterations, CPU per iteration and the ratio tamaas CPU / ours; FIRE from its single run."""
+    import collections
+
+    cpu, its = collections.defaultdict(list), {}
+    for line in open(pairs_txt):
+        kv = dict(f.split("=", 1) for f in line.split()[1:])
+        tol = "tight" if float(kv["tol"]) == 1e-10 else "tamaas"
+        k = (int(kv["n"]), kv["gap"], kv["method"], kv["case"], tol, kv["who"])
+        cpu[k].append(float(kv["cpu"]))
+        its[k] = int(kv["iterations"])
+    print("| grid, mean gap | tamaas: CPU, iterations (residual) | before, cold, tamaas's accuracy"
+          " | after, cold, tamaas's accuracy | after, cold, 1e-10 | CPU per iteration before → after"
+          " | after, warm, 1e-10 | FIRE cold, 1e-10 |")
+    print("|---|---|---|---|---|---|---|---|")
+    for n, gap in sorted({(k[0], k[1]) for k in cpu}):
+        t = json.load(open(f"{d}/tamaas_n{n}_g{gap}.json"))
+
+        def cell(method, case, tol, who):
+            k = (n, gap, method, case, tol, who)
+            if k not in cpu:
+                return None, None, "–"
+            c = min(cpu[k])
+            return c, its[k], f"{c:.3f} s, {its[k]} it: {t['cpu'] / c:.1f}×"
+
+        b = cell("nonlinear-cg", "cold", "tamaas", "before")
+        a = cell("nonlinear-cg", "cold", "tamaas", "after")
+        per = f"{1e3 * b[0] / b[1]:.2f} → {1e3 * a[0] / a[1]:.2f} ms" if b[0] and a[0] else "–"
+        print(f"| {n}², {gap} | {t['cpu']:.2f} s, {t['iterations']} ({t['residual']:.1e}) | {b[2]}"
+              f" | {a[2]} | {cell('nonlinear-cg', 'cold', 'tight', 'after')[2]} | {per}"
+              f" | {cell('nonlinear-cg', 'warm', 'tight', 'after')[2]}"
+              f" | {cell('fire', 'cold', 'tight', 'after')[2]} |")
+
+
 if __name__ == "__main__":
-    if sys.argv[1] == "tamaas":
+    if sys.argv[1] == "pairs":
+        run_pairs(sys.argv[2], sys.argv[3])
+    elif sys.argv[1] == "tamaas":
         run_tamaas(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]))
     else:
         run_metric(sys.argv[2], int(sys.argv[3]), sys.argv[4] if len(sys.argv) > 4 else None)

@@ -30,6 +30,21 @@
 //! 256²), the rest streaming passes; clipping happened in 57 of 74 iterations (hundreds of
 //! nodes each, so a sparse correction of σ would not pay).
 //!
+//! Measured again in session #12 (perf, single thread, cold, square model, p̄ = 1.47 on 256²
+//! and 0.53 on 512²): clipping now happens in 4–15 of 40–60 iterations (2.1–2.3 transform pairs
+//! per iteration on average); the line search took 3.4 slope passes per iteration over the
+//! 35–60 % of the nodes within reach, each node a division, a libm exponential and two more
+//! divisions: with libm's exp ≈ 13 % of all time, the slope loop was the largest single cost
+//! (≈ 30 %). Under adhesion the slope pass is now `Ray::adhesive_sums`: γ(g + αd) = −γ0
+//! e^(c + αw) with c = −g/ρ, w = −d/ρ set once per ray, so an evaluation is one
+//! multiplication, one branch-free exponential (`exp_fast`) and the sums in four lanes
+//! (vectorised); and the search stops at `LINE_TOL` = 1e-3 of |φ'(0)| instead of 1e-6 (1.9–2.6
+//! passes per iteration). After that (512², p̄ = 0.53): transforms ≈ 34 % (a third of it the
+//! column gather/scatter of `spectral`), streaming passes of the iteration ≈ 27 %, slope
+//! passes ≈ 16 %, the gradient pass with libm's exponential ≈ 14 %. The gradient pass with
+//! `exp_fast` in a separate vectorised pass was measured and was not faster (the extra pass
+//! costs what the exponential saves).
+//!
 //! Convergence: the force residual of FIRE (largest unbalanced pressure off the wall, largest
 //! pull at the wall) at most `tol_force`, on a freshly computed σ.
 //!
@@ -106,6 +121,18 @@
 //! ignores the wall, put 3× too many nodes on the wall, and releasing them took ~40 iterations;
 //! a step is therefore capped where it would put more than [`CONTACT_GROWTH`] × max(contact,
 //! n/64) new nodes on the wall.
+//!
+//! The same holds for cold starts under adhesion (session #12, 256², p̄ = 1.47, 50
+//! iterations): the contact grows 1 → 18 490 nodes in four steps, the fifth (at the growth cap)
+//! puts it at 55 470 against 37 783 at the solution, and 28 iterations release the excess one
+//! ring of edge nodes at a time (500–1300 per iteration: a held node is released only once it
+//! is pulled, and only the edge is); then 17 iterations take the residual down 9 decades. Tried
+//! against it, not kept (iterations cold, 256² at p̄ = 1.47, 0.84, 0.53, 0 and 512²; the same
+//! states): a growth factor of 1 for the cold adhesive start (50, 39, 40, 55 → 28, 46, 40, 40;
+//! 60, 50, 47, 56 → 35, 55, 43, 57: total CPU −5 %, not consistently), 1.5 or 0.25 (worse); a
+//! hard-wall Polonsky–Keer solve to 1e-2 or 1e-4 at the same load as the start (50 → 23
+//! iterations at p̄ = 1.47 on 256², 60 → 29 on 512², but 8–15 Polonsky–Keer iterations more and
+//! no gain at 0.84 and 0.53).
 
 use crate::stop_monitor::StopMonitor;
 use crate::{
@@ -157,22 +184,112 @@ pub const IN_RANGE: f64 = 3.0;
 /// 256² p̄ = 0.3 98 → 84, p̄ = 1.5 130 → 108; factor 1: 114, 83, 102; factor 4: 120, 81, 103;
 /// adhesion unchanged (44, 79, 74 at 256², p̄ = 0, 0.84, 1.47).
 pub const CONTACT_GROWTH: f64 = 2.0;
+/// The line search stops where |φ'(α)| ≤ this fraction of |φ'(0)|. Measured (cold, square
+/// model, γ0 = 0.2, ρ = 0.04, p̄ = 1.47, 0.84, 0.53, 0; iterations and slope evaluations
+/// (exponential passes over the ray's nodes) per solve, 1e-6 → 1e-3): 256² 50, 39, 40, 55 →
+/// 50, 37, 40, 55 iterations, 172, 152, 113, 128 → 131, 83, 79, 89 evaluations; 512² 60, 50,
+/// 47, 56 → 59, 46, 46, 49 iterations, 193, 265, 132, 177 → 138, 132, 87, 92 evaluations; the
+/// same states (mean gaps within 1e-12). 1e-2 and 0.1 save a few more evaluations at the cost of
+/// iterations in some cases (n = 512², p̄ = 0: 65 at 0.1).
+const LINE_TOL: f64 = 1e-3;
 /// Inner iterations of the line search.
 const LINE_ITER: usize = 60;
 
-/// One node on a ray: its gap, its direction and its interaction energy γ(g).
-#[derive(Clone, Copy)]
-struct Node {
-    g: f64,
-    d: f64,
-    e: f64,
+/// The nodes of one ray, as columns (the adhesive slope loop runs over lanes of them).
+#[derive(Default)]
+struct RayNodes {
+    /// Gap at α = 0.
+    g: Vec<f64>,
+    /// Direction.
+    d: Vec<f64>,
+    /// γ(g) at α = 0.
+    e: Vec<f64>,
+    /// −g/ρ and −d/ρ (adhesion only; by multiplication with 1/ρ): γ(g + αd) = −γ0 exp(c + αw)
+    /// while 0 < g + αd < cutoff.
+    c: Vec<f64>,
+    w: Vec<f64>,
+    /// Nodes on the ray: the first `len` of each column.
+    len: usize,
+}
+
+impl RayNodes {
+    /// Room for `n` nodes (allocated once per solve).
+    fn reserve(&mut self, n: usize) {
+        if self.g.len() < n {
+            for v in [
+                &mut self.g,
+                &mut self.d,
+                &mut self.e,
+                &mut self.c,
+                &mut self.w,
+            ] {
+                v.resize(n, 0.0);
+            }
+        }
+    }
+
+    /// Node `k`: gap g, direction d, γ(g) = e; `inv_rho` = 1/ρ (adhesion; any value otherwise).
+    #[inline(always)]
+    fn set(&mut self, k: usize, g: f64, d: f64, e: f64, inv_rho: f64) {
+        self.g[k] = g;
+        self.d[k] = d;
+        self.e[k] = e;
+        self.c[k] = -g * inv_rho;
+        self.w[k] = -d * inv_rho;
+    }
+
+    fn len(&self) -> usize {
+        self.len
+    }
+}
+
+/// Lanes of the adhesive slope loop: independent partial sums, added in a fixed order at the
+/// end, so the compiler may keep them in vector registers (a single running sum would have to
+/// stay sequential) and the result does not depend on the instruction set.
+const LANES: usize = 4;
+
+/// e^y to about one ulp for |y| ≤ 700 (clamped beyond), without branches or calls so that a
+/// loop over it vectorises: y = k ln 2 + r with |r| ≤ ln 2 / 2 (Cody–Waite, the ln 2 split of
+/// fdlibm), e^r by its Taylor polynomial to degree 13 (remainder < r¹⁴/14! ≤ 4e-18), 2^k put
+/// into the exponent bits. Plain IEEE operations in a fixed order (Rust does not contract them
+/// into fused multiply–adds): the same bits on every target and instruction set.
+#[inline(always)]
+fn exp_fast(y: f64) -> f64 {
+    // 1.5 · 2^52 + 1023: y log2(e) + SHIFT rounds to an integer k + 1023 + 1.5 · 2^52 whose
+    // low mantissa bits are k + 1023, the biased exponent of 2^k.
+    const SHIFT: f64 = 6_755_399_441_056_767.0;
+    const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+    let y = y.clamp(-700.0, 700.0);
+    let s = y * std::f64::consts::LOG2_E + SHIFT;
+    let k = s - SHIFT;
+    let r = (y - k * LN2_HI) - k * LN2_LO;
+    let mut p = 1.605_904_383_682_161_3e-10;
+    for c in [
+        2.087_675_698_786_81e-9,
+        2.505_210_838_544_172e-8,
+        2.755_731_922_398_589e-7,
+        2.755_731_922_398_589_3e-6,
+        2.480_158_730_158_73e-5,
+        1.984_126_984_126_984e-4,
+        1.388_888_888_888_889e-3,
+        8.333_333_333_333_333e-3,
+        4.166_666_666_666_666_4e-2,
+        1.666_666_666_666_666_6e-1,
+        0.5,
+        1.0,
+        1.0,
+    ] {
+        p = p * r + c;
+    }
+    p * f64::from_bits(s.to_bits() << 52)
 }
 
 /// Everything the line search needs about one ray: the nodes the interaction can reach, and the
 /// elastic scalars.
 struct Ray<'a> {
     /// Nodes with d ≠ 0 that are, or may come, within the interaction's cutoff.
-    nodes: &'a [Node],
+    nodes: &'a RayNodes,
     /// Σ d (σ + p̄).
     a: f64,
     /// Σ d K d.
@@ -185,19 +302,66 @@ struct Ray<'a> {
 impl Ray<'_> {
     /// φ'(α), φ''(α) and φ(α) (times N) of the energy along the ray, the wall ignored.
     fn slope(&self, alpha: f64) -> (f64, f64, f64) {
-        let (mut s1, mut s2, mut s0) = (0.0, 0.0, 0.0);
-        for nd in self.nodes {
-            let x = (nd.g + alpha * nd.d).max(0.0);
-            let (e, d1, d2) = self.law.eval(x);
-            s0 += e - nd.e;
-            s1 += nd.d * d1;
-            s2 += nd.d * nd.d * d2;
-        }
+        let (s1, s2, s0) = if matches!(self.law.interaction, Interaction::Adhesion { .. }) {
+            self.adhesive_sums(alpha)
+        } else {
+            let (mut s1, mut s2, mut s0) = (0.0, 0.0, 0.0);
+            let nd = self.nodes;
+            for i in 0..nd.len() {
+                let (g, d) = (nd.g[i], nd.d[i]);
+                let x = (g + alpha * d).max(0.0);
+                let (e, d1, d2) = self.law.eval(x);
+                s0 += e - nd.e[i];
+                s1 += d * d1;
+                s2 += d * d * d2;
+            }
+            (s1, s2, s0)
+        };
         (
             self.a + alpha * self.b + s1,
             self.b + s2,
             alpha * self.a + 0.5 * alpha * alpha * self.b + s0,
         )
+    }
+
+    /// Σ d γ'(x), Σ d² γ''(x), Σ (γ(x) − γ(g)) at x = max(g + αd, 0) for exponential adhesion,
+    /// γ = −γ0 e^(−x/ρ): with y = −x/ρ = c + αw (c = −g/ρ, w = −d/ρ), γ(x) = −γ0 e^y,
+    /// γ' = −γ/ρ, γ'' = γ/ρ², so d γ' = w γ and d² γ'' = w² γ: one multiplication in the
+    /// exponent instead of a division, none in the sums, and a vectorisable exponential.
+    #[inline(never)]
+    fn adhesive_sums(&self, alpha: f64) -> (f64, f64, f64) {
+        let nd = self.nodes;
+        let n = nd.len();
+        let (c, e, w) = (&nd.c[..n], &nd.e[..n], &nd.w[..n]);
+        let at_zero = self.law.at_zero.0;
+        let beyond = -self.law.cut * (1.0 / self.law.interaction.range());
+        // one lane: the exponential always (branch-free, so the lanes vectorise), then the
+        // contact value on the wall (y ≥ 0, exp(0) = 1 exactly) and zero beyond the cutoff
+        let lane = |c: f64, e: f64, w: f64, s: &mut [[f64; LANES]; 3], l: usize| {
+            let y = c + alpha * w;
+            let t = at_zero * exp_fast(y.min(0.0));
+            let ex = if y > beyond { t } else { 0.0 };
+            s[0][l] += ex - e;
+            s[1][l] += w * ex;
+            s[2][l] += w * w * ex;
+        };
+        let mut s = [[0.0; LANES]; 3];
+        for ((c, e), w) in c
+            .chunks_exact(LANES)
+            .zip(e.chunks_exact(LANES))
+            .zip(w.chunks_exact(LANES))
+        {
+            for l in 0..LANES {
+                lane(c[l], e[l], w[l], &mut s, l);
+            }
+        }
+        let full = n / LANES * LANES;
+        for i in full..n {
+            lane(c[i], e[i], w[i], &mut s, 0);
+        }
+        let [s0, s1, s2] = s;
+        let sum = |s: [f64; LANES]| (s[0] + s[1]) + (s[2] + s[3]);
+        (sum(s1), sum(s2), sum(s0))
     }
 
     /// The first minimum of the energy along the ray: the smallest α > 0 where φ' changes sign
@@ -207,7 +371,7 @@ impl Ray<'_> {
         let (mut lo, mut hi, mut phi_lo) = (0.0f64, f64::INFINITY, 0.0);
         let (mut alpha, mut phi) = (0.0, 0.0);
         let (mut s1, mut s2) = self.start;
-        let tol = 1e-6 * s1.abs();
+        let tol = LINE_TOL * s1.abs();
         for _ in 0..LINE_ITER {
             if s1 < 0.0 {
                 (lo, phi_lo) = (alpha, phi);
@@ -414,7 +578,7 @@ struct Work {
     z: Vec<f64>,
     d: Vec<f64>,
     kd: Vec<f64>,
-    nodes: Vec<Node>,
+    nodes: RayNodes,
     u_prev: Vec<f64>,
     /// ⟨r, z⟩ of the previous direction; 0 forces a restart (d = −z).
     rz_old: f64,
@@ -598,7 +762,9 @@ fn step(
     w.u_prev.copy_from_slice(u);
     // The line search needs only the nodes the interaction reaches for α ≤ alpha_cap: those
     // within the cutoff or moving down (a node that stays beyond the cutoff adds exact zeros).
-    w.nodes.clear();
+    w.nodes.reserve(n);
+    let mut n_nodes = 0;
+    let inv_rho = if range > 0.0 { 1.0 / range } else { 0.0 };
     let (hh, dir, sigma, kd, r, local, hits) = (
         &h[..n],
         &w.d[..n],
@@ -629,13 +795,11 @@ fn step(
             d_near = d_near.max(d.abs());
         }
         if d != 0.0 && (g < law.cut || d < 0.0) {
-            w.nodes.push(Node {
-                g,
-                d,
-                e: local[i].0,
-            });
+            w.nodes.set(n_nodes, g, d, local[i].0, inv_rho);
+            n_nodes += 1;
         }
     }
+    w.nodes.len = n_nodes;
     if wall_cap == 0.0 {
         wall_cap = f64::MAX;
     }
@@ -757,7 +921,7 @@ impl Minimizer for NonlinearCg {
             z: vec![0.0; n],
             d: vec![0.0; n],
             kd: vec![0.0; n],
-            nodes: Vec::with_capacity(n),
+            nodes: RayNodes::default(),
             u_prev: vec![0.0; n],
             rz_old: 0.0,
             stale: 0,
@@ -862,13 +1026,12 @@ mod tests {
     };
 
     /// A ray whose start (φ'(0), φ''(0)) is evaluated directly from the law.
-    fn ray(nodes: &[Node], a: f64, b: f64) -> Ray<'_> {
-        let law = Law::new(ADHESION);
+    fn ray_with(law: Law, nodes: &RayNodes, a: f64, b: f64) -> Ray<'_> {
         let (mut s1, mut s2) = (a, b);
-        for nd in nodes {
-            let (_, d1, d2) = law.eval(nd.g);
-            s1 += nd.d * d1;
-            s2 += nd.d * nd.d * d2;
+        for (&g, &d) in nodes.g[..nodes.len].iter().zip(&nodes.d[..nodes.len]) {
+            let (_, d1, d2) = law.eval(g);
+            s1 += d * d1;
+            s2 += d * d * d2;
         }
         Ray {
             nodes,
@@ -879,11 +1042,101 @@ mod tests {
         }
     }
 
-    fn node(g: f64, d: f64) -> Node {
-        Node {
-            g,
-            d,
-            e: ADHESION.energy(g),
+    fn ray(nodes: &RayNodes, a: f64, b: f64) -> Ray<'_> {
+        ray_with(Law::new(ADHESION), nodes, a, b)
+    }
+
+    /// Nodes (g, d) on a ray, γ(g) from the law.
+    fn nodes(inter: Interaction, gd: &[(f64, f64)]) -> RayNodes {
+        let law = Law::new(inter);
+        let mut nodes = RayNodes::default();
+        nodes.reserve(gd.len());
+        for (k, &(g, d)) in gd.iter().enumerate() {
+            nodes.set(k, g, d, law.eval(g).0, 1.0 / inter.range());
+        }
+        nodes.len = gd.len();
+        nodes
+    }
+
+    #[test]
+    fn fast_exponential_agrees_with_libm_to_a_few_ulp() {
+        // e^y over the range the line search uses (y = −x/ρ down to −40, a little above 0)
+        // and far beyond, against the correctly rounded-to-1-ulp libm exp
+        let mut worst = 0.0f64;
+        for k in 0..=200_000 {
+            let y = -60.0 + k as f64 * 3e-4 + 1e-9 * (k % 7) as f64;
+            let (a, b) = (exp_fast(y), y.exp());
+            worst = worst.max(((a - b) / b).abs());
+        }
+        for &y in &[
+            -700.0,
+            -650.3,
+            -1e-300,
+            0.0,
+            1e-17,
+            0.5 * std::f64::consts::LN_2,
+            300.7,
+            700.0,
+        ] {
+            let (a, b) = (exp_fast(y), f64::exp(y));
+            worst = worst.max(((a - b) / b).abs());
+        }
+        assert!(
+            worst < 4.0 * f64::EPSILON,
+            "largest relative error {worst:e}"
+        );
+        assert_eq!(exp_fast(0.0), 1.0);
+        // clamped, not infinite or zero, beyond ±700 (those lanes are masked by the caller)
+        assert_eq!(exp_fast(-1e6), exp_fast(-700.0));
+        assert_eq!(exp_fast(1e6), exp_fast(700.0));
+    }
+
+    #[test]
+    fn adhesive_sums_agree_with_the_law_node_by_node() {
+        // nodes on and off the wall, moving up and down, beyond the cutoff and coming into it,
+        // crossing the wall at some α: the factorised sums against Law::eval term by term
+        let law = Law::new(ADHESION);
+        let mut gd = Vec::new();
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..1003 {
+            let g = if next() < 0.2 { 0.0 } else { 2.0 * next() };
+            gd.push((g, 2.0 * next() - 1.0));
+        }
+        let nodes = nodes(ADHESION, &gd);
+        let ray = ray_with(law, &nodes, 0.0, 0.0);
+        for &alpha in &[0.0, 1e-3, 0.01, 0.05, 0.2, 0.7, 1.5, 3.0] {
+            let (mut s, mut abs) = ([0.0; 3], [0.0; 3]);
+            for &(g, d) in &gd {
+                let (e, d1, d2) = law.eval((g + alpha * d).max(0.0));
+                let e0 = law.eval(g).0;
+                for (k, t) in [e - e0, d * d1, d * d * d2].into_iter().enumerate() {
+                    s[k] += t;
+                }
+                for (k, t) in [e.abs() + e0.abs(), (d * d1).abs(), (d * d * d2).abs()]
+                    .into_iter()
+                    .enumerate()
+                {
+                    abs[k] += t;
+                }
+            }
+            let (t1, t2, t0) = ray.adhesive_sums(alpha);
+            // per term: the exponent c + αw (|c| ≤ 40) rounded to ~1e-14 absolute, the
+            // exponential to a few ulp: 3e-14 relative, summed over the terms' magnitudes
+            for (k, (t, name)) in [(t0, "φ"), (t1, "φ'"), (t2, "φ''")].into_iter().enumerate() {
+                assert!(
+                    (t - s[k]).abs() <= 3e-14 * abs[k],
+                    "α = {alpha}: {name} {t} vs {} (sum of magnitudes {})",
+                    s[k],
+                    abs[k]
+                );
+            }
+            assert!(abs[2] > 1.0, "α = {alpha}: the nodes reach the interaction");
         }
     }
 
@@ -919,7 +1172,8 @@ mod tests {
     #[test]
     fn line_search_solves_the_quadratic_exactly() {
         // no node within the interaction's reach: φ'(α) = a + α b, minimum at −a/b
-        let ray = ray(&[], -3.0, 2.0);
+        let empty = RayNodes::default();
+        let ray = ray(&empty, -3.0, 2.0);
         let (alpha, phi) = ray.first_minimum(f64::MAX);
         assert!((alpha - 1.5).abs() < 1e-14);
         // φ(α) = a α + ½ b α²
@@ -933,7 +1187,7 @@ mod tests {
         // One node at g = 0.3 moving to the wall (d = −1): φ' = −0.001 + 2α − 5 exp(−(0.3 − α)/0.04)
         // has a shallow minimum near α ≈ 0.0025 and a maximum near 0.195; at the wall (α = 0.3)
         // the energy is far lower (−0.11, the adhesion energy γ0 gained against 0.09 elastic).
-        let nodes = [node(0.3, -1.0)];
+        let nodes = nodes(ADHESION, &[(0.3, -1.0)]);
         let ray = ray(&nodes, -0.001, 2.0);
         let (alpha, phi) = ray.first_minimum(f64::MAX);
         // the first sign change of φ' from − to +, by a dense scan (independent of Newton)
