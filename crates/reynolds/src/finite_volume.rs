@@ -132,95 +132,98 @@ impl Cut {
 /// A shortest path through the rows (dynamic programming; the step cost `|P_j(c) − P_j(c')|`,
 /// `P_j` the running sum of row `j`'s y-couplings, is minimised by one forward and one
 /// backward pass per row): O(columns × rows). The closing step from the last row to the first
-/// is included by passes that fix the starting column: the first (open) pass's start and the
-/// cheapest straight column's, the cheaper result kept. So the cut is the least through its own
-/// start and never dearer than any straight column (not necessarily the global least). Contact
+/// is included by a second pass that fixes the starting column at the first (open) pass's; if
+/// the cheapest straight column costs less, it is the cut. So the cut is the least through its
+/// own start or a straight column, never dearer than any straight column (not necessarily the
+/// global least). Cost at 2048²: 0.16–0.2 s on random couplings (two passes and the transposed
+/// copies of `e` and `n`), ~0.1 s of set-up on the flow benchmark. Contact
 /// (zero couplings) costs nothing, so the cut runs through contact patches and the narrowest
 /// throats.
 pub(crate) fn cut_path(e: &[f64], n: &[f64], ny: usize, columns: usize) -> Cut {
-    let pass = |start: Option<usize>| -> (Vec<usize>, f64) {
+    // Row-major copies (`[j * columns + c]`): the passes walk along rows, which the couplings'
+    // layout (`[c * ny + j]`) would make strided.
+    let transpose = |a: &[f64]| -> Vec<f64> {
+        let mut t = vec![0.0; columns * ny];
+        for c0 in (0..columns).step_by(32) {
+            let c1 = (c0 + 32).min(columns);
+            for j in 0..ny {
+                for c in c0..c1 {
+                    t[j * columns + c] = a[c * ny + j];
+                }
+            }
+        }
+        t
+    };
+    let (et, nt) = (transpose(e), transpose(n));
+    // from[j * columns + c]: the column of row j − 1 the best path to (c, j) came from.
+    let mut from = vec![0u32; columns * ny];
+    let mut pass = |start: Option<usize>| -> (Vec<usize>, f64) {
         // cost[c]: least cost of a path through rows 0..=j ending at column c of row j.
         let mut cost: Vec<f64> = (0..columns)
             .map(|c| match start {
                 Some(s) if s != c => f64::INFINITY,
-                _ => e[c * ny],
+                _ => et[c],
             })
             .collect();
-        // from[j * columns + c]: the column of row j − 1 the best path to (c, j) came from.
-        let mut from = vec![0u32; columns * ny];
-        let mut arg: Vec<usize> = (0..columns).collect();
+        let mut arg: Vec<u32> = vec![0; columns];
         for j in 1..=ny {
             // Step across the y-faces between rows j − 1 and j (for j = ny: back to row 0).
-            let row = j - 1;
-            let step = |i: usize| n[i * ny + row];
-            let mut best = cost.clone();
-            arg.iter_mut().enumerate().for_each(|(c, a)| *a = c);
+            let step = &nt[(j - 1) * columns..j * columns];
+            arg.iter_mut().enumerate().for_each(|(c, a)| *a = c as u32);
+            // (selects, not branches: the comparisons are unpredictable)
+            let (mut run, mut from_c) = (cost[0], arg[0]);
             for c in 1..columns {
-                let v = best[c - 1] + step(c);
-                if v < best[c] {
-                    best[c] = v;
-                    arg[c] = arg[c - 1];
-                }
+                let v = run + step[c];
+                let take = v < cost[c];
+                run = if take { v } else { cost[c] };
+                from_c = if take { from_c } else { arg[c] };
+                cost[c] = run;
+                arg[c] = from_c;
             }
+            let (mut run, mut from_c) = (cost[columns - 1], arg[columns - 1]);
             for c in (0..columns - 1).rev() {
-                let v = best[c + 1] + step(c + 1);
-                if v < best[c] {
-                    best[c] = v;
-                    arg[c] = arg[c + 1];
-                }
+                let v = run + step[c + 1];
+                let take = v < cost[c];
+                run = if take { v } else { cost[c] };
+                from_c = if take { from_c } else { arg[c] };
+                cost[c] = run;
+                arg[c] = from_c;
             }
             if j == ny {
-                // Close the loop: back at row 0, at the starting column.
-                return match start {
-                    Some(s) => {
-                        let mut path = vec![0usize; ny];
-                        let mut c = arg[s];
-                        for jj in (0..ny).rev() {
-                            path[jj] = c;
-                            if jj > 0 {
-                                c = from[jj * columns + c] as usize;
-                            }
-                        }
-                        (path, best[s])
-                    }
-                    None => {
-                        let mut c = 0;
-                        for k in 1..columns {
-                            if cost[k] < cost[c] {
-                                c = k;
-                            }
-                        }
-                        let mut path = vec![0usize; ny];
-                        for jj in (0..ny).rev() {
-                            path[jj] = c;
-                            if jj > 0 {
-                                c = from[jj * columns + c] as usize;
-                            }
-                        }
-                        (path, cost.iter().copied().fold(f64::INFINITY, f64::min))
-                    }
-                };
+                break;
             }
-            for c in 0..columns {
-                from[j * columns + c] = arg[c] as u32;
-                cost[c] = best[c] + e[c * ny + j];
+            from[j * columns..(j + 1) * columns].copy_from_slice(&arg);
+            for (c, x) in cost.iter_mut().zip(&et[j * columns..(j + 1) * columns]) {
+                *c += x;
             }
         }
-        unreachable!("the loop returns at j = ny")
+        // Back at row 0: at the starting column (closed), or, with no start, at whichever
+        // column is cheapest (a path that need not close, whose start the closed passes use).
+        let end = start
+            .unwrap_or_else(|| (0..columns).fold(0, |b, c| if cost[c] < cost[b] { c } else { b }));
+        let (mut c, total) = (arg[end] as usize, cost[end]);
+        let mut path = vec![0usize; ny];
+        for jj in (0..ny).rev() {
+            path[jj] = c;
+            if jj > 0 {
+                c = from[jj * columns + c] as usize;
+            }
+        }
+        (path, total)
     };
-    // Closed through the first pass's start, or through the cheapest straight column (so the
-    // cut is never dearer than that column): the cheaper of the two.
+    // Closed through the first pass's start, or the cheapest straight column if that is
+    // cheaper (so the cut is never dearer than any column).
     let (first, _) = pass(None);
-    let straight = (0..columns)
-        .map(|c| (c, (0..ny).map(|j| e[c * ny + j]).sum::<f64>()))
-        .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
-        .0;
+    let mut sums = vec![0.0; columns];
+    for row in et.chunks(columns) {
+        sums.iter_mut().zip(row).for_each(|(s, x)| *s += x);
+    }
+    let straight = (0..columns).fold(0, |b, c| if sums[c] < sums[b] { c } else { b });
     let (a, cost_a) = pass(Some(first[0]));
-    let column = if straight == first[0] {
+    let column = if cost_a <= sums[straight] {
         a
     } else {
-        let (b, cost_b) = pass(Some(straight));
-        if cost_b < cost_a { b } else { a }
+        vec![straight; ny]
     };
     Cut { column }
 }
@@ -636,7 +639,8 @@ mod tests {
 
     /// Oracle: every cut with one x-face per row, enumerated, on 5 × 4 grids with random
     /// couplings (zero ones included): `cut_path` is the cheapest of those through its own
-    /// starting column (the second pass fixes it) and never dearer than any straight column;
+    /// starting column (the second pass fixes it) or a straight column, never dearer than any
+    /// straight column;
     /// its offsets are those of `H(i, j) = [i > c_j]`.
     #[test]
     fn cut_path_is_the_least_cut_through_its_start_and_beats_every_column() {
@@ -661,8 +665,9 @@ mod tests {
                         best_from_start = best_from_start.min(cost(&e, &n, ny, &column));
                     }
                 }
+                let straight = cut.column.iter().all(|&c| c == cut.column[0]);
                 assert!(
-                    (got - best_from_start).abs() <= 1e-12,
+                    (got - best_from_start).abs() <= 1e-12 || straight,
                     "{got} vs {best_from_start}"
                 );
                 for c in 0..columns {
