@@ -8,13 +8,26 @@
 //!
 //! # The pressure drop and the cut
 //! The pressure is `p = −x ΔP / L + φ` with `φ` periodic. It is represented by an unknown `u`
-//! that is periodic except across one *cut*: the column of x-faces between node columns `c` and
-//! `c + 1`, where the physical drop is `p_c − p_{c+1} = u_c − u_{c+1} + ΔP`. Any column gives the
-//! same physics (moving the cut adds ΔP to `u` on the columns it passes); the solver puts it on
-//! the column with the smallest total conductance. Near a closing constriction that is the
-//! constriction itself, so the unknown is nearly uniform (and held near zero by the multigrid
-//! gauge) in the well-conducting ponds, where floating-point values must resolve tiny pressure
-//! differences, and the right-hand side `b` (the cut's ±sΔP) is small, of the size of the flux.
+//! that is periodic except across one *cut*: a closed line of faces that winds once around the
+//! cell across the flow, given by one column `c_j` per node row `j` ([`Cut`]). Node `(i, j)` lies
+//! downstream of the cut if `i > c_j` (`H_ij = 1`, else 0), and `u = p + ΔP H` there; the drop
+//! across a face `a → b` is `p_a − p_b = u_a − u_b + o_ab ΔP` with the offset
+//! `o_ab = H_b − H_a` (plus one on the x-faces that wrap around the cell), i.e. `+1` on the
+//! x-face `(c_j, j) → (c_j + 1, j)` of every row and `±1` on the y-faces between rows `j` and
+//! `j + 1` where the cut steps from `c_j` to `c_{j+1}`. Any cut gives the same physics (moving
+//! it adds ΔP to `u` on the nodes it passes); the solver puts it where the total conductance of
+//! its faces is least ([`cut_path`], a shortest path through the rows). Near a closing
+//! constriction that is the constriction itself, so the unknown is nearly uniform (and held
+//! near zero by the multigrid gauge) in the well-conducting ponds, where floating-point values
+//! must resolve tiny pressure differences, and the right-hand side `b` (the cut's ±sΔP) is
+//! small, of the size of the flux.
+//!
+//! Until 2026-11-26 (#12) the cut was one straight column of x-faces (the column of least total
+//! conductance). On the square cell that column runs through the saddles, but on the hexagonal
+//! one (channels at 0°, 60°, 120°) every column crosses a wide pond: on 512² at l = −0.05 along
+//! x the least column's ‖b‖ was 7.8e7 times the flux, so a relative residual of 1e-10 left the
+//! flux wrong by ~1e-2 and the solve had to go on (tightened tolerances, iterative refinement)
+//! to relative residuals of 1e-18 … 1e-25: 40–113 iterations where the square cell takes 8–10.
 
 use crate::stencil::REDUCE_BLOCK;
 use ndarray::{Array2, ArrayView2};
@@ -39,7 +52,7 @@ pub(crate) struct Assembly<'a> {
     pub ny: usize,
     pub e: &'a [f64],
     pub n: &'a [f64],
-    pub cut: usize,
+    pub cut: &'a Cut,
     /// Reservoirs instead of a periodic cell: the x-faces across the cell edge (column
     /// `nx − 1`) have zero couplings and the cut lies in `0..nx − 1` (see the `reservoir`
     /// module for the gauge).
@@ -77,16 +90,158 @@ pub(crate) fn reservoir_couplings(
     (at(0), at(nx - 1))
 }
 
-/// The cut column: the x-face column of least total conductance.
-pub(crate) fn cut_column(e: &[f64], ny: usize) -> usize {
-    let column_sum: Vec<f64> = e.par_chunks(ny).map(|r| r.iter().sum()).collect();
-    let mut cut = 0;
-    for (i, &s) in column_sum.iter().enumerate() {
-        if s < column_sum[cut] {
-            cut = i;
+/// The cut (see the module docs): its column `c_j` in every node row `j`; node `(i, j)` is
+/// downstream of it if `i > c_j`.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Cut {
+    pub column: Vec<usize>,
+}
+
+impl Cut {
+    /// `H_ij`: node `(i, j)` lies downstream of the cut.
+    #[inline]
+    pub fn downstream(&self, i: usize, j: usize) -> bool {
+        i > self.column[j]
+    }
+
+    /// Offset `o` of the x-face `(i, j) → (i + 1, j)`: 1 on the cut, else 0.
+    #[inline]
+    pub fn offset_x(&self, i: usize, j: usize) -> f64 {
+        if self.column[j] == i { 1.0 } else { 0.0 }
+    }
+
+    /// Offset `o = H(i, j + 1) − H(i, j)` of the y-face `(i, j) → (i, j + 1)` (rows periodic).
+    #[inline]
+    pub fn offset_y(&self, i: usize, j: usize) -> f64 {
+        let jp = if j + 1 == self.column.len() { 0 } else { j + 1 };
+        let (here, next) = (self.column[j], self.column[jp]);
+        if next < i && i <= here {
+            1.0
+        } else if here < i && i <= next {
+            -1.0
+        } else {
+            0.0
         }
     }
-    cut
+}
+
+/// The cut of least total conductance among the cuts with one x-face per row: columns `c_j` in
+/// `0..columns` minimising `Σ_j e(c_j, j) + Σ_j Σ_{i between c_j and c_{j+1}} n(i, j)` (the
+/// x-faces on the cut plus the y-faces it crosses stepping from row to row, rows periodic).
+///
+/// A shortest path through the rows (dynamic programming; the step cost `|P_j(c) − P_j(c')|`,
+/// `P_j` the running sum of row `j`'s y-couplings, is minimised by one forward and one
+/// backward pass per row): O(columns × rows). The closing step from the last row to the first
+/// is included by a second pass that fixes the starting column at the first (open) pass's,
+/// unless the open path closes across contact only (then it is the least cut of all); if the
+/// cheapest straight column costs less, it is the cut. So the cut is the least through its own
+/// start or a straight column, never dearer than any straight column (not necessarily the
+/// global least). Cost at 2048²: 0.16–0.2 s on random couplings (two passes and the transposed
+/// copies of `e` and `n`), ~0.1 s of set-up on the flow benchmark. Contact
+/// (zero couplings) costs nothing, so the cut runs through contact patches and the narrowest
+/// throats.
+pub(crate) fn cut_path(e: &[f64], n: &[f64], ny: usize, columns: usize) -> Cut {
+    // Row-major copies (`[j * columns + c]`): the passes walk along rows, which the couplings'
+    // layout (`[c * ny + j]`) would make strided.
+    let transpose = |a: &[f64]| -> Vec<f64> {
+        let mut t = vec![0.0; columns * ny];
+        for c0 in (0..columns).step_by(32) {
+            let c1 = (c0 + 32).min(columns);
+            for j in 0..ny {
+                for c in c0..c1 {
+                    t[j * columns + c] = a[c * ny + j];
+                }
+            }
+        }
+        t
+    };
+    let (et, nt) = (transpose(e), transpose(n));
+    // from[j * columns + c]: the column of row j − 1 the best path to (c, j) came from.
+    let mut from = vec![0u32; columns * ny];
+    let mut pass = |start: Option<usize>| -> (Vec<usize>, f64) {
+        // cost[c]: least cost of a path through rows 0..=j ending at column c of row j.
+        let mut cost: Vec<f64> = (0..columns)
+            .map(|c| match start {
+                Some(s) if s != c => f64::INFINITY,
+                _ => et[c],
+            })
+            .collect();
+        let mut arg: Vec<u32> = vec![0; columns];
+        for j in 1..=ny {
+            // Step across the y-faces between rows j − 1 and j (for j = ny: back to row 0).
+            let step = &nt[(j - 1) * columns..j * columns];
+            arg.iter_mut().enumerate().for_each(|(c, a)| *a = c as u32);
+            // (selects, not branches: the comparisons are unpredictable)
+            let (mut run, mut from_c) = (cost[0], arg[0]);
+            for c in 1..columns {
+                let v = run + step[c];
+                let take = v < cost[c];
+                run = if take { v } else { cost[c] };
+                from_c = if take { from_c } else { arg[c] };
+                cost[c] = run;
+                arg[c] = from_c;
+            }
+            let (mut run, mut from_c) = (cost[columns - 1], arg[columns - 1]);
+            for c in (0..columns - 1).rev() {
+                let v = run + step[c + 1];
+                let take = v < cost[c];
+                run = if take { v } else { cost[c] };
+                from_c = if take { from_c } else { arg[c] };
+                cost[c] = run;
+                arg[c] = from_c;
+            }
+            if j == ny {
+                break;
+            }
+            from[j * columns..(j + 1) * columns].copy_from_slice(&arg);
+            for (c, x) in cost.iter_mut().zip(&et[j * columns..(j + 1) * columns]) {
+                *c += x;
+            }
+        }
+        // Back at row 0: at the starting column (closed), or, with no start, at whichever
+        // column is cheapest (a path that need not close, whose start the closed passes use).
+        let end = start
+            .unwrap_or_else(|| (0..columns).fold(0, |b, c| if cost[c] < cost[b] { c } else { b }));
+        let (mut c, total) = (arg[end] as usize, cost[end]);
+        let mut path = vec![0usize; ny];
+        for jj in (0..ny).rev() {
+            path[jj] = c;
+            if jj > 0 {
+                c = from[jj * columns + c] as usize;
+            }
+        }
+        (path, total)
+    };
+    // Closed through the first pass's start, or the cheapest straight column if that is
+    // cheaper (so the cut is never dearer than any column).
+    let (first, _) = pass(None);
+    let mut sums = vec![0.0; columns];
+    for row in et.chunks(columns) {
+        sums.iter_mut().zip(row).for_each(|(s, x)| *s += x);
+    }
+    let straight = (0..columns).fold(0, |b, c| if sums[c] < sums[b] { c } else { b });
+    // The cheapest open path closes for free (its last row steps back to its first column
+    // across contact only): it is the least cut of all, and the closed pass is not needed.
+    let step_cost = |j: usize, from: usize, to: usize| -> f64 {
+        (from.min(to) + 1..=from.max(to))
+            .map(|i| nt[j * columns + i])
+            .sum()
+    };
+    let closing = step_cost(ny - 1, first[ny - 1], first[0]);
+    let (a, cost_a) = if closing == 0.0 {
+        let cost = (0..ny)
+            .map(|j| et[j * columns + first[j]] + step_cost(j, first[j], first[(j + 1) % ny]))
+            .sum();
+        (first, cost)
+    } else {
+        pass(Some(first[0]))
+    };
+    let column = if cost_a <= sums[straight] {
+        a
+    } else {
+        vec![straight; ny]
+    };
+    Cut { column }
 }
 
 /// Face couplings `(e, n)` from `g³` on the nodes marked `keep` (all others are decoupled).
@@ -133,12 +288,20 @@ impl Assembly<'_> {
         let (nx, ny) = (self.nx, self.ny);
         let mut b = vec![0.0; nx * ny];
 
-        let c = self.cut;
-        let cp = (c + 1) % nx;
         for j in 0..ny {
+            let c = self.cut.column[j];
+            let cp = (c + 1) % nx;
             let s = self.e[c * ny + j] * dp;
             b[c * ny + j] -= s;
             b[cp * ny + j] += s;
+            // The y-faces the cut crosses between rows j and j + 1.
+            let jp = (j + 1) % ny;
+            let next = self.cut.column[jp];
+            for i in c.min(next) + 1..=c.max(next) {
+                let s = self.n[i * ny + j] * self.cut.offset_y(i, j) * dp;
+                b[i * ny + j] -= s;
+                b[i * ny + jp] += s;
+            }
         }
         b
     }
@@ -153,35 +316,30 @@ impl Assembly<'_> {
         match u.lo {
             None => {
                 let d = u.hi[k] - u.hi[m];
-                if i == self.cut { d + dp } else { d }
+                if self.cut.column[j] == i { d + dp } else { d }
             }
-            // Exact sums of the large parts: across the cut hi jumps by ≈ −ΔP, and the rounding
-            // of hi_k − hi_m + ΔP (ε ΔP) would swamp the drop that the pair resolves.
-            Some(lo) => {
-                let (s, mut err) = two_sum(u.hi[k], -u.hi[m]);
-                let s = if i == self.cut {
-                    let (s2, e2) = two_sum(s, dp);
-                    err += e2;
-                    s2
-                } else {
-                    s
-                };
-                s + (err + (lo[k] - lo[m]))
-            }
+            Some(lo) => offset_drop(
+                u.hi[k],
+                u.hi[m],
+                lo[k] - lo[m],
+                self.cut.offset_x(i, j) * dp,
+            ),
         }
     }
 
+    /// Physical pressure drop `p_ij − p_{i,j+1}` across y-face `(i, j)`.
     #[inline]
-    fn drop_y(&self, u: Unknown, i: usize, j: usize) -> f64 {
+    fn drop_y(&self, u: Unknown, i: usize, j: usize, dp: f64) -> f64 {
         let ny = self.ny;
         let jp = if j + 1 == ny { 0 } else { j + 1 };
         let (k, m) = (i * ny + j, i * ny + jp);
+        let offset = self.cut.offset_y(i, j) * dp;
         match u.lo {
-            Some(lo) => {
-                let (s, err) = two_sum(u.hi[k], -u.hi[m]);
-                s + (err + (lo[k] - lo[m]))
+            Some(lo) => offset_drop(u.hi[k], u.hi[m], lo[k] - lo[m], offset),
+            None => {
+                let d = u.hi[k] - u.hi[m];
+                if offset != 0.0 { d + offset } else { d }
             }
-            None => u.hi[k] - u.hi[m],
         }
     }
 
@@ -192,12 +350,12 @@ impl Assembly<'_> {
         let im = if i == 0 { nx - 1 } else { i - 1 };
         let jm = if j == 0 { ny - 1 } else { j - 1 };
         let k = i * ny + j;
-        let (dxe, dyn_) = (self.drop_x(u, i, j, dp), self.drop_y(u, i, j));
+        let (dxe, dyn_) = (self.drop_x(u, i, j, dp), self.drop_y(u, i, j, dp));
         let mut f = Faces {
             east: self.e[k] * dxe,
             west: self.e[im * ny + j] * self.drop_x(u, im, j, dp),
             north: self.n[k] * dyn_,
-            south: self.n[i * ny + jm] * self.drop_y(u, i, jm),
+            south: self.n[i * ny + jm] * self.drop_y(u, i, jm, dp),
             drop_east: dxe,
             drop_north: dyn_,
             inlet: None,
@@ -328,9 +486,9 @@ impl Assembly<'_> {
             for j in 0..ny {
                 let k = i * ny + j;
                 if flowing[k] && reservoirs {
-                    p[[i, j]] = u.value(k) + if i <= self.cut { dp } else { 0.0 };
+                    p[[i, j]] = u.value(k) + if self.cut.downstream(i, j) { 0.0 } else { dp };
                 } else if flowing[k] {
-                    let v = u.value(k) - if i > self.cut { dp } else { 0.0 };
+                    let v = u.value(k) - if self.cut.downstream(i, j) { dp } else { 0.0 };
                     p[[i, j]] = v;
                     // Periodic part φ = p + x ΔP / L with x = i dx.
                     mean += v + (i as f64) * dx * dp / lx;
@@ -345,7 +503,7 @@ impl Assembly<'_> {
         // Face current densities: flux / face length; with reservoirs the first column's west
         // faces and the last column's east faces are the reservoir faces.
         let jx = |i: usize, j: usize| self.e[i * ny + j] * self.drop_x(u, i, j, dp) / dy;
-        let jy = |i: usize, j: usize| self.n[i * ny + j] * self.drop_y(u, i, j) / dx;
+        let jy = |i: usize, j: usize| self.n[i * ny + j] * self.drop_y(u, i, j, dp) / dx;
         let west = |i: usize, j: usize| match &self.reservoirs {
             Some(r) if i == 0 => -r.inlet[j] * u.value(j) / dy,
             _ => jx((i + nx - 1) % nx, j),
@@ -418,6 +576,22 @@ struct Faces {
     outlet: Option<(f64, f64)>,
 }
 
+/// `(hi_k − hi_m + offset) + dlo` with the large parts summed exactly: across the cut hi jumps
+/// by ≈ −ΔP, and the rounding of hi_k − hi_m + ΔP (ε ΔP) would swamp the drop that the pair
+/// `hi + lo` resolves.
+#[inline]
+fn offset_drop(hk: f64, hm: f64, dlo: f64, offset: f64) -> f64 {
+    let (s, mut err) = two_sum(hk, -hm);
+    let s = if offset != 0.0 {
+        let (s2, e2) = two_sum(s, offset);
+        err += e2;
+        s2
+    } else {
+        s
+    };
+    s + (err + dlo)
+}
+
 /// `a + b` as the rounded sum and its exact rounding error (Knuth's two-sum).
 #[inline]
 pub(crate) fn two_sum(a: f64, b: f64) -> (f64, f64) {
@@ -465,6 +639,68 @@ pub(crate) fn cubes(gap: ArrayView2<f64>) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The cut's cost: its x-faces plus the y-faces it crosses between rows (rows periodic).
+    fn cost(e: &[f64], n: &[f64], ny: usize, column: &[usize]) -> f64 {
+        (0..ny)
+            .map(|j| {
+                let (c, next) = (column[j], column[(j + 1) % ny]);
+                e[c * ny + j]
+                    + (c.min(next) + 1..=c.max(next))
+                        .map(|i| n[i * ny + j])
+                        .sum::<f64>()
+            })
+            .sum()
+    }
+
+    /// Oracle: every cut with one x-face per row, enumerated, on 5 × 4 grids with random
+    /// couplings (zero ones included): `cut_path` is the cheapest of those through its own
+    /// starting column (the second pass fixes it) or a straight column, never dearer than any
+    /// straight column;
+    /// its offsets are those of `H(i, j) = [i > c_j]`.
+    #[test]
+    fn cut_path_is_the_least_cut_through_its_start_and_beats_every_column() {
+        let (nx, ny) = (5usize, 4usize);
+        let mut rnd = crate::test_uniform(5);
+        for _ in 0..40 {
+            let mut coupling = || -> Vec<f64> {
+                (0..nx * ny)
+                    .map(|_| if rnd() < 0.3 { 0.0 } else { rnd() })
+                    .collect()
+            };
+            let (e, n) = (coupling(), coupling());
+            for columns in [nx, nx - 1] {
+                let cut = cut_path(&e, &n, ny, columns);
+                let got = cost(&e, &n, ny, &cut.column);
+                let mut best_from_start = f64::INFINITY;
+                for code in 0..columns.pow(ny as u32) {
+                    let column: Vec<usize> = (0..ny)
+                        .map(|j| code / columns.pow(j as u32) % columns)
+                        .collect();
+                    if column[0] == cut.column[0] {
+                        best_from_start = best_from_start.min(cost(&e, &n, ny, &column));
+                    }
+                }
+                let straight = cut.column.iter().all(|&c| c == cut.column[0]);
+                assert!(
+                    (got - best_from_start).abs() <= 1e-12 || straight,
+                    "{got} vs {best_from_start}"
+                );
+                for c in 0..columns {
+                    assert!(got <= cost(&e, &n, ny, &vec![c; ny]) + 1e-12);
+                }
+                assert!(cut.column.iter().all(|&c| c < columns));
+                let h = |i: usize, j: usize| f64::from(u8::from(cut.downstream(i, j)));
+                for i in 0..nx {
+                    for j in 0..ny {
+                        let wrap = if i + 1 == nx { 1.0 } else { 0.0 };
+                        assert_eq!(cut.offset_x(i, j), h((i + 1) % nx, j) - h(i, j) + wrap);
+                        assert_eq!(cut.offset_y(i, j), h(i, (j + 1) % ny) - h(i, j));
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn harmonic_mean_is_safe_at_the_extremes() {

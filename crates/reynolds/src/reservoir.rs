@@ -26,9 +26,10 @@
 //! The reservoir faces make the operator a grounded Laplacian (couplings to the outside held at
 //! zero): the same multigrid and conjugate gradients as the periodic cell, with the ground
 //! carried through the Galerkin products (see the `multigrid` module). The unknown is
-//! `u = p − ΔP` up to and including the cut column `c` (the interior x-face column of least
-//! conductance, as for the periodic cell) and `u = p` after it: both reservoirs are at `u = 0`
-//! and the drop enters only through the cut, `p_c − p_{c+1} = u_c − u_{c+1} + ΔP`. Near a
+//! `u = p − ΔP` up to and including the cut column `c_j` of each row (the cut of least
+//! conductance through the interior x-face columns, as for the periodic cell: a staircase, see
+//! the `finite_volume` module) and `u = p` after it: both reservoirs are at `u = 0` and the
+//! drop enters only through the cut's faces, e.g. `p_c − p_{c+1} = u_c − u_{c+1} + ΔP`. Near a
 //! closing constriction the cut falls on it, so `u` stays near zero in the well-conducting ponds
 //! on both sides, where double precision must resolve tiny pressure differences (with
 //! `u = p` the ponds at the inlet would sit at `u ≈ 1` and their rounding noise would swamp a
