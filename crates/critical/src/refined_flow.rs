@@ -146,11 +146,18 @@ impl FluxSetup {
                 FlowAxis::Y
             },
             method,
-            trim_along: (w / 4).clamp(1, (w - 5) / 2),
+            trim_along: trim_along(w),
             tol_gap: refinement.opts.tol_gap,
             flow: FlowOptions::default(),
         })
     }
+}
+
+/// Base cells the flow window leaves out at each end along the channel of a refined window of
+/// `window` ≥ 7 base cells (module docs, "Flow window"): ⌊window/4⌋, between 1 and
+/// (window − 5)/2, so that 5 remain.
+pub fn trim_along(window: usize) -> usize {
+    (window / 4).clamp(1, (window - 5) / 2)
 }
 
 /// The flux of one refined solution whose saddle gap is `saddle_gap` (module docs).

@@ -37,8 +37,8 @@
 //! cell's conductivity by series replacement (`flux_method = series`), which has no such
 //! truncation: they are not assessed.
 //!
-//! The flag is applied where the ladders are read for the tables and fits (`exponents`, the
-//! `running`, `refined` and `fig5` scenes), not in the `refined_ladder` kind: its artefact and
+//! The flag is applied where the ladders are read for the tables and fits ([`read_flagged`]:
+//! `exponents`, the `running`, `refined` and `fig5` scenes), not in the `refined_ladder` kind: its artefact and
 //! code identity stay as they are.
 
 use crate::refined_chain::Linked;
@@ -70,7 +70,7 @@ pub fn excess(u_hi: f64, u_lo: f64, l_hi: f64, l_lo: f64) -> f64 {
 
 /// The flow window's half-length along the channel (λ) of a refined ladder of `lattice` on a
 /// 2^`base` grid with a refined window of `window` base cells: the window less
-/// `trim_along` = ⌊window/4⌋ (between 1 and (window − 5)/2) base cells at each end, as
+/// `critical::refined_flow::trim_along` base cells at each end, as
 /// `critical::refined_flow::FluxSetup::new` sets it, along the grid axis of the channel of
 /// `critical::ladder::axis_saddle`.
 pub fn flow_half_length(lattice: Lattice, base: u32, window: u32) -> Result<f64> {
@@ -86,8 +86,8 @@ pub fn flow_half_length(lattice: Lattice, base: u32, window: u32) -> Result<f64>
     } else {
         s.grid.dy()
     };
-    let trim = (window / 4).clamp(1, (window - 5) / 2);
-    Ok(f64::from(window - 2 * trim) * cell / 2.0)
+    let trim = critical::refined_flow::trim_along(window as usize);
+    Ok((window as usize - 2 * trim) as f64 * cell / 2.0)
 }
 
 /// The truncation of one β pair.
@@ -193,10 +193,19 @@ pub fn assess(
     Ok((half, out))
 }
 
+/// The refined ladders of `inputs` as `refined_chain::read_linked` reads them, with the β
+/// pairs that the flow window truncates flagged ([`apply`]): what every reader of the refined
+/// ladders' running pairs takes (`exponents`; the `running`, `refined` and `fig5` scenes).
+pub fn read_flagged(inputs: &orchestrator::Inputs) -> Result<Vec<(Linked, &ArtefactReader)>> {
+    let mut linked = crate::refined_chain::read_linked(inputs)?;
+    apply(&mut linked)?;
+    Ok(linked)
+}
+
 /// Flags every β pair of the saddle-window ladders of `linked` (as `refined_chain::read_linked`
 /// returns them) that the flow window truncates (module docs), where it has no flag yet; a
 /// ladder without stored rise lengths gets "neck truncation unknown" on its β pairs.
-pub fn apply(linked: &mut [(Linked, &ArtefactReader)]) -> Result<()> {
+fn apply(linked: &mut [(Linked, &ArtefactReader)]) -> Result<()> {
     for (link, r) in linked.iter_mut() {
         if link.data.flux_method != SADDLE_WINDOW {
             continue;

@@ -54,7 +54,7 @@ use figures::scenes::fig5::{ContactLine, Fig5Data, GapProfile};
 use figures::style::Model;
 use kinds::exponents::{self, ModelExponents, NAMES};
 use kinds::ladder::LadderData;
-use kinds::refined_chain::{Linked, chain_of, read_linked};
+use kinds::refined_chain::{Linked, chain_of};
 use kinds::refined_ladder::{RefinedData, RefinedProfile, read_profiles};
 use orchestrator::{InputSpec, Inputs};
 use orchestrator::{Params, StageContext};
@@ -302,8 +302,7 @@ fn refined_curves(
     warn: &mut Vec<String>,
 ) -> Result<Vec<ModelCurves>> {
     let mut out: Vec<ModelCurves> = Vec::new();
-    let mut linked = read_linked(inputs)?;
-    kinds::neck_truncation::apply(&mut linked)?;
+    let linked = kinds::neck_truncation::read_flagged(inputs)?;
     let profiles_of: Vec<Vec<RefinedProfile>> = linked
         .iter()
         .map(|(_, r)| read_profiles(r))

@@ -33,7 +33,7 @@
 
 use crate::scene::{OutputSpec, Outputs, Scene};
 use anyhow::Result;
-use kinds::refined_chain::{Linked, read_linked};
+use kinds::refined_chain::Linked;
 use kinds::refined_ladder::{RefinedData, RefinedPair};
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
 use store::ArtefactWriter;
@@ -158,9 +158,10 @@ impl Scene for Refined {
         inputs: &Inputs,
         _out: &mut ArtefactWriter,
     ) -> Result<Outputs> {
-        let mut linked = read_linked(inputs)?;
-        kinds::neck_truncation::apply(&mut linked)?;
-        let data: Vec<Linked> = linked.into_iter().map(|(l, _)| l).collect();
+        let data: Vec<Linked> = kinds::neck_truncation::read_flagged(inputs)?
+            .into_iter()
+            .map(|(l, _)| l)
+            .collect();
         let flagged = data
             .iter()
             .flat_map(|l| &l.data.running)

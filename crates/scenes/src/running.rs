@@ -94,7 +94,7 @@ use figures::style::Model;
 use kinds::exponents::asymptotic::{GRID_BOUND, resolutions};
 use kinds::exponents::{CONJECTURED, PAPER, symbol};
 use kinds::ladder::LadderData;
-use kinds::refined_chain::{Depth, Linked, read_linked};
+use kinds::refined_chain::{Depth, Linked};
 use kinds::refined_ladder::RefinedData;
 use neck::Measure;
 use orchestrator::{InputSpec, Inputs, Params, StageContext};
@@ -367,8 +367,7 @@ impl Scene for Running {
             let d = LadderData::read(r)?;
             rows.extend(records(&d, &mut notes)?.into_iter().map(Row::from));
         }
-        let mut linked = read_linked(inputs)?;
-        kinds::neck_truncation::apply(&mut linked)?;
+        let linked = kinds::neck_truncation::read_flagged(inputs)?;
         for (l, _) in &linked {
             rows.extend(refined_rows(&l.data, l.depth));
         }

@@ -74,7 +74,7 @@ pub use io::{
 };
 
 use crate::ladder::{LadderData, LadderLevel};
-use crate::refined_chain::{Linked, chain_of, read_linked};
+use crate::refined_chain::{Linked, chain_of};
 use crate::refined_neck::{self, LinkedNeck, NeckMeasure};
 use anyhow::{Result, bail};
 use asymptotic::Asymptotic;
@@ -469,8 +469,7 @@ impl TypedKind for ExponentsKind {
         let mut flux_points = Vec::new();
         let mut heads = Vec::new();
         let mut summary = serde_json::Map::new();
-        let mut linked = read_linked(inputs)?;
-        crate::neck_truncation::apply(&mut linked)?;
+        let linked = crate::neck_truncation::read_flagged(inputs)?;
         // each refined ladder's neck lengths (None: its artefact has none), in `refined` order
         let mut necks: Vec<Option<LinkedNeck>> = Vec::with_capacity(linked.len());
         for (l, r) in &linked {
