@@ -74,7 +74,8 @@ pub struct RefinedLadderKind;
 /// Bump when the artefact's content changes for the same parameters.
 pub const CODE_VERSION: u64 = 6;
 
-/// The running exponents' grid-error bound (as the uniform ladders', issue 13).
+/// The running exponents' grid-error bound (issue 13's 0.005), for the uniform, refined and deep
+/// ladders alike (`exponents::asymptotic` re-exports it).
 pub const GRID_BOUND: f64 = 0.005;
 
 /// Lower bound of a refined stage's memory: the base grid's fields and one real field on the

@@ -91,8 +91,9 @@ use critical::running::{
 use store::{ArtefactReader, ArtefactWriter};
 use surface::Lattice;
 
-/// Grid-error bound of a running exponent (the 0.005); pairs above it are flagged.
-pub const GRID_BOUND: f64 = 0.005;
+/// Grid-error bound of a running exponent (the 0.005); pairs above it are flagged. One
+/// constant for the uniform, refined and deep ladders alike: the refined ladder's.
+pub use crate::refined_ladder::GRID_BOUND;
 
 /// Largest error of a decisive verdict, per exponent in [`super::NAMES`] order (module docs).
 pub const DECISIVE: [f64; 4] = [0.02, 0.02, 0.02, 0.05];
