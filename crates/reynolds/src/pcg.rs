@@ -19,6 +19,7 @@
 //! an uncertified one (stagnation above the floor), so it is not used; resuming ([`Pcg`]) is
 //! the saving kept.
 
+use crate::lanczos::Ritz;
 use crate::multigrid::Multigrid;
 use crate::stencil::{REDUCE_BLOCK, dot};
 use rayon::prelude::*;
@@ -88,6 +89,8 @@ pub(crate) struct Pcg {
     restarts: usize,
     best: f64,
     best_at: usize,
+    /// The Lanczos tridiagonal of the CG coefficients ([`crate::lanczos`]).
+    ritz: Ritz,
 }
 
 impl Pcg {
@@ -110,6 +113,7 @@ impl Pcg {
             restarts: 0,
             best: bnorm,
             best_at: 0,
+            ritz: Ritz::default(),
         }
     }
 
@@ -117,6 +121,13 @@ impl Pcg {
     /// from the true residual has happened.
     pub(crate) fn resumable(&self) -> bool {
         self.restarts == 0
+    }
+
+    /// Smallest Ritz value of the preconditioned operator `M A` over every Krylov sequence of
+    /// this iteration (None before the first step): an estimate from above of `λ_min(M A)`
+    /// ([`crate::lanczos`]).
+    pub(crate) fn smallest_ritz_value(&self) -> Option<f64> {
+        self.ritz.smallest()
     }
 
     /// Iterates until `‖b − A x‖ ≤ tol ‖b‖` by the recurrence ([`Goal`]), with
@@ -173,6 +184,7 @@ impl Pcg {
                     let rho_new = dot(&self.r, &self.z);
                     let beta = rho_new / self.rho;
                     self.rho = rho_new;
+                    self.ritz.direction(beta);
                     direction(&mut self.p, &self.z, beta);
                 }
                 if self.rho <= 0.0 || !self.rho.is_finite() {
@@ -186,6 +198,7 @@ impl Pcg {
                     return self.outcome(Stop::Breakdown);
                 }
                 let alpha = self.rho / pq;
+                self.ritz.step(alpha);
                 let rr = update(x, &mut self.r, &self.p, &self.q, alpha);
                 self.iterations += 1;
                 let rnorm = rr.sqrt();
@@ -235,6 +248,7 @@ impl Pcg {
         self.best_at = self.iterations;
         self.pending = false;
         self.fresh = true;
+        self.ritz.close();
         None
     }
 

@@ -859,9 +859,14 @@ fn the_flux_error_estimate_tracks_the_true_error() {
                 continue; // converged to rounding: nothing left to estimate
             }
             let ratio = r.flux_error_estimate / err;
+            // With the Ritz value of M A the estimate stands in for rᵀ A⁻¹ r ≤ rᵀ M r / λ_min:
+            // after two CG steps it lies at or above the true error (measured 1.03–1.18 here;
+            // rᵀ M r alone gave 0.82–0.87, an underestimate), and within 3× of it. One step
+            // gives one Ritz value, the Rayleigh quotient of the start (0.80).
+            let range = if cap >= 2 { 0.95..=3.0 } else { 0.5..=3.0 };
             assert!(
-                (1.0 / 30.0..=30.0).contains(&ratio),
-                "ε {eps:e}, {cap} iterations: estimate {:e}, true {err:e}",
+                range.contains(&ratio),
+                "ε {eps:e}, {cap} iterations: estimate {:e}, true {err:e}, ratio {ratio}",
                 r.flux_error_estimate
             );
             checked += 1;
