@@ -1442,6 +1442,23 @@ pub enum PairFlag {
     Frozen,
 }
 
+impl PairFlag {
+    /// The flag a pair's grid error earns against `bound`: unknown (NaN), above the bound, or
+    /// none.
+    pub fn grid(grid_error: f64, bound: f64) -> Option<PairFlag> {
+        if grid_error.is_nan() {
+            Some(PairFlag::Unknown)
+        } else if grid_error > bound {
+            Some(PairFlag::GridError {
+                error: grid_error,
+                bound,
+            })
+        } else {
+            None
+        }
+    }
+}
+
 impl std::fmt::Display for PairFlag {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -1620,23 +1637,8 @@ pub fn running_exponent(
         .map(|(hi, lo, v, fit_error, flag)| {
             let el = other(coarser, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
             let em = other(margin, hi, lo).map_or(f64::NAN, |c| (v - c).abs());
-            // No margin comparison asked for (`margin` None): the level change alone (its
-            // error_margin stays NaN: not measured); asked for but missing: unknown.
-            let grid_error = if el.is_nan() || (margin.is_some() && em.is_nan()) {
-                f64::NAN
-            } else {
-                el.max(if em.is_nan() { 0.0 } else { em })
-            };
-            let flag = flag.or(if grid_error.is_nan() {
-                Some(PairFlag::Unknown)
-            } else if grid_error > bound {
-                Some(PairFlag::GridError {
-                    error: grid_error,
-                    bound,
-                })
-            } else {
-                None
-            });
+            let grid_error = grid_error(el, em, margin.is_some());
+            let flag = flag.or(PairFlag::grid(grid_error, bound));
             RunningPair {
                 l_hi: hi,
                 l_lo: lo,
@@ -1649,6 +1651,18 @@ pub fn running_exponent(
             }
         })
         .collect()
+}
+
+/// The grid error of a running exponent from its level change `el` (k − 1 levels) and margin
+/// change `em` (NaN: not measured): their larger. No margin comparison asked for
+/// (`margin_asked` false): the level change alone; asked for but missing, or no level change:
+/// unknown (NaN). The one rule for ζ, υ, χ here and the neck measures (kinds::refined_neck).
+pub fn grid_error(el: f64, em: f64, margin_asked: bool) -> f64 {
+    if el.is_nan() || (margin_asked && em.is_nan()) {
+        f64::NAN
+    } else {
+        el.max(if em.is_nan() { 0.0 } else { em })
+    }
 }
 
 /// One neighbouring pair of a ladder as [`combined_ladder`] takes it: its two reduced loads

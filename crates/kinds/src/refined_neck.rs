@@ -49,7 +49,7 @@ use crate::refined_ladder::{GRID_BOUND, RefinedRungRow};
 use crate::refined_window::{Slope, WindowCheck, fold, window_change};
 use analysis::ScalingPoint;
 use anyhow::{Result, anyhow};
-use critical::refined::{LadderPair, Measured, PairFlag};
+use critical::refined::{LadderPair, Measured, PairFlag, grid_error};
 use critical::running::Exponent;
 use formats::records::read_in;
 use store::ArtefactReader;
@@ -411,25 +411,13 @@ pub fn pairs(ladder: &NeckLadder) -> Vec<NeckPair> {
         for s in slopes(fine, m) {
             let el = change(&co, &s);
             let em = change(&ma, &s);
-            let grid = if el.is_nan() || (margin.is_some() && em.is_nan()) {
-                f64::NAN
-            } else {
-                el.max(if em.is_nan() { 0.0 } else { em })
-            };
+            let grid = grid_error(el, em, margin.is_some());
             let mut flag = if !s.flag.is_empty() {
                 s.flag.clone()
             } else if frozen(&ladder.zeta, s.l_hi, s.l_lo) {
                 PairFlag::Frozen.to_string()
-            } else if grid.is_nan() {
-                PairFlag::Unknown.to_string()
-            } else if grid > GRID_BOUND {
-                PairFlag::GridError {
-                    error: grid,
-                    bound: GRID_BOUND,
-                }
-                .to_string()
             } else {
-                String::new()
+                PairFlag::grid(grid, GRID_BOUND).map_or_else(String::new, |f| f.to_string())
             };
             let (mut grid_error, mut dw) = (grid, f64::NAN);
             if checked_at_all {
