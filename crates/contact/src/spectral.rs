@@ -17,6 +17,22 @@
 //! [`Spectral::convolve_fused`] additionally lets the caller prepare each input row just before
 //! it is transformed and reduce over each output row right after it is produced, while both are
 //! in cache: the Polonsky–Keer iteration uses it to fold its vector passes into the transform.
+//!
+//! The column pass (session #13). perf of a cold draft showed `Map::next` at 8.5 % of all
+//! samples: the whole per-block closure, inlined into ndarray's iterator. About 40 % of it was
+//! the multiply with its quadratic-form sum (a sequential chain of additions, also paid by the
+//! plain convolutions, which discard the sum), the rest the copies, mostly the strided stores of
+//! the gather (a row's 8 values go to 8 lines `nx` values apart; the 8-column buffer is 32 KiB on
+//! 256², the whole L1 of this machine), not bounds checks or the iterator. Now the block's rows
+//! are taken once as slices and copied in tiles of 4 rows × 8 columns (`TILE`: one whole cache
+//! line per column of the buffer), and the quadratic form is summed only by
+//! [`Spectral::convolve_fused`] (in the same order as before). Bit-identical (the bench hashes
+//! the output bits): `cargo bench -p contact --bench spectral`, one thread, µs per
+//! `ElasticKernel::stress`, before → after, two alternations at load 6–7: 64² 35.2, 35.1 →
+//! 33.6, 33.4; 128² 84.1, 84.5 → 80.6, 80.3; 256² 316.7, 311.3 → 301.6, 310.4; 512² 1701, 1613
+//! → 1393, 1425. Not faster: 4-column blocks (the buffer in L1 on 256²; the quadratic form's
+//! grouping would change too). What is left is the transforms themselves (rustfft and realfft:
+//! ≈ 75 % of a convolution on 256²).
 
 use ndarray::{ArrayViewMut2, Axis};
 use num_complex::Complex64;
@@ -339,7 +355,7 @@ impl Spectral {
     }
 }
 
-/// Rows of a column block handled together by [`gather`] and [`scatter`]: four complex values
+/// Rows of a column block handled together by `gather` and `scatter`: four complex values
 /// are one 64-byte cache line of a column of the block buffer, written (read) whole.
 const TILE: usize = 4;
 
