@@ -364,7 +364,7 @@ const TILE: usize = 4;
 /// row went to `b` lines `nx` values apart, 4 KiB apart on 256², which do not stay in L1).
 fn gather(rows: &[&mut [Complex64]], buf: &mut [Complex64], nx: usize) {
     let b = buf.len() / nx;
-    if b == BLOCK && nx % TILE == 0 {
+    if b == BLOCK && nx.is_multiple_of(TILE) {
         let mut cols: [&mut [Complex64]; BLOCK] = {
             let mut it = buf.chunks_exact_mut(nx);
             std::array::from_fn(|_| it.next().expect("BLOCK columns"))
@@ -396,7 +396,7 @@ fn gather(rows: &[&mut [Complex64]], buf: &mut [Complex64], nx: usize) {
 /// The inverse of [`gather`]: `rows[i][c] = buf[c·nx + i]`.
 fn scatter(buf: &[Complex64], rows: &mut [&mut [Complex64]], nx: usize) {
     let b = buf.len() / nx;
-    if b == BLOCK && nx % TILE == 0 {
+    if b == BLOCK && nx.is_multiple_of(TILE) {
         let cols: [&[Complex64]; BLOCK] = {
             let mut it = buf.chunks_exact(nx);
             std::array::from_fn(|_| it.next().expect("BLOCK columns"))
