@@ -14,8 +14,9 @@
 //!
 //! Cost (session #13, issue 19: the draft's Figure 2 check grid and Figure 3 paths run FIRE,
 //! where the cohesive zone is below a grid spacing). Per iteration: two transform pairs (σ = K u
-//! and M⁻¹f) and three passes; on 64² the passes and libm's exponential were two thirds of the
-//! time (perf: `relax` 35 %, `exp` 20 %, transforms 35 %). Changed, bit-identical (the same
+//! and M⁻¹f) and three passes; on 64² the passes and libm's exponential are more than half of
+//! the time (perf of the 64² FIRE paths of the adhesive bench after the first change below:
+//! `relax` 35 %, `exp` 20 %, transforms 35 %). Changed, bit-identical (the same
 //! arithmetic on everything the trajectory depends on):
 //! - the energy and the copies of the last accepted state are only made where they are read
 //!   (the `monotone` variant, a trace); the default FIRE never read them (a pass with a libm
@@ -263,8 +264,7 @@ impl Minimizer for Fire {
 }
 
 /// Where the force pass can leave out the law's exponential and still produce the same bits
-/// (session #13: the libm exponential per node was about a third of FIRE's own time on the
-/// draft's 64² paths).
+/// (session #13: libm's exponential was 20 % of the samples of the draft's 64² FIRE paths).
 ///
 /// - At the wall (g = 0, every contact node: the projection puts u on h exactly) γ'(g) is the
 ///   constant γ'(0), computed once by the same [`Interaction::derivative`].
