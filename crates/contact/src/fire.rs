@@ -11,6 +11,30 @@
 //! solve stops when the force residual (unbalanced pressure off contact, pull at contact) is at
 //! most `tol_force`. FIRE keeps inertia only while the power f·v is positive, so from a warm start
 //! it relaxes into the nearest minimum: that is how metastable branches are followed.
+//!
+//! Cost (session #13, issue 19: the draft's Figure 2 check grid and Figure 3 paths run FIRE,
+//! where the cohesive zone is below a grid spacing). Per iteration: two transform pairs (σ = K u
+//! and M⁻¹f) and three passes; on 64² the passes and libm's exponential are more than half of
+//! the time (perf of the 64² FIRE paths of the adhesive bench after the first change below:
+//! `relax` 35 %, `exp` 20 %, transforms 35 %). Changed, bit-identical (the same
+//! arithmetic on everything the trajectory depends on):
+//! - the energy and the copies of the last accepted state are only made where they are read
+//!   (the `monotone` variant, a trace); the default FIRE never read them (a pass with a libm
+//!   exponential per node and a sequential Kahan sum: 3.9 % of a cold draft's perf samples);
+//! - the force pass leaves out the law's exponential where that cannot change a bit (`Skip`):
+//!   at the wall, where γ'(0) is a constant, and, under adhesion, where γ'(g) is below a quarter
+//!   of an ulp of σ + p̄.
+//!
+//! Tried and not kept: libm's exponential in the force pass replaced by nonlinear CG's
+//! branch-free `exp_fast` (within 4 ulp, so every trajectory moves at the rounding level),
+//! inlined in the pass: 25–50 % slower on the draft's 64² paths (`ADHESIVE_PATH=6
+//! ADHESIVE_PATH_METHODS=fire cargo bench -p contact --bench adhesive`, Figure 2 adhesion,
+//! repulsion, Figure 3 hexagonal, two runs each: 1.38–1.41, 3.07–3.27, 1.99 → 2.04–2.08,
+//! 3.90–4.06, 2.92–2.99 CPU s; its 13-term Horner chain is scalar there and the pass branches
+//! per node); in a separate branch-free pass into a scratch field (vectorised, two lanes
+//! without AVX): 1.36–1.44, 2.87–2.92, 1.96–2.07 → 1.42–1.61, 2.75–2.82, 2.09–2.13, no gain
+//! (as for nonlinear CG's gradient pass in session #12: the extra pass costs what the
+//! exponential saves).
 
 use crate::stop_monitor::StopMonitor;
 use crate::{
@@ -84,6 +108,7 @@ impl Minimizer for Fire {
         let omega2 = 1.0 + interaction.max_curvature() * mean_inverse_mass(kernel.k_max());
         let dt_max = self.dt_max.min(1.0 / omega2.sqrt());
         let detach_gap = 20.0 * interaction.range().max(1e-3);
+        let skip = Skip::new(interaction);
 
         for (ui, hi) in u.iter_mut().zip(h.iter()) {
             *ui = ui.max(*hi);
@@ -106,30 +131,41 @@ impl Minimizer for Fire {
             trace: Vec::new(),
         };
         let mut monitor = StopMonitor::new(STAGNATION, 1e12);
-        // The last accepted state: a step that raises the energy beyond rounding is undone.
-        let mut u_prev = u.clone();
-        let mut sigma_prev = vec![0.0; n];
+        // The last accepted state: a step that raises the energy beyond rounding is undone. Kept
+        // only in the monotone variant; the energy is evaluated only where it is used (monotone,
+        // or a trace): the default FIRE never reads it, and its pass (a libm exponential per node
+        // and a sequential Kahan sum) and the two copies were 4 % of the draft's samples (perf,
+        // session #13) for nothing.
+        let (mut u_prev, mut sigma_prev) = if self.monotone {
+            (u.clone(), vec![0.0; n])
+        } else {
+            (Vec::new(), Vec::new())
+        };
         let (mut e_prev, mut slack_prev) = (f64::INFINITY, 0.0);
         let mut rejected = 0usize;
 
         loop {
             kernel.stress(u, &mut sigma);
-            let (e, slack) = energy(u, &sigma, h, interaction, pressure);
-            if self.monotone && e > e_prev + slack_prev {
-                u.copy_from_slice(&u_prev);
-                sigma.copy_from_slice(&sigma_prev);
-                v.iter_mut().for_each(|x| *x = 0.0);
-                alpha = self.alpha0;
-                positive = 0;
-                rejected += 1;
-                if rejected > 2 {
-                    dt *= self.f_dec;
+            if self.monotone || opts.trace {
+                let (e, slack) = energy(u, &sigma, h, interaction, pressure);
+                if self.monotone && e > e_prev + slack_prev {
+                    u.copy_from_slice(&u_prev);
+                    sigma.copy_from_slice(&sigma_prev);
+                    v.iter_mut().for_each(|x| *x = 0.0);
+                    alpha = self.alpha0;
+                    positive = 0;
+                    rejected += 1;
+                    if rejected > 2 {
+                        dt *= self.f_dec;
+                    }
+                } else {
+                    rejected = 0;
+                    if self.monotone {
+                        u_prev.copy_from_slice(u);
+                        sigma_prev.copy_from_slice(&sigma);
+                    }
+                    (e_prev, slack_prev) = (e, slack);
                 }
-            } else {
-                rejected = 0;
-                u_prev.copy_from_slice(u);
-                sigma_prev.copy_from_slice(&sigma);
-                (e_prev, slack_prev) = (e, slack);
             }
             if opts.trace {
                 stats.trace.push(e_prev);
@@ -138,7 +174,16 @@ impl Minimizer for Fire {
                 (0.0f64, 0.0, 0usize, f64::INFINITY);
             for i in 0..n {
                 let g = u[i] - h[i];
-                let fi = -(sigma[i] + pressure + interaction.derivative(g));
+                let s = sigma[i] + pressure;
+                // γ'(g) without its exponential where that is exact (see `Skip`).
+                let d = if g == 0.0 {
+                    skip.at_wall
+                } else if skip.negligible(g, s) {
+                    0.0
+                } else {
+                    interaction.derivative(g)
+                };
+                let fi = -(s + d);
                 if g <= 0.0 {
                     contact += 1;
                     // The wall pushes (f < 0 is held); a pull (f > 0) is unbalanced.
@@ -218,6 +263,49 @@ impl Minimizer for Fire {
     }
 }
 
+/// Where the force pass can leave out the law's exponential and still produce the same bits
+/// (session #13: libm's exponential was 20 % of the samples of the draft's 64² FIRE paths).
+///
+/// - At the wall (g = 0, every contact node: the projection puts u on h exactly) γ'(g) is the
+///   constant γ'(0), computed once by the same [`Interaction::derivative`].
+/// - Adhesion far from the wall: with s = σ + p̄ (normal, 2^e ≤ |s| < 2^(e+1)), s + γ'(g)
+///   rounds to s when γ'(g) < ulp(s)/2 = 2^(e−53). γ'(g) = (γ0/ρ) e^(−g/ρ) ≤ 2^(e−55) where
+///   g log2(e)/ρ ≥ log2(γ0/ρ) + 55 − e; the computed γ'(g) exceeds the exact one by a few ulp
+///   at most, far inside the factor 4 of margin, so the sum is s either way.
+struct Skip {
+    /// γ'(0).
+    at_wall: f64,
+    /// log2(e)/ρ and log2(γ0/ρ) + 55 for adhesion of positive strength; None otherwise.
+    far: Option<(f64, f64)>,
+}
+
+impl Skip {
+    fn new(interaction: Interaction) -> Self {
+        let far = match interaction {
+            Interaction::Adhesion { gamma0, rho } if gamma0 > 0.0 => {
+                Some((std::f64::consts::LOG2_E / rho, (gamma0 / rho).log2() + 55.0))
+            }
+            _ => None,
+        };
+        Skip {
+            at_wall: interaction.derivative(0.0),
+            far,
+        }
+    }
+
+    /// True where adding γ'(g) to s cannot change s (see above); false for subnormal or zero s.
+    #[inline(always)]
+    fn negligible(&self, g: f64, s: f64) -> bool {
+        match self.far {
+            Some((k, c)) => {
+                let biased = ((s.to_bits() >> 52) & 0x7ff) as i64;
+                biased > 0 && g * k >= c - (biased - 1023) as f64
+            }
+            None => false,
+        }
+    }
+}
+
 /// Energy per area of a state and its rounding slack: elastic ½⟨(u − ū)σ⟩ plus interaction
 /// ⟨γ(g)⟩ plus load p̄ū. The slack (64 ulp of the sum of absolute contributions) is how much a step may
 /// raise the energy and still count as not raising it.
@@ -251,4 +339,59 @@ pub(crate) fn energy(
 fn mean_inverse_mass(k_max: f64) -> f64 {
     let q = k_max * 2.0 / 2f64.sqrt();
     2.0 * 2.0 * 1f64.asinh() / q
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where `Skip` leaves the law out, the force is bit for bit what the full evaluation gives;
+    /// and it does leave it out somewhere (at the wall, and far out under adhesion).
+    #[test]
+    fn skipped_derivatives_do_not_change_the_force() {
+        let laws = [
+            Interaction::Adhesion {
+                gamma0: 0.2,
+                rho: 0.04,
+            },
+            Interaction::Adhesion {
+                gamma0: 20.0,
+                rho: 0.04,
+            },
+            Interaction::Repulsion {
+                gamma_r: 0.2,
+                rho: 0.04,
+            },
+            Interaction::HardWall,
+        ];
+        let mut far = 0usize;
+        for law in laws {
+            let skip = Skip::new(law);
+            assert_eq!(skip.at_wall.to_bits(), law.derivative(0.0).to_bits());
+            for k in 0..4000 {
+                // gaps from 0 to 8 h0 (200 ranges), stresses over 30 decades and both signs
+                let g = k as f64 * 2e-3 + 1e-7 * (k % 13) as f64;
+                for e in -20..10 {
+                    for s in [
+                        1.37 * 2f64.powi(e),
+                        -0.91 * 2f64.powi(e),
+                        2f64.powi(e),
+                        -2f64.powi(e) * (1.0 - f64::EPSILON),
+                    ] {
+                        if skip.negligible(g, s) {
+                            far += 1;
+                            assert_eq!(
+                                (s + law.derivative(g)).to_bits(),
+                                s.to_bits(),
+                                "{law:?} g = {g} s = {s}"
+                            );
+                        }
+                    }
+                }
+            }
+            assert!(!skip.negligible(5.0, 0.0) && !skip.negligible(5.0, -0.0));
+            assert!(!skip.negligible(5.0, f64::MIN_POSITIVE / 2.0));
+        }
+        assert!(far > 100_000, "only {far} cases skipped");
+    }
 }

@@ -17,6 +17,22 @@
 //! [`Spectral::convolve_fused`] additionally lets the caller prepare each input row just before
 //! it is transformed and reduce over each output row right after it is produced, while both are
 //! in cache: the Polonsky–Keer iteration uses it to fold its vector passes into the transform.
+//!
+//! The column pass (session #13). perf of a cold draft showed `Map::next` at 8.5 % of all
+//! samples: the whole per-block closure, inlined into ndarray's iterator. About 40 % of it was
+//! the multiply with its quadratic-form sum (a sequential chain of additions, also paid by the
+//! plain convolutions, which discard the sum), the rest the copies, mostly the strided stores of
+//! the gather (a row's 8 values go to 8 lines `nx` values apart; the 8-column buffer is 32 KiB on
+//! 256², the whole L1 of this machine), not bounds checks or the iterator. Now the block's rows
+//! are taken once as slices and copied in tiles of 4 rows × 8 columns (`TILE`: one whole cache
+//! line per column of the buffer), and the quadratic form is summed only by
+//! [`Spectral::convolve_fused`] (in the same order as before). Bit-identical (the bench hashes
+//! the output bits): `cargo bench -p contact --bench spectral`, one thread, µs per
+//! `ElasticKernel::stress`, before → after, two alternations at load 6–7: 64² 35.2, 35.1 →
+//! 33.6, 33.4; 128² 84.1, 84.5 → 80.6, 80.3; 256² 316.7, 311.3 → 301.6, 310.4; 512² 1701, 1613
+//! → 1393, 1425. Not faster: 4-column blocks (the buffer in L1 on 256²; the quadratic form's
+//! grouping would change too). What is left is the transforms themselves (rustfft and realfft:
+//! ≈ 75 % of a convolution on 256²).
 
 use ndarray::{ArrayViewMut2, Axis};
 use num_complex::Complex64;
@@ -25,7 +41,8 @@ use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustfft::{Fft, FftPlanner};
 use std::sync::Arc;
 
-/// Spectral columns per block in the x pass (8 complex values = two cache lines per row).
+/// Spectral columns per block in the x pass (8 complex values = two cache lines per row). It also
+/// fixes how [`Spectral::convolve_fused`] groups the sum of its quadratic form.
 const BLOCK: usize = 8;
 /// Grids with fewer nodes than this run single-threaded (thread hand-off costs more than it saves).
 pub const PARALLEL_MIN_NODES: usize = 1 << 14;
@@ -118,7 +135,7 @@ impl Spectral {
             buf.copy_from_slice(&input[i * buf.len()..(i + 1) * buf.len()]);
             [0.0; 4]
         });
-        self.columns(multiplier);
+        self.columns(multiplier, false);
         self.inverse(output, |_, _| [0.0; 4]);
     }
 
@@ -184,7 +201,7 @@ impl Spectral {
             }
         }
         let before = self.sums.iter().fold([0.0; 4], |a, &b| add(a, b));
-        let quadratic = self.columns(multiplier);
+        let quadratic = self.columns(multiplier, true);
         let after = match output {
             Some(out) => {
                 assert_eq!(out.len(), nx * ny, "field length");
@@ -260,10 +277,11 @@ impl Spectral {
     }
 
     /// For every block of `BLOCK` spectral columns: gather, FFT along x, multiply, inverse FFT
-    /// along x, scatter back. Returns `Σ_q multiplier(q) |F(q)|²` over the full spectrum (the
-    /// half spectrum's columns other than 0 and ny/2 stand for two), summed block by block in
-    /// block order.
-    fn columns(&mut self, multiplier: &[f64]) -> f64 {
+    /// along x, scatter back. With `quadratic`, returns `Σ_q multiplier(q) |F(q)|²` over the full
+    /// spectrum (the half spectrum's columns other than 0 and ny/2 stand for two), summed block
+    /// by block in block order; without, 0 (the plain convolutions do not use it, and its
+    /// sequential sum cost as much as the multiply itself).
+    fn columns(&mut self, multiplier: &[f64], quadratic: bool) -> f64 {
         let (nx, m) = (self.nx, self.m);
         assert_eq!(multiplier.len(), nx * m, "multiplier length");
         let (fwd, inv) = (&self.fwd, &self.inv);
@@ -282,41 +300,43 @@ impl Spectral {
                      (buf, scratch): &mut (Vec<Complex64>, Vec<Complex64>)| {
             let b = cols.ncols();
             let buf = &mut buf[..b * nx];
-            for (i, row) in cols.rows().into_iter().enumerate() {
-                let row = row
-                    .to_slice()
-                    .expect("rows of a column block are contiguous");
-                for (c, v) in row.iter().enumerate() {
-                    buf[c * nx + i] = *v;
-                }
-            }
+            // The block's rows as slices, taken once per block (an ndarray row view per row
+            // and per pass cost more than the copy of its b values).
+            let mut rows: Vec<&mut [Complex64]> = cols
+                .rows_mut()
+                .into_iter()
+                .map(|row| {
+                    row.into_slice()
+                        .expect("rows of a column block are contiguous")
+                })
+                .collect();
+            gather(&rows, buf, nx);
             fwd.process_with_scratch(buf, scratch);
             let mult = &multiplier[k * BLOCK * nx..(k * BLOCK + b) * nx];
-            let mut quadratic = 0.0;
+            let mut sum = 0.0;
             for (c, (col, mult)) in buf
                 .chunks_exact_mut(nx)
                 .zip(mult.chunks_exact(nx))
                 .enumerate()
             {
-                let j = k * BLOCK + c;
-                let twice = if j == 0 || j == m - 1 { 1.0 } else { 2.0 };
-                let mut q = 0.0;
-                for (v, &w) in col.iter_mut().zip(mult) {
-                    q += w * v.norm_sqr();
-                    *v *= w;
+                if quadratic {
+                    let j = k * BLOCK + c;
+                    let twice = if j == 0 || j == m - 1 { 1.0 } else { 2.0 };
+                    let mut q = 0.0;
+                    for (v, &w) in col.iter_mut().zip(mult) {
+                        q += w * v.norm_sqr();
+                        *v *= w;
+                    }
+                    sum += twice * q;
+                } else {
+                    for (v, &w) in col.iter_mut().zip(mult) {
+                        *v *= w;
+                    }
                 }
-                quadratic += twice * q;
             }
             inv.process_with_scratch(buf, scratch);
-            for (i, mut row) in cols.rows_mut().into_iter().enumerate() {
-                let row = row
-                    .as_slice_mut()
-                    .expect("rows of a column block are contiguous");
-                for (c, v) in row.iter_mut().enumerate() {
-                    *v = buf[c * nx + i];
-                }
-            }
-            quadratic
+            scatter(buf, &mut rows, nx);
+            sum
         };
         let quadratics: Vec<f64> = if parallel {
             view.axis_chunks_iter_mut(Axis(1), BLOCK)
@@ -332,6 +352,79 @@ impl Spectral {
                 .collect()
         };
         quadratics.iter().sum()
+    }
+}
+
+/// Rows of a column block handled together by `gather` and `scatter`: four complex values
+/// are one 64-byte cache line of a column of the block buffer, written (read) whole.
+const TILE: usize = 4;
+
+/// `buf[c·nx + i] = rows[i][c]`: the block's rows into its columns, `TILE` rows at a time, so
+/// that each column of the buffer is written in whole cache lines (row by row, the writes of one
+/// row went to `b` lines `nx` values apart, 4 KiB apart on 256², which do not stay in L1).
+fn gather(rows: &[&mut [Complex64]], buf: &mut [Complex64], nx: usize) {
+    let b = buf.len() / nx;
+    if b == BLOCK && nx.is_multiple_of(TILE) {
+        let mut cols: [&mut [Complex64]; BLOCK] = {
+            let mut it = buf.chunks_exact_mut(nx);
+            std::array::from_fn(|_| it.next().expect("BLOCK columns"))
+        };
+        for (t, tile) in rows.chunks_exact(TILE).enumerate() {
+            let tile: [&[Complex64; BLOCK]; TILE] =
+                std::array::from_fn(|r| (&*tile[r]).try_into().expect("BLOCK values"));
+            for (c, col) in cols.iter_mut().enumerate() {
+                let dst: &mut [Complex64; TILE] = (&mut col[t * TILE..(t + 1) * TILE])
+                    .try_into()
+                    .expect("TILE values");
+                for r in 0..TILE {
+                    dst[r] = tile[r][c];
+                }
+            }
+        }
+        return;
+    }
+    for (t, tile) in rows.chunks(TILE).enumerate() {
+        let i0 = t * TILE;
+        for (c, col) in buf.chunks_exact_mut(nx).enumerate() {
+            for (dst, row) in col[i0..i0 + tile.len()].iter_mut().zip(tile) {
+                *dst = row[c];
+            }
+        }
+    }
+}
+
+/// The inverse of [`gather`]: `rows[i][c] = buf[c·nx + i]`.
+fn scatter(buf: &[Complex64], rows: &mut [&mut [Complex64]], nx: usize) {
+    let b = buf.len() / nx;
+    if b == BLOCK && nx.is_multiple_of(TILE) {
+        let cols: [&[Complex64]; BLOCK] = {
+            let mut it = buf.chunks_exact(nx);
+            std::array::from_fn(|_| it.next().expect("BLOCK columns"))
+        };
+        for (t, tile) in rows.chunks_exact_mut(TILE).enumerate() {
+            let mut it = tile.iter_mut();
+            let tile: [&mut [Complex64; BLOCK]; TILE] = std::array::from_fn(|_| {
+                let row: &mut [Complex64] = it.next().expect("TILE rows");
+                row.try_into().expect("BLOCK values")
+            });
+            for (c, col) in cols.iter().enumerate() {
+                let src: &[Complex64; TILE] = col[t * TILE..(t + 1) * TILE]
+                    .try_into()
+                    .expect("TILE values");
+                for r in 0..TILE {
+                    tile[r][c] = src[r];
+                }
+            }
+        }
+        return;
+    }
+    for (t, tile) in rows.chunks_mut(TILE).enumerate() {
+        let i0 = t * TILE;
+        for (c, col) in buf.chunks_exact(nx).enumerate() {
+            for (src, row) in col[i0..i0 + tile.len()].iter().zip(tile.iter_mut()) {
+                row[c] = *src;
+            }
+        }
     }
 }
 
@@ -373,9 +466,16 @@ mod tests {
         out
     }
 
+    /// On shapes whose column blocks are full and tiled (8 × 16), a full block plus a partial
+    /// one (12 × 18: 10 spectral columns) and rows not a multiple of the tile (6 × 20).
     #[test]
     fn matches_a_direct_fourier_sum() {
-        let (nx, ny) = (8, 16);
+        for (nx, ny) in [(8, 16), (12, 18), (6, 20)] {
+            matches_a_direct_fourier_sum_on(nx, ny);
+        }
+    }
+
+    fn matches_a_direct_fourier_sum_on(nx: usize, ny: usize) {
         let input: Vec<f64> = (0..nx * ny)
             .map(|k| ((k * 7919) % 97) as f64 / 97.0 - 0.3)
             .collect();
