@@ -16,15 +16,19 @@
 //! base grid's p_c). `NECK_TOL_GAP` (default 1e-12), `NECK_MAX_ITER` (default 3000):
 //! the solver's tolerance and iteration cap per attempt.
 //! `NECK_FLUX=1`: also the refined flux of every rung below p_c(D), as the pipeline's
-//! `refined_ladder` kind measures it ([`critical::refined_flow::ladder_with_flux`] with the
+//! `refined_ladder` kind measures it (as [`critical::refined_flow::ladder_with_flux`], with the
 //! model's [`FluxMethod::of`]: the square cell's conductivity along the channel, elsewhere the
 //! refined saddle's two-terminal conductance), printed per rung after each level's ladder
 //! (`flux,…`: conductance, its 1σ, open fine nodes on the flow window's sides, flow wall time,
 //! why none); its running β_eff = ln(K(l_hi)/K(l_lo)) / ln(l_hi/l_lo) and change from k − 1 end
-//! each `pair` row (`beta,d_beta`; NaN without `NECK_FLUX`).
+//! each `pair` row (`beta,d_beta`; NaN without `NECK_FLUX`). `NECK_FLOW_SWEEPS`,
+//! `NECK_FLOW_TOL`, `NECK_FLOW_MAX_ITER`: the flux's flow solver options (default
+//! `reynolds::FlowOptions::default()`, the pipeline's: 1 sweep, 1e-10, 200).
+//! `NECK_PC`: p_c/p_fc of the first level, given (no search; e.g. to rerun a level's rungs with
+//! other flow options).
 use critical::neck_moments::{NeckOptions, across_rms, neck_lengths};
 use critical::refined::{Discretisation, RefinedOptions, Refinement, base_guess};
-use critical::refined_flow::{FluxMethod, ladder_with_flux};
+use critical::refined_flow::{FluxMethod, FluxSetup, rung_flux};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::time::Instant;
@@ -123,7 +127,8 @@ fn main() {
     };
     // NECK_PC_GUESS: p_c/p_fc to start the first search from (width NECK_PC_WIDTH) instead of the
     // periodic base grid's search (minutes on a 1024² base)
-    let (mut guess, mut width, p_fc) = match env("NECK_PC_GUESS") {
+    let known_pc = env("NECK_PC");
+    let (mut guess, mut width, p_fc) = match env("NECK_PC_GUESS").or(known_pc) {
         Some(g) => {
             let p_fc = surface::Surface::new(lattice, base_log2)
                 .expect("surface")
@@ -144,7 +149,14 @@ fn main() {
         d = d.with_levels(k);
         let t = Instant::now();
         let mut r = Refinement::new(d, &opts).expect("refined discretisation");
-        let c = r.critical_load(Some(guess), width).expect("p_c");
+        let c = match known_pc.filter(|_| k == k_lo) {
+            Some(v) => critical::refined::ClosingLoad {
+                lo: v * p_fc,
+                hi: v * p_fc,
+                probes: 0,
+            },
+            None => r.critical_load(Some(guess), width).expect("p_c"),
+        };
         let pc = c.p_c();
         println!(
             "# k = {k}: p_c/p_fc {:.12} ({} probes, {:.1} s, load average {})",
@@ -155,9 +167,34 @@ fn main() {
         );
         std::io::stdout().flush().ok();
         let mut rows = Vec::new();
+        // the flux as critical::refined_flow::ladder_with_flux measures it, with the flow
+        // options of the environment
+        let setup = with_flux.then(|| {
+            let mut s = FluxSetup::new(&r, FluxMethod::of(lattice)).expect("flux set-up");
+            if let Some(v) = env("NECK_FLOW_SWEEPS") {
+                s.flow.smoothing_sweeps = v as usize;
+            }
+            if let Some(v) = env("NECK_FLOW_TOL") {
+                s.flow.tolerance = v;
+            }
+            if let Some(v) = env("NECK_FLOW_MAX_ITER") {
+                s.flow.max_iterations = v as usize;
+            }
+            s
+        });
+        let mut fluxes = Vec::new();
         let mut on_rung = |g: &critical::refined::RefinedRung,
-                           _r: &contact::refinement::Refined,
+                           rr: &contact::refinement::Refined,
                            w: &critical::ladder::Window| {
+            if let Some(setup) = &setup {
+                fluxes.push(if g.l > 0.0 {
+                    Err("above p_c: no flux".to_string())
+                } else if g.saddle_gap <= 0.0 {
+                    Err("saddle closed: no flux".to_string())
+                } else {
+                    rung_flux(setup, rr, g.saddle_gap).map_err(|e| e.to_string())
+                });
+            }
             let nl = neck_lengths(w, &no);
             let edge = if g.l < 0.0 {
                 g.half_width
@@ -237,10 +274,12 @@ fn main() {
             std::io::stdout().flush().ok();
             rows.push(row);
         };
-        if with_flux {
-            let (_, fluxes) =
-                ladder_with_flux(&mut r, pc, &ls, FluxMethod::of(lattice), &mut on_rung)
-                    .expect("ladder");
+        r.ladder(pc, &ls, &mut on_rung).expect("ladder");
+        if let Some(setup) = &setup {
+            println!(
+                "# flow options: {} sweeps, tolerance {:e}, max_iterations {}",
+                setup.flow.smoothing_sweeps, setup.flow.tolerance, setup.flow.max_iterations
+            );
             println!("flux,k,l,conductance,sigma,open_side_nodes,wall_s,note");
             for (row, f) in rows.iter_mut().zip(&fluxes) {
                 match f {
@@ -254,8 +293,6 @@ fn main() {
                     Err(e) => println!("flux,{k},{:e},NaN,NaN,,,{}", row.l, e.replace(',', ";")),
                 }
             }
-        } else {
-            r.ladder(pc, &ls, &mut on_rung).expect("ladder");
         }
         eprintln!(
             "k = {k}: {:.1} s wall, {} solves, {} iterations",
