@@ -10,10 +10,25 @@
 //! width at g = g_s/2, rise length to g = 2 g_s); then per pair of neighbouring rungs and level
 //! the running exponents and their change from k − 1 (`pair,…`).
 //! `NECK_PC_GUESS`: p_c/p_fc to start the first p_c search from (skips the periodic base grid's
-//! search). `NECK_TOL_GAP` (default 1e-12), `NECK_MAX_ITER` (default 3000): the solver's tolerance and
-//! iteration cap per attempt.
+//! search). `NECK_PC_WIDTH` (default 2e-5): the relative width of every p_c search around its
+//! guess (the first one's `NECK_PC_GUESS`, the next ones' the previous level's p_c; the pipeline
+//! takes 2e-6 between levels; without `NECK_PC_GUESS` the first search takes 2e-4 around the
+//! base grid's p_c). `NECK_TOL_GAP` (default 1e-12), `NECK_MAX_ITER` (default 3000):
+//! the solver's tolerance and iteration cap per attempt.
+//! `NECK_FLUX=1`: also the refined flux of every rung below p_c(D), as the pipeline's
+//! `refined_ladder` kind measures it (as [`critical::refined_flow::ladder_with_flux`], with the
+//! model's [`FluxMethod::of`]: the square cell's conductivity along the channel, elsewhere the
+//! refined saddle's two-terminal conductance), printed per rung after each level's ladder
+//! (`flux,…`: conductance, its 1σ, open fine nodes on the flow window's sides, flow wall time,
+//! why none); its running β_eff = ln(K(l_hi)/K(l_lo)) / ln(l_hi/l_lo) and change from k − 1 end
+//! each `pair` row (`beta,d_beta`; NaN without `NECK_FLUX`). `NECK_FLOW_SWEEPS`,
+//! `NECK_FLOW_TOL`, `NECK_FLOW_MAX_ITER`: the flux's flow solver options (default
+//! `reynolds::FlowOptions::default()`, the pipeline's: 1 sweep, 1e-10, 200).
+//! `NECK_PC`: p_c/p_fc of the first level, given (no search; e.g. to rerun a level's rungs with
+//! other flow options).
 use critical::neck_moments::{NeckOptions, across_rms, neck_lengths};
 use critical::refined::{Discretisation, RefinedOptions, Refinement, base_guess};
+use critical::refined_flow::{FluxMethod, FluxSetup, rung_flux};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::time::Instant;
@@ -30,10 +45,12 @@ struct Row {
     rms1: f64,
     level: f64,
     rise: f64,
+    /// the refined flux's conductance (l < 0, `NECK_FLUX`; NaN otherwise)
+    flux: f64,
     flagged: bool,
 }
 
-const NAMES: [&str; 6] = ["gap", "edge", "rms2", "rms1", "level", "rise"];
+const NAMES: [&str; 7] = ["gap", "edge", "rms2", "rms1", "level", "rise", "beta"];
 
 impl Row {
     fn get(&self, k: usize) -> f64 {
@@ -44,6 +61,7 @@ impl Row {
             self.rms1,
             self.level,
             self.rise,
+            self.flux,
         ][k]
     }
 }
@@ -85,12 +103,19 @@ fn main() {
         max_iter: env("NECK_MAX_ITER").map_or(3000, |v| v as usize),
         ..RefinedOptions::default()
     };
+    let with_flux = std::env::var("NECK_FLUX").is_ok_and(|v| v == "1");
+    let pc_width = env("NECK_PC_WIDTH").unwrap_or(2e-5);
     let t0 = Instant::now();
     println!(
-        "# {} 2^{base_log2}, k = {k_lo}..{k_hi}, window {window}, margin {margin}, tol_gap {:e}, max_iter {}, load average {}",
+        "# {} 2^{base_log2}, k = {k_lo}..{k_hi}, window {window}, margin {margin}, tol_gap {:e}, max_iter {}, p_c width {pc_width:e}, flux {}, load average {}",
         lattice.name(),
         opts.tol_gap,
         opts.max_iter,
+        if with_flux {
+            FluxMethod::of(lattice).name()
+        } else {
+            "no"
+        },
         load_average()
     );
     let mut d = Discretisation {
@@ -100,14 +125,15 @@ fn main() {
         window,
         margin,
     };
-    // NECK_PC_GUESS: p_c/p_fc to start the first search from (width 2e-5) instead of the
+    // NECK_PC_GUESS: p_c/p_fc to start the first search from (width NECK_PC_WIDTH) instead of the
     // periodic base grid's search (minutes on a 1024² base)
-    let (mut guess, mut width, p_fc) = match env("NECK_PC_GUESS") {
+    let known_pc = env("NECK_PC");
+    let (mut guess, mut width, p_fc) = match env("NECK_PC_GUESS").or(known_pc) {
         Some(g) => {
             let p_fc = surface::Surface::new(lattice, base_log2)
                 .expect("surface")
                 .p_fc_grid();
-            (g * p_fc, 2e-5, p_fc)
+            (g * p_fc, pc_width, p_fc)
         }
         None => {
             let (base, p_fc) = base_guess(d, &opts).expect("base p_c");
@@ -123,7 +149,14 @@ fn main() {
         d = d.with_levels(k);
         let t = Instant::now();
         let mut r = Refinement::new(d, &opts).expect("refined discretisation");
-        let c = r.critical_load(Some(guess), width).expect("p_c");
+        let c = match known_pc.filter(|_| k == k_lo) {
+            Some(v) => critical::refined::ClosingLoad {
+                lo: v * p_fc,
+                hi: v * p_fc,
+                probes: 0,
+            },
+            None => r.critical_load(Some(guess), width).expect("p_c"),
+        };
         let pc = c.p_c();
         println!(
             "# k = {k}: p_c/p_fc {:.12} ({} probes, {:.1} s, load average {})",
@@ -134,7 +167,34 @@ fn main() {
         );
         std::io::stdout().flush().ok();
         let mut rows = Vec::new();
-        r.ladder(pc, &ls, &mut |g, _r, w| {
+        // the flux as critical::refined_flow::ladder_with_flux measures it, with the flow
+        // options of the environment
+        let setup = with_flux.then(|| {
+            let mut s = FluxSetup::new(&r, FluxMethod::of(lattice)).expect("flux set-up");
+            if let Some(v) = env("NECK_FLOW_SWEEPS") {
+                s.flow.smoothing_sweeps = v as usize;
+            }
+            if let Some(v) = env("NECK_FLOW_TOL") {
+                s.flow.tolerance = v;
+            }
+            if let Some(v) = env("NECK_FLOW_MAX_ITER") {
+                s.flow.max_iterations = v as usize;
+            }
+            s
+        });
+        let mut fluxes = Vec::new();
+        let mut on_rung = |g: &critical::refined::RefinedRung,
+                           rr: &contact::refinement::Refined,
+                           w: &critical::ladder::Window| {
+            if let Some(setup) = &setup {
+                fluxes.push(if g.l > 0.0 {
+                    Err("above p_c: no flux".to_string())
+                } else if g.saddle_gap <= 0.0 {
+                    Err("saddle closed: no flux".to_string())
+                } else {
+                    rung_flux(setup, rr, g.saddle_gap).map_err(|e| e.to_string())
+                });
+            }
             let nl = neck_lengths(w, &no);
             let edge = if g.l < 0.0 {
                 g.half_width
@@ -191,6 +251,7 @@ fn main() {
                 rms1,
                 level,
                 rise,
+                flux: f64::NAN,
                 flagged: g.flag.is_some(),
             };
             println!(
@@ -212,8 +273,27 @@ fn main() {
             );
             std::io::stdout().flush().ok();
             rows.push(row);
-        })
-        .expect("ladder");
+        };
+        r.ladder(pc, &ls, &mut on_rung).expect("ladder");
+        if let Some(setup) = &setup {
+            println!(
+                "# flow options: {} sweeps, tolerance {:e}, max_iterations {}",
+                setup.flow.smoothing_sweeps, setup.flow.tolerance, setup.flow.max_iterations
+            );
+            println!("flux,k,l,conductance,sigma,open_side_nodes,wall_s,note");
+            for (row, f) in rows.iter_mut().zip(&fluxes) {
+                match f {
+                    Ok(f) => {
+                        row.flux = f.conductance;
+                        println!(
+                            "flux,{k},{:e},{:.10e},{:.1e},{},{:.1},",
+                            row.l, f.conductance, f.sigma, f.open_side_nodes, f.wall_s
+                        );
+                    }
+                    Err(e) => println!("flux,{k},{:e},NaN,NaN,,,{}", row.l, e.replace(',', ";")),
+                }
+            }
+        }
         eprintln!(
             "k = {k}: {:.1} s wall, {} solves, {} iterations",
             t.elapsed().as_secs_f64(),
@@ -222,11 +302,11 @@ fn main() {
         );
         levels.insert(k, rows);
         guess = pc;
-        width = 2e-5;
+        width = pc_width;
     }
     // running exponents per pair and level, with the change from k − 1
     println!(
-        "pair,k,l_hi,l_lo,zeta_gap,d_gap,edge,d_edge,edge_sigma,rms2,d_rms2,rms1,d_rms1,level,d_level,rise,d_rise,flagged"
+        "pair,k,l_hi,l_lo,zeta_gap,d_gap,edge,d_edge,edge_sigma,rms2,d_rms2,rms1,d_rms1,level,d_level,rise,d_rise,beta,d_beta,flagged"
     );
     let slope = |a: &Row, b: &Row, m: usize| {
         let (ya, yb) = (a.get(m), b.get(m));
