@@ -68,11 +68,7 @@ impl Ritz {
 
     /// Ends the current Krylov sequence (a restart from the true residual).
     pub fn close(&mut self) {
-        let m = self.open_min();
-        self.closed_min = match (self.closed_min, m) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
+        self.closed_min = smaller(self.closed_min, self.open_min());
         self.diag.clear();
         self.off_sq.clear();
         self.last = None;
@@ -80,10 +76,7 @@ impl Ritz {
 
     /// Smallest Ritz value over every sequence so far (None before the first step).
     pub fn smallest(&self) -> Option<f64> {
-        match (self.closed_min, self.open_min()) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+        smaller(self.closed_min, self.open_min())
     }
 
     fn open_min(&self) -> Option<f64> {
@@ -92,6 +85,15 @@ impl Ritz {
         }
         let k = self.diag.len();
         Some(smallest_eigenvalue(&self.diag, &self.off_sq[..k - 1]))
+    }
+}
+
+/// The smaller of two Ritz values, either possibly absent; NaN (a non-finite tridiagonal) counts
+/// as absent.
+pub(crate) fn smaller(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a.filter(|v| !v.is_nan()), b.filter(|v| !v.is_nan())) {
+        (Some(x), Some(y)) => Some(x.min(y)),
+        (x, y) => x.or(y),
     }
 }
 

@@ -615,11 +615,11 @@ impl Setup {
             tol = (tol * 1e-2).max(1e-16);
             if !cg.resumable() {
                 iterations = outcome.iterations;
-                ritz = min_ritz(ritz, cg.smallest_ritz_value());
+                ritz = lanczos::smaller(ritz, cg.smallest_ritz_value());
                 cg = pcg::Pcg::new(&b, &mut u);
             }
         };
-        ritz = min_ritz(ritz, cg.smallest_ritz_value());
+        ritz = lanczos::smaller(ritz, cg.smallest_ritz_value());
         // Iterative refinement: a flux the doubles could not resolve (round-off limited, or
         // cross-sections that still disagree at the tightest tolerance) gets the digits below
         // the pond pressures' rounding in a second part `lo` of the unknown.
@@ -735,14 +735,6 @@ struct Refined {
     ritz: Option<f64>,
 }
 
-/// The smaller of two Ritz estimates (NaN ignored).
-fn min_ritz(a: Option<f64>, b: Option<f64>) -> Option<f64> {
-    match (a.filter(|v| !v.is_nan()), b.filter(|v| !v.is_nan())) {
-        (Some(x), Some(y)) => Some(x.min(y)),
-        (x, y) => x.or(y),
-    }
-}
-
 /// Iterative refinement of a solution `u` that double precision alone could not resolve
 /// (`bnorm` = ‖b‖₂ of the system; `start`: u's outcome and evaluation, no rounds yet).
 ///
@@ -801,8 +793,7 @@ fn refine(
             &judge,
         );
         iterations += out.iterations;
-        ritz = min_ritz(ritz, cg.smallest_ritz_value());
-        best.ritz = ritz;
+        ritz = lanczos::smaller(ritz, cg.smallest_ritz_value());
         if !matches!(out.stop, pcg::Stop::Converged | pcg::Stop::RoundoffLimited) {
             break;
         }
@@ -833,6 +824,8 @@ fn refine(
             break;
         }
     }
+    // every round's CG counts, the ones that did not improve on `best` too
+    best.ritz = ritz;
     best
 }
 
