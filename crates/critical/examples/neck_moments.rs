@@ -28,7 +28,7 @@
 //! other flow options).
 use critical::neck_moments::{NeckOptions, across_rms, neck_lengths};
 use critical::refined::{Discretisation, RefinedOptions, Refinement, base_guess};
-use critical::refined_flow::{FluxMethod, FluxSetup, rung_flux};
+use critical::refined_flow::{FluxMethod, FluxSetup, ladder_rung_flux};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::time::Instant;
@@ -187,13 +187,7 @@ fn main() {
                            rr: &contact::refinement::Refined,
                            w: &critical::ladder::Window| {
             if let Some(setup) = &setup {
-                fluxes.push(if g.l > 0.0 {
-                    Err("above p_c: no flux".to_string())
-                } else if g.saddle_gap <= 0.0 {
-                    Err("saddle closed: no flux".to_string())
-                } else {
-                    rung_flux(setup, rr, g.saddle_gap).map_err(|e| e.to_string())
-                });
+                fluxes.push(ladder_rung_flux(setup, g, rr));
             }
             let nl = neck_lengths(w, &no);
             let edge = if g.l < 0.0 {

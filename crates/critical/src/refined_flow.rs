@@ -224,6 +224,22 @@ pub fn saddle_window_flux(
 /// The rungs of [`ladder_with_flux`] and, per rung, its flux or why none.
 pub type FluxLadder = (Vec<RefinedRung>, Vec<Result<RungFlux, String>>);
 
+/// The flux of one rung of a refined ladder as [`ladder_with_flux`] measures it: none above
+/// p_c or with the saddle closed (the reason), else [`rung_flux`] (its error as text).
+pub fn ladder_rung_flux(
+    setup: &FluxSetup,
+    rung: &RefinedRung,
+    refined: &Refined,
+) -> Result<RungFlux, String> {
+    if rung.l > 0.0 {
+        Err("above p_c: no flux".to_string())
+    } else if rung.saddle_gap <= 0.0 {
+        Err("saddle closed: no flux".to_string())
+    } else {
+        rung_flux(setup, refined, rung.saddle_gap).map_err(|e| e.to_string())
+    }
+}
+
 /// A refined ladder with its flux: [`Refinement::ladder`] at `p_c (1 + l)` for every l of `ls`,
 /// each rung below p_c(D) with an open saddle given its [`RungFlux`] (`RefinedRung::flux` =
 /// (conductance, 1σ)); a rung whose flow fails keeps NaN and a note. `on_rung` sees every rung
@@ -240,13 +256,7 @@ pub fn ladder_with_flux(
     let mut fluxes = Vec::new();
     let mut rungs = refinement.ladder(p_c, ls, &mut |rung, r, w| {
         on_rung(rung, r, w);
-        fluxes.push(if rung.l > 0.0 {
-            Err("above p_c: no flux".to_string())
-        } else if rung.saddle_gap <= 0.0 {
-            Err("saddle closed: no flux".to_string())
-        } else {
-            rung_flux(&setup, r, rung.saddle_gap).map_err(|e| e.to_string())
-        });
+        fluxes.push(ladder_rung_flux(&setup, rung, r));
     })?;
     for (rung, f) in rungs.iter_mut().zip(&fluxes) {
         if let Ok(f) = f {
