@@ -3,11 +3,27 @@
 //!
 //! # Coarsening
 //! Full coarsening by two in each direction: coarse node `(I, J)` is fine node `(2I, 2J)`. A
-//! level is coarsened while both sides are even and at least 8 (so that no two offsets of a
-//! stencil alias the same node) and it has more than `COARSEST_TARGET` nodes; the coarsest level
+//! level is coarsened while both sides are even (after padding odd non-wrapping sides, see
+//! "Odd sides") and at least 8 (so that no two offsets of a stencil alias the same node) and
+//! it has more than `COARSEST_TARGET` nodes; the coarsest level
 //! is solved directly ([`DenseElimination`]), or, if it is still large (grids with large odd
 //! factors), relaxed by `COARSE_SWEEPS` symmetric Gauss–Seidel sweeps (a fixed symmetric
 //! operator, so the cycle stays a valid preconditioner; only its quality suffers).
+//!
+//! # Odd sides (since session #14)
+//! A side of odd length `2m + 1` whose wrap-around couplings all vanish (the flow direction
+//! between reservoirs or isobars, closed side edges: the fine windows of `critical::window_flow`)
+//! is padded by one inactive node (zero couplings, [`padded`]) before the level is coarsened:
+//! the real nodes `0 … 2m` keep their couplings, coarse node `I` is fine node `2I` for
+//! `I = 0 … m`, both end lines are coarse lines, and the coarse side has `m + 1` nodes (993 →
+//! 497 → 249 → 125 → 63 → 32). The padded operator equals the unpadded one on the real nodes
+//! (the pad node is inactive and stays zero), so the cycle is the same kind of symmetric
+//! preconditioner; a side that wraps (a periodic cell of odd size) is not padded. Before, such a
+//! level was not coarsened at all: the 511 × 993 unknowns of a 513 × 993 isobar window got
+//! `COARSE_SWEEPS` symmetric Gauss–Seidel sweep pairs as their whole preconditioner, and the
+//! conjugate gradients stagnated (docs/near-critical.md §5j). A padded finest level is solved
+//! through copies of the caller's vectors into the padded layout ([`Multigrid::apply`]); a padded
+//! coarse level receives the restricted residual through such a copy.
 //!
 //! # Interpolation (Dendy 1982, "black box multigrid")
 //! Per coarse cell `(I, J)` the fine nodes `(2I+1, 2J)` (x-edge), `(2I, 2J+1)` (y-edge) and
@@ -79,7 +95,11 @@ const PARALLEL_MIN: usize = 1 << 14;
 type CellWeights = [f64; 8];
 
 struct Level {
+    /// The level's operator, padded along odd non-wrapping sides (module docs, "Odd sides").
     op: Stencil,
+    /// Padded levels below the finest: scratch of the unpadded size for the restricted
+    /// residual and the correction; empty otherwise.
+    inner: Vec<f64>,
     bounds: Vec<usize>,
     /// Weights to interpolate from the next coarser level (empty on the coarsest).
     weights: Vec<CellWeights>,
@@ -96,6 +116,8 @@ enum CoarseSolver {
 
 /// A multigrid hierarchy used as a preconditioner.
 pub(crate) struct Multigrid {
+    /// The caller's operator when the finest level is padded (module docs, "Odd sides").
+    caller: Option<Stencil>,
     levels: Vec<Level>,
     coarse: CoarseSolver,
     sweeps: usize,
@@ -105,20 +127,40 @@ impl Multigrid {
     /// Builds the hierarchy for `op` (the finest operator, moved in).
     pub fn new(op: Stencil, sweeps: usize) -> Self {
         let mut levels = Vec::new();
+        let mut caller = None;
         let mut op = op;
         loop {
+            let first = levels.is_empty();
+            let inner_len = op.len();
+            let mut was_padded = false;
+            if let Some(p) = padded(&op) {
+                let unpadded = std::mem::replace(&mut op, p);
+                was_padded = true;
+                if first {
+                    caller = Some(unpadded);
+                }
+            }
             let (nx, ny) = (op.nx, op.ny);
             let coarsen =
                 nx % 2 == 0 && ny % 2 == 0 && nx >= 8 && ny >= 8 && nx * ny > COARSEST_TARGET;
-            let first = levels.is_empty();
             let len = nx * ny;
+            // the finest level's right-hand side and correction are the caller's, or copies
+            // of them into the padded layout
             let scratch = |on: bool| if on { vec![0.0; len] } else { Vec::new() };
+            let b = scratch(!first || was_padded);
+            let z = scratch(!first || was_padded);
+            let inner = if was_padded && !first {
+                vec![0.0; inner_len]
+            } else {
+                Vec::new()
+            };
             if !coarsen {
                 levels.push(Level {
                     bounds: block_bounds(nx),
                     weights: Vec::new(),
-                    b: scratch(!first),
-                    z: scratch(!first),
+                    inner,
+                    b,
+                    z,
                     r: Vec::new(),
                     op,
                 });
@@ -129,8 +171,9 @@ impl Multigrid {
             levels.push(Level {
                 bounds: block_bounds(nx),
                 weights,
-                b: scratch(!first),
-                z: scratch(!first),
+                inner,
+                b,
+                z,
                 r: vec![0.0; len],
                 op,
             });
@@ -181,6 +224,7 @@ impl Multigrid {
             CoarseSolver::Relax
         };
         Multigrid {
+            caller,
             levels,
             coarse,
             sweeps,
@@ -192,15 +236,84 @@ impl Multigrid {
         self.levels.len()
     }
 
-    /// The finest operator.
+    /// The finest operator (the caller's, unpadded).
     pub fn fine(&self) -> &Stencil {
-        &self.levels[0].op
+        self.caller.as_ref().unwrap_or(&self.levels[0].op)
     }
 
     /// `z = M⁻¹ r`: one V-cycle with zero initial guess.
     pub fn apply(&mut self, r: &[f64], z: &mut [f64]) {
         let sweeps = self.sweeps;
-        vcycle(&mut self.levels, &self.coarse, sweeps, r, z);
+        let Some(caller) = &self.caller else {
+            vcycle(&mut self.levels, &self.coarse, sweeps, r, z);
+            return;
+        };
+        let ny = caller.ny;
+        let first = &mut self.levels[0];
+        let my = first.op.ny;
+        let mut b = std::mem::take(&mut first.b);
+        let mut zp = std::mem::take(&mut first.z);
+        embed(r, ny, &mut b, my);
+        vcycle(&mut self.levels, &self.coarse, sweeps, &b, &mut zp);
+        extract(&zp, my, z, ny);
+        let first = &mut self.levels[0];
+        first.b = b;
+        first.z = zp;
+    }
+}
+
+/// `op` embedded in a grid one node longer along each odd side whose wrap-around couplings all
+/// vanish, so that both sides become even and the level can be coarsened (module docs, "Odd
+/// sides"); None if that is not possible or the padded level would not be coarsened anyway.
+/// The pad nodes have no couplings and no ground: they are inactive.
+fn padded(op: &Stencil) -> Option<Stencil> {
+    let (nx, ny) = (op.nx, op.ny);
+    let nine = !op.is_five_point();
+    // faces from the last row to the first: e, ne, se of row nx − 1
+    let x_closed = (0..ny).all(|j| {
+        let k = (nx - 1) * ny + j;
+        op.e[k] == 0.0 && (!nine || (op.ne[k] == 0.0 && op.se[k] == 0.0))
+    });
+    // faces from the last column to the first: n and ne of column ny − 1, se of column 0
+    let y_closed = (0..nx).all(|i| {
+        let k = i * ny + ny - 1;
+        op.n[k] == 0.0 && (!nine || (op.ne[k] == 0.0 && op.se[i * ny] == 0.0))
+    });
+    let px = usize::from(nx % 2 == 1 && x_closed);
+    let py = usize::from(ny % 2 == 1 && y_closed);
+    let (mx, my) = (nx + px, ny + py);
+    let coarsens = mx % 2 == 0 && my % 2 == 0 && mx >= 8 && my >= 8 && mx * my > COARSEST_TARGET;
+    if px + py == 0 || !coarsens {
+        return None;
+    }
+    let grow = |v: &[f64]| -> Vec<f64> {
+        if v.is_empty() {
+            return Vec::new();
+        }
+        let mut out = vec![0.0; mx * my];
+        embed(v, ny, &mut out, my);
+        out
+    };
+    let s = if nine {
+        Stencil::nine_point(mx, my, grow(&op.e), grow(&op.n), grow(&op.ne), grow(&op.se))
+    } else {
+        Stencil::five_point(mx, my, grow(&op.e), grow(&op.n))
+    };
+    Some(s.with_ground(grow(&op.ground)))
+}
+
+/// Copies `src` (rows of `sy` values) into the first `sy` values of the first rows of `dst`
+/// (rows of `dy ≥ sy` values); the rest of `dst` is left as it is (zero: pad nodes).
+fn embed(src: &[f64], sy: usize, dst: &mut [f64], dy: usize) {
+    for (s, d) in src.chunks(sy).zip(dst.chunks_mut(dy)) {
+        d[..sy].copy_from_slice(s);
+    }
+}
+
+/// The inverse of [`embed`]: the real nodes of `src` (rows of `sy`) into `dst` (rows of `dy`).
+fn extract(src: &[f64], sy: usize, dst: &mut [f64], dy: usize) {
+    for (s, d) in src.chunks(sy).zip(dst.chunks_mut(dy)) {
+        d.copy_from_slice(&s[..dy]);
     }
 }
 
@@ -225,19 +338,25 @@ fn vcycle(levels: &mut [Level], coarse: &CoarseSolver, sweeps: usize, b: &[f64],
     }
     cur.op.residual(b, z, &mut cur.r);
     let next = &mut rest[0];
-    restrict(
-        &cur.op,
-        &cur.weights,
-        &cur.r,
-        next.op.nx,
-        next.op.ny,
-        &mut next.b,
-    );
+    let (cx, cy) = (cur.op.nx / 2, cur.op.ny / 2);
+    // a padded coarse level gets the restriction through a copy (module docs, "Odd sides")
+    let padded = !next.inner.is_empty();
+    if padded {
+        restrict(&cur.op, &cur.weights, &cur.r, cx, cy, &mut next.inner);
+        embed(&next.inner, cy, &mut next.b, next.op.ny);
+    } else {
+        restrict(&cur.op, &cur.weights, &cur.r, cx, cy, &mut next.b);
+    }
     let nb = std::mem::take(&mut next.b);
     let mut nz = std::mem::take(&mut next.z);
     vcycle(rest, coarse, sweeps, &nb, &mut nz);
     let next = &mut rest[0];
-    interpolate_add(&cur.op, &cur.weights, &nz, next.op.nx, next.op.ny, z);
+    if padded {
+        extract(&nz, next.op.ny, &mut next.inner, cy);
+        interpolate_add(&cur.op, &cur.weights, &next.inner, cx, cy, z);
+    } else {
+        interpolate_add(&cur.op, &cur.weights, &nz, cx, cy, z);
+    }
     next.b = nb;
     next.z = nz;
     for _ in 0..sweeps {
@@ -708,6 +827,101 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Odd sides whose wrap-around couplings all vanish are padded by one inactive node: the
+    /// padded operator is the original one on the real nodes (bit for bit) and inactive on the
+    /// pad, the hierarchy goes down to the dense coarsest level, and conjugate gradients with
+    /// it converge as fast as on an even grid. A side that wraps is not padded. (Before session
+    /// #14 an odd side stopped the coarsening: one level, relaxed, for the grids below.)
+    #[test]
+    fn odd_sides_without_wrap_couplings_are_padded_and_coarsened() {
+        let mut rnd = crate::test_uniform(5);
+        // couplings spanning `decades`; `closed`: no faces from the last row / column to the
+        // first
+        fn operator(
+            (nx, ny): (usize, usize),
+            decades: f64,
+            closed: bool,
+            rnd: &mut dyn FnMut() -> f64,
+        ) -> Stencil {
+            let mut coef = |wrap: &dyn Fn(usize) -> bool| -> Vec<f64> {
+                (0..nx * ny)
+                    .map(|k| {
+                        let v = 10f64.powf(-decades * rnd());
+                        if closed && wrap(k) { 0.0 } else { v }
+                    })
+                    .collect()
+            };
+            let e = coef(&|k| k / ny == nx - 1);
+            let n = coef(&|k| k % ny == ny - 1);
+            Stencil::five_point(nx, ny, e, n)
+        }
+        for (nx, ny, want) in [
+            (63, 95, Some((64, 96))),
+            (64, 95, Some((64, 96))),
+            (63, 96, Some((64, 96))),
+        ] {
+            let op = operator((nx, ny), 6.0, true, &mut rnd);
+            let p = padded(&op).expect("padded");
+            assert_eq!(Some((p.nx, p.ny)), want);
+            let x: Vec<f64> = (0..op.len()).map(|_| rnd() - 0.5).collect();
+            let mut xp = vec![0.0; p.len()];
+            embed(&x, ny, &mut xp, p.ny);
+            let (mut y, mut yp) = (vec![0.0; op.len()], vec![0.0; p.len()]);
+            op.apply(&x, &mut y);
+            p.apply(&xp, &mut yp);
+            let mut back = vec![0.0; op.len()];
+            extract(&yp, p.ny, &mut back, ny);
+            assert!(back.iter().zip(&y).all(|(a, b)| a.to_bits() == b.to_bits()));
+            for i in 0..p.nx {
+                for j in 0..p.ny {
+                    if i >= nx || j >= ny {
+                        assert_eq!(p.diag[i * p.ny + j], 0.0, "pad node ({i}, {j}) active");
+                    }
+                }
+            }
+            // a periodic operator of the same size is not padded along its odd sides
+            assert!(padded(&operator((nx, ny), 6.0, false, &mut rnd)).is_none());
+        }
+        // conjugate gradients to 1e-10 on the odd grid and on the even grid one node larger
+        // (couplings spanning 2 decades: the V-cycle's regime)
+        let judge_of = |op: &Stencil, b: &[f64], x: &[f64]| {
+            let mut r = vec![0.0; b.len()];
+            op.residual(b, x, &mut r);
+            (crate::stencil::dot(&r, &r).sqrt(), 0.0)
+        };
+        let mut iterations = Vec::new();
+        for (nx, ny) in [(127, 191), (128, 192)] {
+            let op = operator((nx, ny), 2.0, true, &mut rnd);
+            let mut b: Vec<f64> = (0..op.len()).map(|_| rnd() - 0.5).collect();
+            let mean = b.iter().sum::<f64>() / b.len() as f64;
+            b.iter_mut().for_each(|v| *v -= mean);
+            let mut mg = Multigrid::new(op.clone(), 1);
+            assert!(mg.depth() >= 5, "{nx} × {ny}: {} levels", mg.depth());
+            assert!(matches!(mg.coarse, CoarseSolver::Dense(_)));
+            let mut x = vec![0.0; op.len()];
+            let judge = |x: &[f64]| judge_of(&op, &b, x);
+            let mut cg = crate::pcg::Pcg::new(&b, &mut x);
+            let out = cg.run(
+                &mut mg,
+                &b,
+                &mut x,
+                crate::pcg::Goal {
+                    tol: 1e-10,
+                    max_iter: 200,
+                },
+                &judge,
+            );
+            assert_eq!(out.stop, crate::pcg::Stop::Converged, "{nx} × {ny}");
+            iterations.push(out.iterations);
+        }
+        assert!(
+            iterations[0] <= iterations[1] + 3,
+            "odd {} against even {} iterations",
+            iterations[0],
+            iterations[1]
+        );
     }
 
     /// Coefficients spanning 30 decades give Galerkin products with negative couplings; the

@@ -142,3 +142,88 @@ fn too_few_columns_are_refused() {
         .is_err()
     );
 }
+
+/// The gap of a neck closing to `eps` at the middle of an `a × b` window along x (flow along
+/// x): `max(0, ε + cos 2πy − cos 2πx)`, x, y ∈ [−1/2, 1/2] from end line to end line.
+fn neck(a: usize, b: usize, eps: f64) -> Array2<f64> {
+    let tau = std::f64::consts::TAU;
+    Array2::from_shape_fn((a, b), |(i, j)| {
+        let x = i as f64 / (a - 1) as f64 - 0.5;
+        let y = j as f64 / (b - 1) as f64 - 0.5;
+        (eps + (tau * y).cos() - (tau * x).cos()).max(0.0)
+    })
+}
+
+/// Windows with an odd number of unknown columns between the isobars and an odd number of
+/// nodes across (513 × 993 nodes: 511 × 993 unknowns, the size of the fine flow window of
+/// `critical::window_flow` at window 64, k = 4) get the full multigrid hierarchy (the odd
+/// sides are padded, see the `multigrid` module) and converge in about as many iterations as
+/// small windows. Before session #14 such grids were not coarsened at all (one level, relaxed
+/// by Gauss–Seidel), and on this neck the iteration ended `Stagnation` after 32 iterations at
+/// a relative residual of 1.0e-2 (docs/near-critical.md §5j).
+///
+/// Oracles: a gap varying only along the flow has the exact conductance of its faces in series
+/// (the same neck profile, so conductances span 1e-9 … 8); the two-dimensional neck must
+/// converge by the solver's own checks (true residual, every cross-section's flux) and give the
+/// same flux when transposed (flow along y: the padding then acts on the other index).
+#[test]
+fn odd_windows_are_coarsened_and_a_near_closing_neck_converges() {
+    let (a, b, eps) = (513usize, 993usize, 1e-3);
+    let (lx, ly) = (1.0, 2.0);
+    let opts = FlowOptions::default();
+    // one-dimensional neck: the series sum of its faces, node to node
+    let gx: Vec<f64> = (0..a)
+        .map(|i| {
+            let x = i as f64 / (a - 1) as f64 - 0.5;
+            eps + 1.0 - (std::f64::consts::TAU * x).cos()
+        })
+        .collect();
+    let dx = lx / a as f64;
+    let series: f64 = (0..a - 1)
+        .map(|i| dx / h(gx[i].powi(3), gx[i + 1].powi(3)))
+        .sum();
+    let want = (a - 1) as f64 * dx / series;
+    let g1 = Array2::from_shape_fn((a, b), |(i, _)| gx[i]);
+    let r =
+        solve_between_isobars(g1.view(), lx, ly, FlowAxis::X, SideEdges::NoFlux, &opts).unwrap();
+    assert!(
+        r.converged,
+        "1D neck: {:?}, {} iterations",
+        r.termination, r.iterations
+    );
+    assert!(
+        rel(r.conductivity, want) < 1e-11,
+        "1D neck: {} vs {want}",
+        r.conductivity
+    );
+    assert!(r.levels >= 8, "1D neck: {} levels", r.levels);
+    assert!(r.iterations <= 20, "1D neck: {} iterations", r.iterations);
+    // two-dimensional neck, along x and transposed along y
+    let g = neck(a, b, eps);
+    let x = solve_between_isobars(g.view(), lx, ly, FlowAxis::X, SideEdges::NoFlux, &opts).unwrap();
+    let gt = g.t().as_standard_layout().to_owned();
+    let y =
+        solve_between_isobars(gt.view(), ly, lx, FlowAxis::Y, SideEdges::NoFlux, &opts).unwrap();
+    for (r, what) in [(&x, "along x"), (&y, "transposed, along y")] {
+        assert!(
+            r.converged && r.termination == reynolds::Termination::Converged,
+            "neck {what}: {:?} after {} iterations, relative residual {:e}",
+            r.termination,
+            r.iterations,
+            r.relative_residual
+        );
+        assert!(r.levels >= 8, "neck {what}: {} levels", r.levels);
+        assert!(
+            r.iterations <= 25,
+            "neck {what}: {} iterations",
+            r.iterations
+        );
+    }
+    // the dissipation flux errs quadratically in the solver's error: both meet 1e-10
+    assert!(
+        rel(x.flux, y.flux) < 1e-12,
+        "neck: {} along x, {} transposed",
+        x.flux,
+        y.flux
+    );
+}
