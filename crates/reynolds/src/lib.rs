@@ -296,7 +296,9 @@ pub fn validate(gap: ArrayView2<f64>, lx: f64, ly: f64) -> Result<(), FlowError>
 ///
 /// Grid sides may be anything in 4..=16384; powers of two (or multiples of a large power of
 /// two) get the full multigrid hierarchy, other sizes coarsen while both sides stay even and
-/// relax the rest. A result that did not converge is returned with
+/// relax the rest. (Sides that do not wrap — along the flow between reservoirs or isobars,
+/// closed side edges — are padded to even length at every level and coarsened to the end,
+/// whatever their size: the `multigrid` module, "Odd sides".) A result that did not converge is returned with
 /// [`FlowResult::converged`] false and the reason in [`FlowResult::termination`], never as a
 /// silent number.
 pub fn solve(
