@@ -320,16 +320,11 @@ pub(super) fn step_pass<const TRACE: bool, const FULL: bool>(
         (new - target, reopen)
     }
     let base = p.len() - p.len() % L;
-    // A node off the free set (P = +0.0, t = 0) that penetrates is marked free without a
-    // correction (its pressure stays zero): it still changes the free set, so it counts as a
-    // re-open (the next direction must not be conjugated to one built on a smaller set).
     let record = |i: usize, cv: f64, reopen: bool, s: &mut StepStats| {
+        s.corrected += 1;
         s.overlap |= reopen;
-        if cv != 0.0 {
-            s.corrected += 1;
-            if s.corrected <= DIRECT_CORRECTIONS {
-                s.sparse.push((offset + i, cv));
-            }
+        if s.corrected <= DIRECT_CORRECTIONS {
+            s.sparse.push((offset + i, cv));
         }
     };
     let (mut pc, mut uc) = (p.chunks_exact_mut(L), u.chunks_exact_mut(L));
@@ -356,9 +351,9 @@ pub(super) fn step_pass<const TRACE: bool, const FULL: bool>(
             );
         }
         // Corrections are rare after the first iterations: test the block once.
-        if cv.iter().any(|&x| x != 0.0) || reopen.iter().any(|&x| x) {
+        if cv.iter().any(|&x| x != 0.0) {
             for l in 0..L {
-                if cv[l] != 0.0 || reopen[l] {
+                if cv[l] != 0.0 {
                     record(b * L + l, cv[l], reopen[l], &mut s);
                 }
             }
@@ -370,7 +365,7 @@ pub(super) fn step_pass<const TRACE: bool, const FULL: bool>(
         let (cv, reopen) = node::<TRACE, FULL>(
             l, &mut p[l], &mut u[l], t[l], r[l], h[l], step, &mut psum, &mut acc,
         );
-        if cv != 0.0 || reopen {
+        if cv != 0.0 {
             record(base + l, cv, reopen, &mut s);
         }
     }
