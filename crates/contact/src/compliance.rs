@@ -35,6 +35,11 @@ pub trait Compliance {
         F: Fn(usize, &[f64], &mut [f64]) -> RowSums + Sync;
     /// `u += G c` for a pressure `c` that is zero except at the listed (node, value) pairs.
     fn add_point_displacements(&mut self, sources: &[(usize, f64)], u: &mut [f64]);
+    /// The area each unknown covers, if unknowns are forces on unequal areas (the composite
+    /// operator's W = Pᵀ1, in the first nodes; the rest weigh 1); `None`: every node weighs 1.
+    fn weights(&self) -> Option<&[f64]> {
+        None
+    }
 }
 
 impl Compliance for crate::elastic::ElasticKernel {

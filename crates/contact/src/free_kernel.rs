@@ -268,6 +268,10 @@ impl Compliance for FreeKernel {
         (before, quadratic, after)
     }
 
+    fn weights(&self) -> Option<&[f64]> {
+        self.composite.as_ref().and_then(|c| c.weights())
+    }
+
     fn add_point_displacements(&mut self, sources: &[(usize, f64)], u: &mut [f64]) {
         if let Some(c) = &mut self.composite {
             return c.add_point_displacements(sources, u);

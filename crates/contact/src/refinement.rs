@@ -1231,6 +1231,10 @@ impl Compliance for Composite {
         (before, quadratic, after)
     }
 
+    fn weights(&self) -> Option<&[f64]> {
+        Some(&self.weight)
+    }
+
     fn add_point_displacements(&mut self, sources: &[(usize, f64)], u: &mut [f64]) {
         let mut c = vec![0.0; u.len()];
         for &(k, v) in sources {

@@ -251,6 +251,17 @@ fn relax<const TRACE: bool, K: Compliance>(
     // The preconditioned gradient z = K g (preconditioned solves only).
     let mut z = vec![0.0; if preconditioned { n } else { 0 }];
     let mut cg = Conjugacy::START;
+    // The unknowns' areas if they differ (composite operator; its padding weighs 1): the
+    // preconditioned direction then removes its net force as a uniform pressure.
+    let weights: Option<Vec<f64>> = if preconditioned {
+        kernel.weights().map(|w| {
+            let mut v = vec![1.0; n];
+            v[..w.len()].copy_from_slice(w);
+            v
+        })
+    } else {
+        None
+    };
     let mut since_refresh = 0usize;
     let mut stats = SolveStats {
         method: name,
@@ -327,6 +338,7 @@ fn relax<const TRACE: bool, K: Compliance>(
                 fields,
                 (sigma, shift),
                 m,
+                weights.as_deref(),
                 &mut cg,
             )
         } else {

@@ -19,9 +19,13 @@ pub(super) fn direction<K: Compliance>(
     (u, p, h): (&[f64], &[f64], &[f64]),
     (sigma, shift): (f64, f64),
     m: f64,
+    weights: Option<&[f64]>,
     cg: &mut Conjugacy,
 ) -> Direction {
     let (_, ny) = kernel.shape();
+    if let Some(w) = weights {
+        return direction_weighted(kernel, z, t, r, (u, p, h), (sigma, shift), w, cg);
+    }
     // z = K g on the free set F (g zero off it), and δ = ⟨g, z − m_z⟩_F from Parseval.
     let tt: &[f64] = t;
     let ([sg_t, sg, free_count, _], quadratic, [sz, _, _, _]) = kernel.apply_fused(
@@ -129,4 +133,95 @@ fn direction_preconditioned_row(
         }
     }
     [st.iter().sum(), 0.0, 0.0, 0.0]
+}
+
+/// The direction for unknowns that are forces on unequal areas w (the composite operator):
+/// t = Q M Qᵀ g on F with the oblique projector Q = I − w 1ᵀ/Σ_F w onto Σ_F t = 0, i.e. the
+/// gap's w-weighted mean on F removed before the stiffness (Qᵀ g = g − c, a uniform gap) and the
+/// net force of z = M Qᵀ g removed as a uniform *pressure* (force ∝ w) after it; the old
+/// direction likewise. Q M Qᵀ is symmetric, so the conjugate gradients stay valid. Removing the
+/// mean as a uniform force (Q = I − 1 1ᵀ/|F|, the unweighted path) moves every unknown's force
+/// by the same amount: on a fine node (w = 1) that is a pressure 4^k times the one it is on a
+/// coarse hat (w = 4^k), so near p_c at k = 5 the coarse hats' mean flooded or emptied the fine
+/// window at every step and the iteration cycled (docs/near-critical.md §5k).
+#[allow(clippy::too_many_arguments)]
+fn direction_weighted<K: Compliance>(
+    kernel: &mut K,
+    z: &mut [f64],
+    t: &mut [f64],
+    r: &mut [f64],
+    (u, p, h): (&[f64], &[f64], &[f64]),
+    (sigma, shift): (f64, f64),
+    w: &[f64],
+    cg: &mut Conjugacy,
+) -> Direction {
+    let (_, ny) = kernel.shape();
+    // Σ_F w g, Σ_F w and Σ_F t_old, by rows (fixed order).
+    let mut sums = [0.0; 3];
+    for (i, row) in p.chunks(ny).enumerate() {
+        let o = i * ny;
+        for (j, &pj) in row.iter().enumerate() {
+            if free(pj) {
+                let k = o + j;
+                sums[0] += w[k] * (sigma * u[k] - h[k] - shift);
+                sums[1] += w[k];
+                sums[2] += t[k];
+            }
+        }
+    }
+    let [swg, sw, stf] = sums;
+    let c = swg / sw;
+    let tt: &[f64] = t;
+    // z = K ĝ with ĝ = g − c on F (Σ_F w ĝ = 0), 0 off it; δ = ⟨ĝ, z⟩ = ⟨g, Q M Qᵀ g⟩.
+    let ([sg_t, _, free_count, _], delta, [sz, _, _, _]) = kernel.apply_fused(
+        true,
+        z,
+        |i, row| {
+            let o = i * ny..(i + 1) * ny;
+            gradient_row(
+                row,
+                &u[o.clone()],
+                &p[o.clone()],
+                &h[o.clone()],
+                &tt[o],
+                sigma,
+                shift + c,
+            )
+        },
+        None,
+        |i, _, z| [masked_sum(z, &p[i * ny..(i + 1) * ny]), 0.0, 0.0, 0.0],
+    );
+    let beta = cg.beta(delta);
+    // force per unit area of z and of the old direction on F
+    let (mz, m) = (sz / sw, stf / sw);
+    let zz: &[f64] = z;
+    let ([st, _, _, _], _, [sr, srt, _, _]) = kernel.apply_fused(
+        false,
+        t,
+        |i, t| {
+            let o = i * ny..(i + 1) * ny;
+            let mut st = 0.0;
+            for (j, t) in t.iter_mut().enumerate() {
+                let k = o.start + j;
+                let tj = if free(p[k]) {
+                    (zz[k] - w[k] * mz) + beta * (*t - w[k] * m)
+                } else {
+                    0.0
+                };
+                *t = tj;
+                st += tj;
+            }
+            [st, 0.0, 0.0, 0.0]
+        },
+        Some(r),
+        |i, t, r| line_row(r, t, &p[i * ny..(i + 1) * ny]),
+    );
+    Direction {
+        st,
+        // ⟨g, t⟩ = ⟨ĝ, t⟩ (Σ_F t = 0) = δ + β ⟨ĝ, t_old⟩ (Σ_F w ĝ = 0).
+        sgt: delta + beta * sg_t,
+        sr,
+        srt,
+        free_count,
+    }
 }
