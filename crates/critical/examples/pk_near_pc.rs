@@ -11,11 +11,9 @@ use surface::{Lattice, Surface};
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let lat = match a[1].as_str() {
-        "square" => Lattice::Square,
-        "hexagonal" => Lattice::Hexagonal,
-        _ => Lattice::Triangular,
-    };
+    let lat: Lattice = a[1]
+        .parse()
+        .expect("model: square, hexagonal or triangular");
     let num = |i: usize| a[i].parse::<f64>().expect("number");
     let (n, k, w, margin) = (
         num(2) as u32,
