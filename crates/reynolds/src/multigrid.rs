@@ -141,8 +141,7 @@ impl Multigrid {
                 }
             }
             let (nx, ny) = (op.nx, op.ny);
-            let coarsen =
-                nx % 2 == 0 && ny % 2 == 0 && nx >= 8 && ny >= 8 && nx * ny > COARSEST_TARGET;
+            let coarsen = coarsens(nx, ny);
             let len = nx * ny;
             // the finest level's right-hand side and correction are the caller's, or copies
             // of them into the padded layout
@@ -262,6 +261,11 @@ impl Multigrid {
     }
 }
 
+/// Whether a level of `nx` × `ny` nodes is coarsened (module docs, "Coarsening").
+fn coarsens(nx: usize, ny: usize) -> bool {
+    nx.is_multiple_of(2) && ny.is_multiple_of(2) && nx >= 8 && ny >= 8 && nx * ny > COARSEST_TARGET
+}
+
 /// `op` embedded in a grid one node longer along each odd side whose wrap-around couplings all
 /// vanish, so that both sides become even and the level can be coarsened (module docs, "Odd
 /// sides"); None if that is not possible or the padded level would not be coarsened anyway.
@@ -282,8 +286,7 @@ fn padded(op: &Stencil) -> Option<Stencil> {
     let px = usize::from(nx % 2 == 1 && x_closed);
     let py = usize::from(ny % 2 == 1 && y_closed);
     let (mx, my) = (nx + px, ny + py);
-    let coarsens = mx % 2 == 0 && my % 2 == 0 && mx >= 8 && my >= 8 && mx * my > COARSEST_TARGET;
-    if px + py == 0 || !coarsens {
+    if px + py == 0 || !coarsens(mx, my) {
         return None;
     }
     let grow = |v: &[f64]| -> Vec<f64> {

@@ -27,25 +27,8 @@ pub(super) fn direction<K: Compliance>(
         return direction_weighted(kernel, z, t, r, (u, p, h), (sigma, shift), w, cg);
     }
     // z = K g on the free set F (g zero off it), and δ = ⟨g, z − m_z⟩_F from Parseval.
-    let tt: &[f64] = t;
-    let ([sg_t, sg, free_count, _], quadratic, [sz, _, _, _]) = kernel.apply_fused(
-        true,
-        z,
-        |i, row| {
-            let o = i * ny..(i + 1) * ny;
-            gradient_row(
-                row,
-                &u[o.clone()],
-                &p[o.clone()],
-                &h[o.clone()],
-                &tt[o],
-                sigma,
-                shift,
-            )
-        },
-        None,
-        |i, _, z| [masked_sum(z, &p[i * ny..(i + 1) * ny]), 0.0, 0.0, 0.0],
-    );
+    let ([sg_t, sg, free_count, _], quadratic, [sz, _, _, _]) =
+        stiffness_of_gap(kernel, z, t, (u, p, h), sigma, shift);
     let mz = sz / free_count;
     let delta = quadratic - mz * sg;
     let beta = cg.beta(delta);
@@ -68,6 +51,38 @@ pub(super) fn direction<K: Compliance>(
         srt,
         free_count,
     }
+}
+
+/// z = K g with g = σU − h − `shift` on the free set F (0 off it), by rows ([`gradient_row`]):
+/// returns (Σ g t_old, Σ g, |F|), ⟨g, z⟩ from Parseval, and (Σ_F z) — the first transform pair
+/// of both directions (unweighted and weighted).
+fn stiffness_of_gap<K: Compliance>(
+    kernel: &mut K,
+    z: &mut [f64],
+    t: &[f64],
+    (u, p, h): (&[f64], &[f64], &[f64]),
+    sigma: f64,
+    shift: f64,
+) -> ([f64; 4], f64, [f64; 4]) {
+    let (_, ny) = kernel.shape();
+    kernel.apply_fused(
+        true,
+        z,
+        |i, row| {
+            let o = i * ny..(i + 1) * ny;
+            gradient_row(
+                row,
+                &u[o.clone()],
+                &p[o.clone()],
+                &h[o.clone()],
+                &t[o],
+                sigma,
+                shift,
+            )
+        },
+        None,
+        |i, _, z| [masked_sum(z, &p[i * ny..(i + 1) * ny]), 0.0, 0.0, 0.0],
+    )
 }
 
 /// Pass B over one row (preconditioned): writes the gap on the free set F (the contact set and
@@ -171,26 +186,9 @@ fn direction_weighted<K: Compliance>(
     }
     let [swg, sw, stf] = sums;
     let c = swg / sw;
-    let tt: &[f64] = t;
     // z = K ĝ with ĝ = g − c on F (Σ_F w ĝ = 0), 0 off it; δ = ⟨ĝ, z⟩ = ⟨g, Q M Qᵀ g⟩.
-    let ([sg_t, _, free_count, _], delta, [sz, _, _, _]) = kernel.apply_fused(
-        true,
-        z,
-        |i, row| {
-            let o = i * ny..(i + 1) * ny;
-            gradient_row(
-                row,
-                &u[o.clone()],
-                &p[o.clone()],
-                &h[o.clone()],
-                &tt[o],
-                sigma,
-                shift + c,
-            )
-        },
-        None,
-        |i, _, z| [masked_sum(z, &p[i * ny..(i + 1) * ny]), 0.0, 0.0, 0.0],
-    );
+    let ([sg_t, _, free_count, _], delta, [sz, _, _, _]) =
+        stiffness_of_gap(kernel, z, t, (u, p, h), sigma, shift + c);
     let beta = cg.beta(delta);
     // force per unit area of z and of the old direction on F
     let (mz, m) = (sz / sw, stf / sw);
