@@ -3,14 +3,13 @@
 //!
 //! # Coarsening
 //! Full coarsening by two in each direction: coarse node `(I, J)` is fine node `(2I, 2J)`. A
-//! level is coarsened while both sides are even (after padding odd non-wrapping sides, see
-//! "Odd sides") and at least 8 (so that no two offsets of a stencil alias the same node) and
-//! it has more than `COARSEST_TARGET` nodes; the coarsest level
-//! is solved directly ([`DenseElimination`]), or, if it is still large (grids with large odd
-//! factors), relaxed by `COARSE_SWEEPS` symmetric Gauss–Seidel sweeps (a fixed symmetric
+//! level is coarsened while both sides are even (after padding odd sides, see "Odd sides") and
+//! at least 8 (so that no two offsets of a stencil alias the same node) and it has more than
+//! `COARSEST_TARGET` nodes; the coarsest level is solved directly ([`DenseElimination`]), or,
+//! if it is still large, relaxed by `COARSE_SWEEPS` symmetric Gauss–Seidel sweeps (a fixed symmetric
 //! operator, so the cycle stays a valid preconditioner; only its quality suffers).
 //!
-//! # Odd sides (since session #14)
+//! # Odd sides (since session #14; periodic ones since session #15)
 //! A side of odd length `2m + 1` whose wrap-around couplings all vanish (the flow direction
 //! between reservoirs or isobars, closed side edges: the fine windows of `critical::window_flow`)
 //! is padded by one inactive node (zero couplings, [`padded`]) before the level is coarsened:
@@ -18,11 +17,24 @@
 //! `I = 0 … m`, both end lines are coarse lines, and the coarse side has `m + 1` nodes (993 →
 //! 497 → 249 → 125 → 63 → 32). The padded operator equals the unpadded one on the real nodes
 //! (the pad node is inactive and stays zero), so the cycle is the same kind of symmetric
-//! preconditioner; a side that wraps (a periodic cell of odd size) is not padded. Before, such a
-//! level was not coarsened at all: the 511 × 993 unknowns of a 513 × 993 isobar window got
-//! `COARSE_SWEEPS` symmetric Gauss–Seidel sweep pairs as their whole preconditioner, and the
-//! conjugate gradients stagnated (docs/near-critical.md §5j). A padded finest level is solved
-//! through copies of the caller's vectors into the padded layout ([`Multigrid::apply`]); a padded
+//! preconditioner. Before, such a level was not coarsened at all: the 511 × 993 unknowns of a
+//! 513 × 993 isobar window got `COARSE_SWEEPS` symmetric Gauss–Seidel sweep pairs as their whole
+//! preconditioner, and the conjugate gradients stagnated (docs/near-critical.md §5j).
+//!
+//! A side that wraps (a periodic cell of odd size, or one that becomes odd on a coarse level:
+//! 1000 → 500 → 250 → 125, the size of a measured topography) gets an *active* pad line on its
+//! seam instead (since session #15): each coupling `c` from the last line to the first becomes
+//! `2c` from the last line to the pad and `2c` from the pad to the first line, at the same offset
+//! along the seam. On a 5-point level eliminating the pad line gives back the operator exactly;
+//! on a 9-point (Galerkin) level the diagonal seam couplings routed through the pad make it an
+//! approximation, still a symmetric Laplacian with non-negative weights, so the cycle stays a
+//! symmetric positive definite preconditioner of the caller's operator. Before, a periodic odd
+//! level ended the hierarchy: on a 1000² measured surface the coarsest level had 125² nodes,
+//! relaxed rather than solved, and the flow stagnated at three of four percolating loads with
+//! conductivities off by up to 8 % (docs/surfaces.md, "Grid sizes").
+//!
+//! A padded finest level is solved through copies of the caller's vectors into the padded layout
+//! ([`Multigrid::apply`]; the pad's right-hand side is zero and its solution is dropped); a padded
 //! coarse level receives the restricted residual through such a copy.
 //!
 //! # Interpolation (Dendy 1982, "black box multigrid")
@@ -266,13 +278,30 @@ fn coarsens(nx: usize, ny: usize) -> bool {
     nx.is_multiple_of(2) && ny.is_multiple_of(2) && nx >= 8 && ny >= 8 && nx * ny > COARSEST_TARGET
 }
 
-/// `op` embedded in a grid one node longer along each odd side whose wrap-around couplings all
-/// vanish, so that both sides become even and the level can be coarsened (module docs, "Odd
-/// sides"); None if that is not possible or the padded level would not be coarsened anyway.
-/// The pad nodes have no couplings and no ground: they are inactive.
+/// `op` embedded in a grid one node longer along each odd side, so that both sides become even
+/// and the level can be coarsened (module docs, "Odd sides"); None if no side is odd or the
+/// padded level would not be coarsened anyway. The real nodes keep their indices (`embed`).
+/// - A side whose wrap-around couplings all vanish gets an inactive pad (no couplings, no
+///   ground): the operator is the original one on the real nodes, bit for bit.
+/// - A side that wraps (a periodic cell of odd size) gets an active pad line on the seam. A node
+///   of the last line with seam couplings `c_d` to the first line (offsets d = −1, 0, +1 along
+///   the seam; only d = 0 on a 5-point level) is coupled to its pad node by `2 Σ c_d`, and the pad
+///   node to the first line by `2 c_d` at the same offsets. Eliminating the pad node (a star)
+///   gives back exactly `c_d` between the last and the first line; on a 9-point level it also
+///   adds couplings `c_d c_d' / Σ c` among the first line's nodes d, d' (at most two apart along
+///   the seam), not in the operator. So the padded operator is exact on 5-point levels and
+///   close on 9-point ones; either way it is a Laplacian with non-negative weights (symmetric
+///   positive semi-definite, constants its null space), and the cycle built on it is a valid
+///   preconditioner for the caller's operator (only its quality depends on the approximation).
 fn padded(op: &Stencil) -> Option<Stencil> {
     let (nx, ny) = (op.nx, op.ny);
     let nine = !op.is_five_point();
+    let px = usize::from(nx % 2 == 1);
+    let py = usize::from(ny % 2 == 1);
+    let (mx, my) = (nx + px, ny + py);
+    if px + py == 0 || !coarsens(mx, my) {
+        return None;
+    }
     // faces from the last row to the first: e, ne, se of row nx − 1
     let x_closed = (0..ny).all(|j| {
         let k = (nx - 1) * ny + j;
@@ -283,12 +312,6 @@ fn padded(op: &Stencil) -> Option<Stencil> {
         let k = i * ny + ny - 1;
         op.n[k] == 0.0 && (!nine || (op.ne[k] == 0.0 && op.se[i * ny] == 0.0))
     });
-    let px = usize::from(nx % 2 == 1 && x_closed);
-    let py = usize::from(ny % 2 == 1 && y_closed);
-    let (mx, my) = (nx + px, ny + py);
-    if px + py == 0 || !coarsens(mx, my) {
-        return None;
-    }
     let grow = |v: &[f64]| -> Vec<f64> {
         if v.is_empty() {
             return Vec::new();
@@ -297,10 +320,47 @@ fn padded(op: &Stencil) -> Option<Stencil> {
         embed(v, ny, &mut out, my);
         out
     };
+    let (mut e, mut n, mut ne, mut se) = (grow(&op.e), grow(&op.n), grow(&op.ne), grow(&op.se));
+    let at = |v: &[f64], k: usize| v.get(k).copied().unwrap_or(0.0);
+    let put = |v: &mut [f64], k: usize, c: f64| {
+        if let Some(x) = v.get_mut(k) {
+            *x = c;
+        }
+    };
+    if px == 1 && !x_closed {
+        // node (nx − 1, j) of the last row reaches the first row through e (j), ne (j + 1) and
+        // se (j − 1); all three now run through the pad node (nx, j)
+        for j in 0..ny {
+            let (last, pad) = ((nx - 1) * my + j, nx * my + j);
+            let (c0, cn, cs) = (e[last], at(&ne, last), at(&se, last));
+            e[last] = 2.0 * (c0 + cn + cs);
+            put(&mut ne, last, 0.0);
+            put(&mut se, last, 0.0);
+            e[pad] = 2.0 * c0;
+            put(&mut ne, pad, 2.0 * cn);
+            put(&mut se, pad, 2.0 * cs);
+        }
+    }
+    if py == 1 && !y_closed {
+        // node (i, ny − 1) of the last column reaches the first column through n (i), ne
+        // (i + 1) and the se of (i − 1, 0); all three now run through the pad node (i, ny)
+        // (every row, the pad row of an x-padding included)
+        for i in 0..mx {
+            let (last, pad) = (i * my + ny - 1, i * my + ny);
+            let below = (i + mx - 1) % mx * my;
+            let (c0, cn, cs) = (n[last], at(&ne, last), at(&se, below));
+            n[last] = 2.0 * (c0 + cn + cs);
+            put(&mut ne, last, 0.0);
+            n[pad] = 2.0 * c0;
+            put(&mut ne, pad, 2.0 * cn);
+            // the se of (i − 1, 0) now couples it with the pad node (i, ny)
+            put(&mut se, below, 2.0 * cs);
+        }
+    }
     let s = if nine {
-        Stencil::nine_point(mx, my, grow(&op.e), grow(&op.n), grow(&op.ne), grow(&op.se))
+        Stencil::nine_point(mx, my, e, n, ne, se)
     } else {
-        Stencil::five_point(mx, my, grow(&op.e), grow(&op.n))
+        Stencil::five_point(mx, my, e, n)
     };
     Some(s.with_ground(grow(&op.ground)))
 }
@@ -834,11 +894,13 @@ mod tests {
 
     /// Odd sides whose wrap-around couplings all vanish are padded by one inactive node: the
     /// padded operator is the original one on the real nodes (bit for bit) and inactive on the
-    /// pad, the hierarchy goes down to the dense coarsest level, and conjugate gradients with
-    /// it converge as fast as on an even grid. A side that wraps is not padded. (Before session
-    /// #14 an odd side stopped the coarsening: one level, relaxed, for the grids below.)
+    /// pad. Odd sides that wrap get an active pad line whose elimination gives back the
+    /// operator (5-point). Either way the hierarchy goes down to the dense coarsest level, and
+    /// conjugate gradients with it converge as fast as on an even grid. (Before session #14 an
+    /// odd side stopped the coarsening: one level, relaxed, for the grids below; before session
+    /// #15 a periodic one still did.)
     #[test]
-    fn odd_sides_without_wrap_couplings_are_padded_and_coarsened() {
+    fn odd_sides_are_padded_and_coarsened() {
         let mut rnd = crate::test_uniform(5);
         // couplings spanning `decades`; `closed`: no faces from the last row / column to the
         // first
@@ -884,8 +946,41 @@ mod tests {
                     }
                 }
             }
-            // a periodic operator of the same size is not padded along its odd sides
-            assert!(padded(&operator((nx, ny), 6.0, false, &mut rnd)).is_none());
+            // a periodic operator of the same size is padded with active pad lines whose
+            // elimination gives back the operator: with every pad node at the mean of its two
+            // seam neighbours (its own equation solved), the padded operator applied to the
+            // embedded x is A x on the real nodes and zero on the pads
+            let op = operator((nx, ny), 6.0, false, &mut rnd);
+            let p = padded(&op).expect("padded");
+            assert_eq!(Some((p.nx, p.ny)), want);
+            let mut xp = vec![0.0; p.len()];
+            embed(&x, ny, &mut xp, p.ny);
+            let (mx, my) = (p.nx, p.ny);
+            if mx > nx {
+                for j in 0..ny {
+                    xp[nx * my + j] = 0.5 * (x[(nx - 1) * ny + j] + x[j]);
+                }
+            }
+            if my > ny {
+                for i in 0..nx {
+                    xp[i * my + ny] = 0.5 * (x[i * ny + ny - 1] + x[i * ny]);
+                }
+            }
+            op.apply(&x, &mut y);
+            p.apply(&xp, &mut yp);
+            extract(&yp, p.ny, &mut back, ny);
+            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (k, (a, b)) in back.iter().zip(&y).enumerate() {
+                assert!((a - b).abs() <= 1e-13 * scale, "node {k}: {a} against {b}");
+            }
+            for i in 0..mx {
+                for j in 0..my {
+                    if (i >= nx) != (j >= ny) {
+                        let v = yp[i * my + j];
+                        assert!(v.abs() <= 1e-13 * scale, "pad ({i}, {j}): {v}");
+                    }
+                }
+            }
         }
         // conjugate gradients to 1e-10 on the odd grid and on the even grid one node larger
         // (couplings spanning 2 decades: the V-cycle's regime)
@@ -895,8 +990,15 @@ mod tests {
             (crate::stencil::dot(&r, &r).sqrt(), 0.0)
         };
         let mut iterations = Vec::new();
-        for (nx, ny) in [(127, 191), (128, 192)] {
-            let op = operator((nx, ny), 2.0, true, &mut rnd);
+        for (nx, ny, closed) in [
+            (127, 191, true),
+            (128, 192, true),
+            (127, 191, false),
+            (128, 192, false),
+            // even at first, odd after two levels (1000² → 125²: a measured surface's size)
+            (124, 188, false),
+        ] {
+            let op = operator((nx, ny), 2.0, closed, &mut rnd);
             let mut b: Vec<f64> = (0..op.len()).map(|_| rnd() - 0.5).collect();
             let mean = b.iter().sum::<f64>() / b.len() as f64;
             b.iter_mut().for_each(|v| *v -= mean);
@@ -919,11 +1021,17 @@ mod tests {
             assert_eq!(out.stop, crate::pcg::Stop::Converged, "{nx} × {ny}");
             iterations.push(out.iterations);
         }
+        let [closed_odd, closed_even, wrap_odd, wrap_even, wrap_late] = iterations[..] else {
+            unreachable!()
+        };
         assert!(
-            iterations[0] <= iterations[1] + 3,
-            "odd {} against even {} iterations",
-            iterations[0],
-            iterations[1]
+            closed_odd <= closed_even + 3,
+            "closed sides: odd {closed_odd} against even {closed_even} iterations"
+        );
+        assert!(
+            wrap_odd <= wrap_even + 3 && wrap_late <= wrap_even + 3,
+            "periodic: odd {wrap_odd}, odd after two levels {wrap_late}, against even \
+             {wrap_even} iterations"
         );
     }
 

@@ -437,6 +437,45 @@ fn thirty_decades_of_conductivity_converge_fast() {
     }
 }
 
+/// Periodic cells whose sides are not powers of two (a measured topography of 1000² nodes:
+/// 1000 → 500 → 250 → 125) are coarsened past their odd levels through an active pad line on
+/// the seam (`multigrid`, "Odd sides"), so they converge in as many iterations as the
+/// power-of-two grid. Before session #15 an odd periodic level ended the hierarchy: 250² had
+/// one coarse level of 125², relaxed instead of solved.
+#[test]
+fn periodic_cells_with_odd_coarse_sizes_converge_as_fast_as_powers_of_two() {
+    let field = |nx: usize, ny: usize| {
+        let s = smooth_random(nx, ny, 21, 6);
+        let c = smooth_random(nx, ny, 22, 6);
+        Array2::from_shape_fn((nx, ny), |(i, j)| {
+            let y = j as f64 / ny as f64;
+            let t = (0.5 * (1.0 - (TAU * y).cos()) + 0.1 * s[[i, j]]).clamp(0.0, 1.0);
+            if c[[i, j]] < -1.0 {
+                0.0
+            } else {
+                10f64.powf(-10.0 * t)
+            }
+        })
+    };
+    let mut iterations = Vec::new();
+    for (nx, ny) in [(256, 256), (250, 250), (250, 180), (255, 255)] {
+        let g = field(nx, ny);
+        for axis in [FlowAxis::X, FlowAxis::Y] {
+            let r = solve(g.view(), 1.0, 1.0, axis, &opts()).unwrap();
+            assert!(r.percolating && r.converged, "{nx} × {ny} {axis:?}: {r:?}");
+            assert!(r.conservation_error < 1e-6, "{}", r.conservation_error);
+            iterations.push(((nx, ny, axis), r.iterations));
+        }
+    }
+    let most = iterations[..2].iter().map(|r| r.1).max().unwrap();
+    for &(case, its) in &iterations[2..] {
+        assert!(
+            its <= most + 4,
+            "{case:?}: {its} iterations against at most {most} on 256²"
+        );
+    }
+}
+
 #[test]
 fn ponds_in_series_behind_tiny_throats_are_either_right_or_flagged() {
     // Two throat columns (x = 1/4, 3/4) of gap g_t (1 + 0.1 cos 2πy) in an otherwise uniform
