@@ -390,6 +390,22 @@ fn flow_along_x_and_y_agree_under_transposition() {
     }
 }
 
+/// The gap of `thirty_decades_of_conductivity_converge_fast` on nx × ny nodes (the same
+/// continuous field on every grid: smooth_random's modes are in cell coordinates).
+fn thirty_decades(nx: usize, ny: usize) -> Array2<f64> {
+    let s = smooth_random(nx, ny, 21, 6);
+    let c = smooth_random(nx, ny, 22, 6);
+    Array2::from_shape_fn((nx, ny), |(i, j)| {
+        let y = j as f64 / ny as f64;
+        let t = (0.5 * (1.0 - (TAU * y).cos()) + 0.1 * s[[i, j]]).clamp(0.0, 1.0);
+        if c[[i, j]] < -1.0 {
+            0.0
+        } else {
+            10f64.powf(-10.0 * t)
+        }
+    })
+}
+
 #[test]
 fn thirty_decades_of_conductivity_converge_fast() {
     // g³ from 1e-30 to 1 in one field, with contact spots: log10 g³ = −30 t, t = ½(1 − cos 2πy)
@@ -400,17 +416,7 @@ fn thirty_decades_of_conductivity_converge_fast() {
     // joined only through 10^-30 throats are beyond double precision, see
     // `Termination::RoundoffLimited`.)
     for &n in &[64usize, 128] {
-        let s = smooth_random(n, n, 21, 6);
-        let c = smooth_random(n, n, 22, 6);
-        let g = Array2::from_shape_fn((n, n), |(i, j)| {
-            let y = j as f64 / n as f64;
-            let t = (0.5 * (1.0 - (TAU * y).cos()) + 0.1 * s[[i, j]]).clamp(0.0, 1.0);
-            if c[[i, j]] < -1.0 {
-                0.0
-            } else {
-                10f64.powf(-10.0 * t)
-            }
-        });
+        let g = thirty_decades(n, n);
         let g3 = g.mapv(|v| v.powi(3));
         let g3max = g3.iter().fold(0.0f64, |m, &v| m.max(v));
         let g3min = g3
@@ -444,22 +450,9 @@ fn thirty_decades_of_conductivity_converge_fast() {
 /// one coarse level of 125², relaxed instead of solved.
 #[test]
 fn periodic_cells_with_odd_coarse_sizes_converge_as_fast_as_powers_of_two() {
-    let field = |nx: usize, ny: usize| {
-        let s = smooth_random(nx, ny, 21, 6);
-        let c = smooth_random(nx, ny, 22, 6);
-        Array2::from_shape_fn((nx, ny), |(i, j)| {
-            let y = j as f64 / ny as f64;
-            let t = (0.5 * (1.0 - (TAU * y).cos()) + 0.1 * s[[i, j]]).clamp(0.0, 1.0);
-            if c[[i, j]] < -1.0 {
-                0.0
-            } else {
-                10f64.powf(-10.0 * t)
-            }
-        })
-    };
     let mut iterations = Vec::new();
     for (nx, ny) in [(256, 256), (250, 250), (250, 180), (255, 255)] {
-        let g = field(nx, ny);
+        let g = thirty_decades(nx, ny);
         for axis in [FlowAxis::X, FlowAxis::Y] {
             let r = solve(g.view(), 1.0, 1.0, axis, &opts()).unwrap();
             assert!(r.percolating && r.converged, "{nx} × {ny} {axis:?}: {r:?}");
