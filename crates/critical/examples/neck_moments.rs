@@ -26,6 +26,10 @@
 //! `reynolds::FlowOptions::default()`, the pipeline's: 1 sweep, 1e-10, 200).
 //! `NECK_PC`: p_c/p_fc of the first level, given (no search; e.g. to rerun a level's rungs with
 //! other flow options).
+//! `NECK_COARSE_FLIPS=1`: after each level's ladder, per rung (`flips,…`) the number of base
+//! nodes outside the fine region in contact, how many changed state since the previous rung,
+//! and the distance (base cells) of the nearest changed one from the region's centre: the
+//! coarse region's contact set changes one base node at a time (docs/near-critical.md §5n).
 use critical::neck_moments::{NeckOptions, across_rms, neck_lengths};
 use critical::refined::{Discretisation, RefinedOptions, Refinement, base_guess};
 use critical::refined_flow::{FluxMethod, FluxSetup, ladder_rung_flux};
@@ -66,6 +70,42 @@ impl Row {
     }
 }
 
+/// The coarse contact set of a rung (base nodes outside the fine region with pressure > 0):
+/// its size, how many nodes changed state since the previous rung of the level, and the
+/// periodic distance (base cells) from the fine region's centre of the nearest one that did.
+fn coarse_flips(
+    l: f64,
+    rr: &contact::refinement::Refined,
+    previous: &mut Option<Vec<bool>>,
+) -> String {
+    let (nx, ny) = rr.base_pressure.dim();
+    let f = rr.lattice.0 / nx;
+    let (x0, y0) = (rr.origin.0 / f, rr.origin.1 / f);
+    let (wx, wy) = (rr.window_grid.nx / f, rr.window_grid.ny / f);
+    let inside = |i: usize, j: usize| (i + nx - x0) % nx <= wx && (j + ny - y0) % ny <= wy;
+    let (cx, cy) = (x0 as f64 + wx as f64 / 2.0, y0 as f64 + wy as f64 / 2.0);
+    let mask: Vec<bool> = (0..nx * ny)
+        .map(|k| !inside(k / ny, k % ny) && rr.base_pressure[[k / ny, k % ny]] > 0.0)
+        .collect();
+    let contacts = mask.iter().filter(|&&c| c).count();
+    let (mut flipped, mut nearest) = (0usize, f64::INFINITY);
+    if let Some(p) = previous.as_ref() {
+        for (k, (a, b)) in mask.iter().zip(p).enumerate() {
+            if a != b {
+                flipped += 1;
+                let d = |a: f64, c: f64, n: usize| {
+                    let d = (a - c).rem_euclid(n as f64);
+                    d.min(n as f64 - d)
+                };
+                let r = d((k / ny) as f64, cx, nx).hypot(d((k % ny) as f64, cy, ny));
+                nearest = nearest.min(r);
+            }
+        }
+    }
+    *previous = Some(mask);
+    format!("{l:e},{contacts},{flipped},{nearest:.1}")
+}
+
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -104,6 +144,7 @@ fn main() {
         ..RefinedOptions::default()
     };
     let with_flux = std::env::var("NECK_FLUX").is_ok_and(|v| v == "1");
+    let flips = std::env::var("NECK_COARSE_FLIPS").is_ok_and(|v| v == "1");
     let pc_width = env("NECK_PC_WIDTH").unwrap_or(2e-5);
     let t0 = Instant::now();
     println!(
@@ -183,11 +224,16 @@ fn main() {
             s
         });
         let mut fluxes = Vec::new();
+        let mut previous: Option<Vec<bool>> = None;
+        let mut flip_rows = Vec::new();
         let mut on_rung = |g: &critical::refined::RefinedRung,
                            rr: &contact::refinement::Refined,
                            w: &critical::ladder::Window| {
             if let Some(setup) = &setup {
                 fluxes.push(ladder_rung_flux(setup, g, rr));
+            }
+            if flips {
+                flip_rows.push(coarse_flips(g.l, rr, &mut previous));
             }
             let nl = neck_lengths(w, &no);
             let edge = if g.l < 0.0 {
@@ -269,6 +315,12 @@ fn main() {
             rows.push(row);
         };
         r.ladder(pc, &ls, &mut on_rung).expect("ladder");
+        if flips {
+            println!("flips,k,l,coarse_contacts,flipped,nearest_base_cells");
+            for f in &flip_rows {
+                println!("flips,{k},{f}");
+            }
+        }
         if let Some(setup) = &setup {
             println!(
                 "# flow options: {} sweeps, tolerance {:e}, max_iterations {}",
