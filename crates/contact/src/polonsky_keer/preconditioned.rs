@@ -33,20 +33,37 @@ pub(super) fn direction<K: Compliance>(
     let delta = quadratic - mz * sg;
     let beta = cg.beta(delta);
     let zz: &[f64] = z;
-    let ([st, _, _, _], _, [sr, srt, _, _]) = kernel.apply_fused(
-        false,
-        t,
-        |i, t| {
-            let o = i * ny..(i + 1) * ny;
-            direction_preconditioned_row(t, &zz[o.clone()], &p[o], mz, beta, m)
-        },
-        Some(r),
-        |i, t, r| line_row(r, t, &p[i * ny..(i + 1) * ny]),
-    );
+    // Σ_F g t = ⟨g, z − m_z⟩ + β ⟨g, t_old − m⟩.
+    let sgt = delta + beta * (sg_t - m * sg);
+    direction_response(kernel, t, r, p, sgt, free_count, |i, t| {
+        let o = i * ny..(i + 1) * ny;
+        direction_preconditioned_row(t, &zz[o.clone()], &p[o], mz, beta, m)
+    })
+}
+
+/// Pass C (the direction t on F, written by `row`, which returns Σ t of its row) fused with the
+/// second transform pair, r = G t, and the line-search sums ([`line_row`]): the second half of
+/// both directions (unweighted and weighted), `sgt` = Σ_F g t and |F| as they computed them.
+fn direction_response<K: Compliance, P>(
+    kernel: &mut K,
+    t: &mut [f64],
+    r: &mut [f64],
+    p: &[f64],
+    sgt: f64,
+    free_count: f64,
+    row: P,
+) -> Direction
+where
+    P: Fn(usize, &mut [f64]) -> [f64; 4] + Sync,
+{
+    let (_, ny) = kernel.shape();
+    let ([st, _, _, _], _, [sr, srt, _, _]) =
+        kernel.apply_fused(false, t, row, Some(r), |i, t, r| {
+            line_row(r, t, &p[i * ny..(i + 1) * ny])
+        });
     Direction {
         st,
-        // Σ_F g t = ⟨g, z − m_z⟩ + β ⟨g, t_old − m⟩.
-        sgt: delta + beta * (sg_t - m * sg),
+        sgt,
         sr,
         srt,
         free_count,
@@ -193,33 +210,21 @@ fn direction_weighted<K: Compliance>(
     // force per unit area of z and of the old direction on F
     let (mz, m) = (sz / sw, stf / sw);
     let zz: &[f64] = z;
-    let ([st, _, _, _], _, [sr, srt, _, _]) = kernel.apply_fused(
-        false,
-        t,
-        |i, t| {
-            let o = i * ny..(i + 1) * ny;
-            let mut st = 0.0;
-            for (j, t) in t.iter_mut().enumerate() {
-                let k = o.start + j;
-                let tj = if free(p[k]) {
-                    (zz[k] - w[k] * mz) + beta * (*t - w[k] * m)
-                } else {
-                    0.0
-                };
-                *t = tj;
-                st += tj;
-            }
-            [st, 0.0, 0.0, 0.0]
-        },
-        Some(r),
-        |i, t, r| line_row(r, t, &p[i * ny..(i + 1) * ny]),
-    );
-    Direction {
-        st,
-        // ⟨g, t⟩ = ⟨ĝ, t⟩ (Σ_F t = 0) = δ + β ⟨ĝ, t_old⟩ (Σ_F w ĝ = 0).
-        sgt: delta + beta * sg_t,
-        sr,
-        srt,
-        free_count,
-    }
+    // ⟨g, t⟩ = ⟨ĝ, t⟩ (Σ_F t = 0) = δ + β ⟨ĝ, t_old⟩ (Σ_F w ĝ = 0).
+    let sgt = delta + beta * sg_t;
+    direction_response(kernel, t, r, p, sgt, free_count, |i, t| {
+        let o = i * ny;
+        let mut st = 0.0;
+        for (j, t) in t.iter_mut().enumerate() {
+            let k = o + j;
+            let tj = if free(p[k]) {
+                (zz[k] - w[k] * mz) + beta * (*t - w[k] * m)
+            } else {
+                0.0
+            };
+            *t = tj;
+            st += tj;
+        }
+        [st, 0.0, 0.0, 0.0]
+    })
 }
