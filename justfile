@@ -33,6 +33,13 @@ paper *ARGS: build
     {{bin}} run --params params/paper.toml -j {{jobs}} {{ARGS}}
     {{bin}} status --params params/paper.toml --costs --top 5
 
+# params/deep.toml: the paper preset with the deep ladders at k = 4, 5 (square, triangular) and
+# 5, 6 (hexagonal) down to |l| = 1e-5; tables and figures as `just paper` writes them.
+# The near-critical scenes with the deep ladders one level deeper (1 h on two cores, 7 GB).
+deep *ARGS: build
+    {{bin}} run --params params/deep.toml -j {{jobs}} --only near_critical {{ARGS}}
+    {{bin}} status --params params/deep.toml --costs --top 5
+
 # The random-surface ensembles at 32 seeds per spectrum (params/ensemble.toml): about 1–3 h on two
 # cores, minutes on a cluster (ARGS e.g. `--executor slurm -j 64 --slurm-partition compute`).
 ensembles *ARGS: build
