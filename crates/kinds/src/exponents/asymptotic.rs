@@ -49,9 +49,10 @@
 //! flagged pair, the next link rescaled at the junction. There is no uniform part (the uniform
 //! ladders measure no neck lengths), so the chain starts at the first link's first usable pair.
 //! The rungs enter with σ = 0 (unweighted fits scaled by their misfit, as every fit here:
-//! "Weights" below): the estimator's error law (c n^−4) is a worst-case bound, not a 1σ, and as a weight it would
-//! grow like n^8 with the neck's width and leave the smallest |l| out of the fit. The identity
-//! 3ζ + υ − χ is also taken with these two and the combined ζ (`beta_identity_neck`).
+//! "Weights" below): the estimator's error law (c n^−4) is a worst-case bound, not a 1σ, and as
+//! a weight it would grow like n^8 with the neck's width and leave the smallest |l| out of the
+//! fit. The identity 3ζ + υ − χ is also taken with these two and the combined ζ
+//! (`beta_identity_neck`).
 //!
 //! # Weights
 //! Every fit here is unweighted (each rung's σ set to 0 before the fit, [`unweighted`]): equal
@@ -755,16 +756,11 @@ mod tests {
         fn law(a: f64) -> f64 {
             0.3 * a.powf(1.1) * (1.0 + a.powf(0.25) + 3.0 * a.powf(0.8))
         }
+        // [`level_of`]'s rungs with the uniform ladders' σ
         let level = |spacing: f64| {
-            let points: Vec<ScalingPoint> = LS
-                .iter()
-                .map(|&a| ScalingPoint::new(-a, law(a), 1e-10))
-                .collect();
-            Resolution {
-                spacing,
-                across: Vec::new(),
-                points,
-            }
+            let mut r = level_of(law, spacing, 0.0);
+            r.points.iter_mut().for_each(|p| p.sigma = 1e-10);
+            r
         };
         let a = estimate(&[level(1.0 / 2048.0), level(1.0 / 1024.0)]).unwrap();
         assert_eq!(a.l_min, 1e-5);
