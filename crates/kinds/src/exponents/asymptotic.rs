@@ -25,7 +25,12 @@
 //! flagged pair (grid error = max(level, margin change) above [`GRID_BOUND`] or unknown, a
 //! window too small, a frozen contact set), its values rescaled at the junction so that the
 //! ladder is continuous (the local slopes are the refined ones). Without a refined ladder, or
-//! when it has no usable pair at the junction, this is the uniform estimate exactly. The
+//! when it has no usable pair at the junction, this is the uniform estimate exactly, except
+//! across a gap (the uniform part ends above the refined ladder's first usable rung) where the
+//! refined chain alone is longer: then that chain alone ([`across_a_gap`]; the hexagonal β of
+//! the deep preset, whose uniform flux is usable at 5e-2 → 2e-2 only: the two parts have no
+//! common rung to be rescaled at, and the deeper, longer one carries more of the asymptotics).
+//! The
 //! uniform-only estimate is kept beside it (`uniform_asymptotic_*` in `exponents.csv`) so that
 //! the change is traceable; `asymptotic_method` says which ladder the estimate used and where
 //! the refined one took over. For β the uniform rungs give the cell's flux and the refined
@@ -99,7 +104,7 @@ use crate::refined_chain::{Depth, Linked};
 use crate::refined_neck::{self, NeckLadder, NeckMeasure};
 use analysis::{AsymptoticEstimate, AsymptoticOptions, Estimate, ScalingPoint};
 use critical::ladder::Rung;
-use critical::refined::{LadderPair, Link, Measured, Source, chained_ladder};
+use critical::refined::{CombinedLadder, LadderPair, Link, Measured, Source, chained_ladder};
 use critical::running::{
     Exponent as Which, MeasureOptions, Resolution, asymptotic, measure, running_records,
 };
@@ -383,6 +388,44 @@ pub fn estimate_combined(
     chain_estimate(&upoints, &upairs, &depths, &data)
 }
 
+/// The chain `c` (of a uniform part and `links`), or the links alone when they cannot join
+/// the uniform part across a gap and make the longer ladder (module docs, "The combined
+/// ladder"): `c` reached no link (its note is about the first one), its uniform part ends
+/// above the first link's first usable rung, and the links alone from that rung
+/// (`chained_ladder` without a uniform part) have more rungs. The note then says what was
+/// dropped.
+fn across_a_gap(c: CombinedLadder, links: &[Link<'_>]) -> CombinedLadder {
+    let first = links.iter().position(|l| !l.points.is_empty());
+    let (Some(end), None, true) = (c.points.last(), c.junction, first.is_some()) else {
+        return c;
+    };
+    if c.note_link != first || c.points.len() < 2 {
+        return c;
+    }
+    let mut alone = chained_ladder(&[], &[], links);
+    let deeper = alone
+        .points
+        .first()
+        .is_some_and(|p| p.l.abs() < end.l.abs());
+    if !deeper || alone.points.len() <= c.points.len() {
+        return c;
+    }
+    let why = format!(
+        "{}; the uniform ladder ends there ({} rungs), above the refined ladder's first usable \
+         rung l = {:e}: the refined ladder alone ({} rungs)",
+        c.note.as_deref().unwrap_or_default(),
+        c.points.len(),
+        alone.points[0].l,
+        alone.points.len()
+    );
+    alone.note = Some(match alone.note.take() {
+        Some(n) => format!("{why}; {n}"),
+        None => why,
+    });
+    alone.note_link = alone.note_link.or(first);
+    alone
+}
+
 /// The estimate on the chained ladder of `upoints`/`upairs` (the uniform part; empty: none) and
 /// the links `data` (points and pairs, from the inputs `depths`), and what was used
 /// ([`estimate_combined`], [`estimate_neck`]).
@@ -396,7 +439,7 @@ fn chain_estimate(
         .iter()
         .map(|(points, pairs)| Link { points, pairs })
         .collect();
-    let c = chained_ladder(upoints, upairs, &links);
+    let c = across_a_gap(chained_ladder(upoints, upairs, &links), &links);
     let nref = c.sources.iter().filter(|s| **s == Source::Refined).count();
     let name = |i: usize| depths[i].name();
     let mut method = match c.junctions.first() {
@@ -1002,6 +1045,54 @@ mod tests {
         assert_eq!(how.method, "refined_deep from |l| = 2e-3");
         // eight rungs, seven deep pairs (`rungs` counts a ladder's first rung as its top)
         assert_eq!(how.rungs, (1, 7));
+    }
+
+    /// A gap between the uniform and the deep ladder (the hexagonal β of `params/deep.toml`):
+    /// the uniform levels agree at 5e-2 → 2e-2 only (the coarse one drifts by 3 % per rung
+    /// below), the deep ladder starts at 5e-3. The uniform part (two rungs) cannot be joined
+    /// and gives no estimate; the deep ladder alone (9 rungs) gives ζ, and the note says what
+    /// was dropped. A deep ladder that alone is no longer than the uniform part leaves it.
+    #[test]
+    fn across_a_gap_the_longer_deep_ladder_alone_is_fitted() {
+        use crate::refined_chain::{Depth, Linked, chain_of};
+        let lattice = Lattice::Hexagonal;
+        let mut coarse = level(1.0 / 1024.0, 0.0);
+        for (k, p) in coarse.points.iter_mut().enumerate().skip(2) {
+            p.y *= 1.03f64.powi(k as i32 - 1);
+        }
+        let levels = [level(1.0 / 2048.0, 0.0), coarse];
+        assert!(
+            estimate(&levels).is_err(),
+            "two uniform rungs give no estimate"
+        );
+        let deep = |rls: &[f64], flagged: usize| {
+            Linked::new(
+                Depth::Deep,
+                synthetic_refined(lattice, rls, 1.0 / 16384.0, flagged),
+            )
+        };
+        let all = [deep(&LS[3..], 99)];
+        let (est, how) = estimate_combined(lattice, Which::Zeta, &levels, &chain_of(&all, lattice));
+        let a = est.unwrap();
+        assert!((a.value - 1.2).abs() < 1e-6, "{a:?}");
+        assert_eq!(a.l_min, 1e-5);
+        assert_eq!(how.method, "refined_deep from |l| = 5e-3");
+        assert_eq!(how.rungs, (1, 8));
+        let note = how.note.unwrap();
+        assert!(
+            note.starts_with("refined_deep: ")
+                && note.contains("no rung at the junction l = -2e-2")
+                && note.contains("(2 rungs)")
+                && note.contains("the refined ladder alone (9 rungs)"),
+            "{note}"
+        );
+        // flagged at its second pair (2e-3 → 1e-3): alone it has two rungs, no more than the
+        // uniform part, which stays (and gives no estimate)
+        let all = [deep(&LS[3..], 1)];
+        let (est, how) = estimate_combined(lattice, Which::Zeta, &levels, &chain_of(&all, lattice));
+        assert!(est.is_err());
+        assert_eq!(how.method, "uniform");
+        assert!(!how.note.unwrap().contains("alone"));
     }
 
     /// A synthetic neck discretisation at the rungs `ls` (|l|, below p_c): rms width
