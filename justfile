@@ -40,6 +40,12 @@ deep *ARGS: build
     {{bin}} run --params params/deep.toml -j {{jobs}} --only near_critical {{ARGS}}
     {{bin}} status --params params/deep.toml --costs --top 5
 
+# params/deeper.toml (docs/near-critical.md §5p): about 1.5 h per model on one core, 4 GB per D(6).
+# The near-critical scenes with the square and triangular deep ladders at k = 5, 6 down to |l| = 2e-6.
+deeper *ARGS: build
+    {{bin}} run --params params/deeper.toml -j {{jobs}} --only near_critical {{ARGS}}
+    {{bin}} status --params params/deeper.toml --costs --top 5
+
 # The random-surface ensembles at 32 seeds per spectrum (params/ensemble.toml): about 1–3 h on two
 # cores, minutes on a cluster (ARGS e.g. `--executor slurm -j 64 --slurm-partition compute`).
 ensembles *ARGS: build
