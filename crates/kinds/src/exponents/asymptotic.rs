@@ -30,8 +30,7 @@
 //! refined chain alone is longer: then that chain alone ([`across_a_gap`]; the hexagonal β of
 //! the deep preset, whose uniform flux is usable at 5e-2 → 2e-2 only: the two parts have no
 //! common rung to be rescaled at, and the deeper, longer one carries more of the asymptotics).
-//! The
-//! uniform-only estimate is kept beside it (`uniform_asymptotic_*` in `exponents.csv`) so that
+//! The uniform-only estimate is kept beside it (`uniform_asymptotic_*` in `exponents.csv`) so that
 //! the change is traceable; `asymptotic_method` says which ladder the estimate used and where
 //! the refined one took over. For β the uniform rungs give the cell's flux and the refined
 //! ones the refined ladder's conductance (`critical::refined_flow`): the square cell's K
@@ -396,10 +395,11 @@ pub fn estimate_combined(
 /// dropped.
 fn across_a_gap(c: CombinedLadder, links: &[Link<'_>]) -> CombinedLadder {
     let first = links.iter().position(|l| !l.points.is_empty());
-    let (Some(end), None, true) = (c.points.last(), c.junction, first.is_some()) else {
+    let Some(end) = c.points.last() else {
         return c;
     };
-    if c.note_link != first || c.points.len() < 2 {
+    // a link joined, there is none, or the chain ended at a later one: nothing to choose
+    if c.junction.is_some() || first.is_none() || c.note_link != first {
         return c;
     }
     let mut alone = chained_ladder(&[], &[], links);
