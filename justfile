@@ -40,7 +40,8 @@ deep *ARGS: build
     {{bin}} run --params params/deep.toml -j {{jobs}} --only near_critical {{ARGS}}
     {{bin}} status --params params/deep.toml --costs --top 5
 
-# params/deeper.toml (docs/near-critical.md §5p): about 1.5 h per model on one core, 4 GB per D(6).
+# params/deeper.toml (docs/near-critical.md §5p): the square stage 1.5 h on one core, 4 GB per D(6);
+# the triangular stage has not finished yet (its D(6) p_c search alone ran > 2.5 processor-hours).
 # The near-critical scenes with the square and triangular deep ladders at k = 5, 6 down to |l| = 2e-6.
 deeper *ARGS: build
     {{bin}} run --params params/deeper.toml -j {{jobs}} --only near_critical {{ARGS}}
