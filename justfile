@@ -41,7 +41,8 @@ deep *ARGS: build
     {{bin}} status --params params/deep.toml --costs --top 5
 
 # params/deeper.toml (docs/near-critical.md §5p): the square stage 1.5 h on one core, 4 GB per D(6);
-# the triangular stage has not finished yet (its D(6) p_c search alone ran > 2.5 processor-hours).
+# the triangular stage (tol_gap 1e-10 since session #19: at 1e-11 its D(6) solves ran into their
+# rounding floor, §5q) has not been run through yet; its D(6) p_c search alone took 38 min.
 # The near-critical scenes with the square and triangular deep ladders at k = 5, 6 down to |l| = 2e-6.
 deeper *ARGS: build
     {{bin}} run --params params/deeper.toml -j {{jobs}} --only near_critical {{ARGS}}

@@ -1084,6 +1084,48 @@ pub fn default_ls() -> Vec<f64> {
     v
 }
 
+/// An unconverged attempt whose violation ended within this factor of `tol_gap` stopped at the
+/// composite solve's rounding floor. Measured (docs/near-critical.md §5q): the triangular D(6)
+/// (1024² base, window 32, margin 12) at tol_gap 1e-11 held its contact set fixed from its
+/// 118th iteration on, with the rms gap on it at 2-6e-13 h0 and the largest violation between
+/// 1.5e-11 and 9e-11, rising at each exact recomputation of the displacement; it would have run
+/// 2000 iterations (2 h) per attempt, three attempts per probe.
+const FLOOR_FACTOR: f64 = 100.0;
+
+/// The attempt ran out of iterations or stagnated with its violation within [`FLOOR_FACTOR`]
+/// of `tol_gap`: continuing or restarting cold ends at the same floor, so it is not retried.
+fn at_rounding_floor(stats: &contact::SolveStats, tol_gap: f64) -> bool {
+    !stats.converged
+        && matches!(
+            stats.reason,
+            Some(contact::StopReason::IterationCap | contact::StopReason::Stagnation)
+        )
+        && stats.max_violation <= FLOOR_FACTOR * tol_gap
+}
+
+/// The error of a probe whose solve did not converge; at the rounding floor it says so and
+/// names the key to raise.
+fn not_converged(load: f64, stats: &contact::SolveStats, tol_gap: f64) -> CriticalError {
+    let detail = if at_rounding_floor(stats, tol_gap) {
+        format!(
+            "not converged: {:?} after {} iterations with the violation {:.3e} within {FLOOR_FACTOR} × \
+             tol_gap {:.1e}: the composite solve is at its rounding floor (a retry ends there too); \
+             raise tol_gap to at least {:.0e}",
+            stats.reason,
+            stats.iterations,
+            stats.max_violation,
+            tol_gap,
+            2.0 * stats.max_violation
+        )
+    } else {
+        format!(
+            "not converged (warm, continued and cold): {:?}, violation {:.3e} > tol_gap {:.1e}",
+            stats.reason, stats.max_violation, tol_gap
+        )
+    };
+    CriticalError::Solver { load, detail }
+}
+
 /// A callback on every solve: (load, iterations, converged, max violation, wall s).
 pub type SolveHook = Box<dyn FnMut(f64, usize, bool, f64, f64)>;
 
@@ -1148,8 +1190,10 @@ impl Refinement {
     }
 
     /// Solves at `load` from the last solution; if that does not converge, again from the
-    /// unconverged result and then cold. Returns the solution and the iterations of all
-    /// attempts (the solution's `stats` say whether the last attempt converged).
+    /// unconverged result and then cold, unless the attempt stopped at the composite solve's
+    /// rounding floor ([`at_rounding_floor`]: a retry ends there too). Returns the solution and
+    /// the iterations of all attempts (the solution's `stats` say whether the last attempt
+    /// converged).
     pub fn solve(&mut self, load: f64) -> Result<(Refined, usize), CriticalError> {
         let mut iterations = 0;
         let mut last: Option<Refined> = None;
@@ -1181,7 +1225,7 @@ impl Refinement {
             }
             self.solves += 1;
             iterations += r.stats.iterations;
-            let done = r.stats.converged;
+            let done = r.stats.converged || at_rounding_floor(&r.stats, self.opts.tol_gap);
             last = Some(r);
             if done {
                 break;
@@ -1297,13 +1341,7 @@ impl Refinement {
             &mut |p| {
                 let (r, _) = self.solve(p)?;
                 if !r.stats.converged {
-                    return Err(CriticalError::Solver {
-                        load: p,
-                        detail: format!(
-                            "not converged (warm, continued and cold): {:?}, violation {:.3e} > tol_gap {:.1e}",
-                            r.stats.reason, r.stats.max_violation, self.opts.tol_gap
-                        ),
-                    });
+                    return Err(not_converged(p, &r.stats, self.opts.tol_gap));
                 }
                 Ok(self.saddle_gap(&r))
             },

@@ -145,6 +145,52 @@ fn a_too_small_window_is_flagged() {
     assert_eq!(flags[1], [false, false, false]);
 }
 
+/// A solve that stops at the composite solve's rounding floor (a tolerance below what rounding
+/// allows) is not retried (continued, then cold: each ends at the same floor), and the p_c
+/// search's error says so and names the key to raise; one that stops far from its tolerance
+/// (an iteration cap of 3) still gets its two retries.
+#[test]
+fn a_solve_at_the_rounding_floor_is_not_retried() {
+    let p = |r: &Refinement| 0.2 * r.p_fc();
+    let floor = RefinedOptions {
+        tol_gap: 8e-16,
+        max_iter: 200,
+        ..Default::default()
+    };
+    let mut r = Refinement::new(d(5, 8, 5), &floor).unwrap();
+    // cold: one attempt whatever happens; warm at a nearby load: one attempt at the floor
+    let (s0, _) = r.solve(p(&r)).unwrap();
+    let (s1, _) = r.solve(p(&r) * 1.001).unwrap();
+    eprintln!(
+        "tol 8e-16: {:?} {:.2e}; {:?} {:.2e}; {} solves",
+        s0.stats.reason, s0.stats.max_violation, s1.stats.reason, s1.stats.max_violation, r.solves
+    );
+    assert!(!s1.stats.converged);
+    assert!(
+        s1.stats.max_violation <= 100.0 * floor.tol_gap,
+        "{:e}",
+        s1.stats.max_violation
+    );
+    assert_eq!(r.solves, 2);
+    // the search's first probe (0.198 p_fc, warm) ends at the floor too
+    let e = r.critical_load(Some(0.2 * r.p_fc()), 1e-2).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.contains("rounding floor") && msg.contains("raise tol_gap"),
+        "{msg}"
+    );
+
+    let capped = RefinedOptions {
+        max_iter: 3,
+        ..Default::default()
+    };
+    let mut r = Refinement::new(d(5, 8, 5), &capped).unwrap();
+    r.solve(p(&r)).unwrap();
+    let (s1, _) = r.solve(p(&r) * 1.05).unwrap();
+    assert!(!s1.stats.converged && s1.stats.max_violation > 100.0 * capped.tol_gap);
+    assert_eq!(r.solves, 4, "warm, continued and cold");
+}
+
 /// A contact line grazing the window's edge is not a window too small: the triangular model on
 /// a 128² base refined k = 3 in a window of 16 base cells, at l = −1e-4 from p_c(D) (measured
 /// by `examples/refined_ladder.rs`: p_c/p_fc = 0.7121159066, whose rungs from −2e-4 down were
