@@ -18,7 +18,17 @@
 //! `ns` (ascending grid exponents), `ls` (reduced loads, default the paper's ±0.002, ±0.005,
 //! ±0.01, ±0.02 plus 0 for the contact line at L_c), `window` (half-size of the stored window
 //! around the saddle, λ), `tol_gap` (Polonsky–Keer, h0), `flow` (Reynolds flux along the channel
-//! and across it at every rung), `flow_tol`.
+//! and across it at every rung but l = 0), `flow_tol`.
+//!
+//! # The flux at l = 0
+//! The rung at L_c itself gets no flow solve (flux and conductivities NaN, `percolating` and
+//! `flow_converged` false; since session #20). Its saddle gap is zero or at the contact solver's
+//! tolerance (g_s ≤ 1e-10 h0), so the conductivity g³ at the throat is ≤ 1e-30 of the cell's:
+//! the preconditioned CG stopped there on residual growth or at its rounding limit after 5–142
+//! iterations on every model, and each draft run warned "the flow solve did not converge" for
+//! the hexagonal and triangular ladders. No table, figure or fit reads the flux at l = 0 (the
+//! exponents, Figure 6, the running exponents and the random-constriction comparison take
+//! l < 0 only; Figure 5 takes the contact line at l = 0, not its flux).
 //!
 //! # Artefact
 //! - root attributes `lattice`, `ns`, `ls`, `window`, `l_c` (finest level), `saddle_x`,
@@ -54,7 +64,7 @@ use surface::{Lattice, Surface};
 pub struct LadderKind;
 
 /// Bump when the artefact's content changes for the same parameters.
-pub const CODE_VERSION: u64 = 3;
+pub const CODE_VERSION: u64 = 4;
 
 /// The paper's ladder, plus l = 0 (the contact line at L_c).
 pub const DEFAULT_LS: [f64; 9] = [-0.02, -0.01, -0.005, -0.002, 0.0, 0.002, 0.005, 0.01, 0.02];
@@ -297,6 +307,10 @@ type AxisFlow = (f64, f64, bool, bool);
 /// One rung's flow solves: along the saddle's channel, and along the other grid axis.
 type RungFlow = [AxisFlow; 2];
 
+/// The flow of a rung without a flow solve: flux and conductivity NaN, not percolating, not
+/// converged.
+const NO_FLOW: AxisFlow = (f64::NAN, f64::NAN, false, false);
+
 /// Solves the ladder on one grid (warm-started from `coarse`) and the flux at every rung.
 fn solve_level(
     ctx: &mut StageContext,
@@ -319,7 +333,10 @@ fn solve_level(
             if step.keep {
                 kept.push(sol.clone());
             }
-            if let Some(fopts) = step.fopts
+            if step.fopts.is_some() && r.l == 0.0 {
+                // L_c itself: no flow solve (module docs, "The flux at l = 0")
+                flows.push([NO_FLOW; 2]);
+            } else if let Some(fopts) = step.fopts
                 && flow_err.is_none()
             {
                 let solve =
@@ -503,11 +520,10 @@ formats::record! {
 impl RungRow {
     /// Rung `r` with its flow solve, if any.
     fn of(r: &Rung, flow: Option<RungFlow>) -> Self {
-        let none = (f64::NAN, f64::NAN, false, false);
         let [
             (flux, conductivity, percolating, flow_converged),
             (_, conductivity_across, percolating_across, flow_across_converged),
-        ] = flow.unwrap_or([none; 2]);
+        ] = flow.unwrap_or([NO_FLOW; 2]);
         RungRow {
             l: r.l,
             load: r.load,

@@ -66,6 +66,10 @@ fn the_ladder_sits_at_its_reduced_loads_around_the_critical_stage() {
             if r.l >= 0.01 {
                 assert_eq!(g, 0.0, "n = {} l = {}", lv.n, r.l);
             }
+            if r.l == 0.0 {
+                // L_c itself gets no flow solve (kinds::ladder, "The flux at l = 0")
+                assert!(r.flux.is_nan() && !r.percolating && !r.flow_converged);
+            }
         }
         // flux falls towards L_c
         let q: Vec<f64> = lv
