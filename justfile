@@ -42,7 +42,7 @@ deep *ARGS: build
 
 # params/deeper.toml (docs/near-critical.md §5p): the square stage 1.5 h on one core, 4 GB per D(6);
 # the triangular stage (tol_gap 1e-10 since session #19: at 1e-11 its D(6) solves ran into their
-# rounding floor, §5q) has not been run through yet; its D(6) p_c search alone took 38 min.
+# rounding floor, §5q) 1 h 28 min on two threads, 4.5 GB (session #20, §5r).
 # The near-critical scenes with the square and triangular deep ladders at k = 5, 6 down to |l| = 2e-6.
 deeper *ARGS: build
     {{bin}} run --params params/deeper.toml -j {{jobs}} --only near_critical {{ARGS}}
