@@ -96,6 +96,16 @@ fn run(
                         p / p_fc,
                         t.elapsed().as_secs_f64()
                     );
+                    // as `critical_load`: an unconverged probe ends the search
+                    if !s.stats.converged {
+                        return Err(critical::CriticalError::Solver {
+                            load: p,
+                            detail: format!(
+                                "probe not converged ({:?}, violation {:e} h0)",
+                                s.stats.reason, s.stats.max_violation
+                            ),
+                        });
+                    }
                     Ok(g)
                 },
                 guess,
