@@ -45,7 +45,7 @@ def chain(path, model, exponent, measure=None):
                 best[pair] = (rank, float(r["value"]), method)
     pairs = sorted(best, key=lambda p: -abs(p[0]))
     out = []
-    for i, p in enumerate(pairs):
+    for p in pairs:
         # the chain stops at a gap: the next pair must start where this one ends
         if out and abs(out[-1][3] - p[0]) > 1e-15 * abs(p[0]):
             break
@@ -111,7 +111,7 @@ def main():
     if len(c) < 4:
         sys.exit(f"{path}: {model} {exponent}: {len(c)} chain pairs, at least 4 needed")
     print(f"{model} {exponent}: {len(c)} pairs, {c[0][2]:g}→{c[0][3]:g} … {c[-1][2]:g}→{c[-1][3]:g}")
-    for L, v, hi, lo, m in c:
+    for _, v, hi, lo, m in c:
         print(f"  {hi:>9g} → {lo:<9g} {v:.5f}  {m}")
     one = [(w,) for w in grid(0.02, 2.0, 0.01)]
     two = [(w, 2 * w) for w in grid(0.02, 1.5, 0.01)]

@@ -1091,8 +1091,8 @@ pub fn default_ls() -> Vec<f64> {
 /// 1.5e-11 and 9e-11, rising at each exact recomputation of the displacement; it would have run
 /// 2000 iterations (2 h) per attempt, three attempts per probe. Since session #20 the solver
 /// itself stops such a solve as stagnant (`contact::polonsky_keer`'s floor rule, the same band
-/// of 100 × tol_gap): replayed on that solve's logged violations, after 336 iterations.
-const FLOOR_FACTOR: f64 = 100.0;
+/// of 100 × tol_gap): on that probe, after 336 iterations. The solver's band, so the two agree.
+const FLOOR_FACTOR: f64 = contact::polonsky_keer::FLOOR_BAND;
 
 /// The attempt ran out of iterations or stagnated with its violation within [`FLOOR_FACTOR`]
 /// of `tol_gap`: continuing or restarting cold ends at the same floor, so it is not retried.

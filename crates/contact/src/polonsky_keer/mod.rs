@@ -79,9 +79,9 @@ const STAGNATION: usize = 3000;
 /// below its best since the set last changed, after which a solve whose violation is within
 /// [`FLOOR_BAND`] × `tol_gap` stops as stagnant: it is at its rounding floor ([`FloorWatch`]).
 const FLOOR_REFRESHES: usize = 3;
-/// How far above `tol_gap` the violation may sit for [`FloorWatch`] to call it the floor (the
-/// factor `critical::refined` uses to not retry such a solve).
-const FLOOR_BAND: f64 = 100.0;
+/// How far above `tol_gap` the violation may sit for [`FloorWatch`] to call it the floor (also
+/// the band in which `critical::refined` does not retry an unconverged solve).
+pub const FLOOR_BAND: f64 = 100.0;
 
 /// Consecutive re-open-only steps (no descent direction on the contact set) before the solve
 /// stops as stagnated.
@@ -271,9 +271,7 @@ impl FloorWatch {
     /// is at its floor.
     fn at_floor(&mut self, violation: f64, count: f64, tol_gap: f64) -> bool {
         if count != self.count || violation < 0.99 * self.best {
-            if count != self.count {
-                self.count = count;
-            }
+            self.count = count;
             self.best = violation;
             self.flat = 0;
             return false;
