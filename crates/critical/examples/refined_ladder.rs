@@ -11,7 +11,8 @@
 //! for the contact-set hash, so a frozen pair is one with an unchanged count).
 //! `REFINED_FINE_CSV`, `REFINED_MARGIN_CSV`: the same for D(k) and D(k, margin + Δ) (all three
 //! given: no solve, only the running exponents). `REFINED_PC_GUESS`: p_c/p_fc to start D(k)'s
-//! search from (width `REFINED_NEXT_WIDTH`, default 2e-6). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
+//! search from (width `REFINED_NEXT_WIDTH`, default 2e-6). `REFINED_REL_TOL`: the p_c bracket's
+//! relative width (default `RefinedOptions`'s). `REFINED_TOL_GAP`, `REFINED_MAX_ITER`: the solver's tolerance (h0,
 //! default 1e-13) and iteration cap per attempt (default `RefinedOptions`'s, 2000). `REFINED_EDGE_DUMP` (any value):
 //! print the runs of each rung's outermost ring of fine nodes (`edge,…` rows, see `dump_edge`).
 //! `REFINED_DWINDOW=<Δw>`: also solve D(k) with the window widened by Δw base cells (or read
@@ -23,8 +24,8 @@
 //! `REFINED_PC` set, the periodic base grid's own p_c search is skipped (and D(k − 1) starts
 //! from the guess too). `REFINED_SEARCH`: `aimed` (default), `secant` (the search until
 //! 2026-11-26) or `bisection`. `REFINED_PC_TRACE` (any value): print every probe of the p_c
-//! searches (`probe,<name>,k,#,load/p_fc,saddle gap,iterations,wall_s`; the search is then run
-//! from the example, as `Refinement::critical_load` runs it).
+//! searches (`probe,<name>,k,#,load/p_fc,saddle gap,iterations,wall_s`, through
+//! `Refinement::critical_load_traced`; probe 0 is a fresh D's warm-up solve).
 use critical::refined::{
     Discretisation, RefinedOptions, RefinedRung, Refinement, RungFlag, Search, base_guess,
     default_ls, running_zeta,
@@ -73,46 +74,20 @@ fn run(
             }
         }
         Err(_) if std::env::var("REFINED_PC_TRACE").is_ok() => {
-            // what `critical_load` does (a fresh D: the warm-up solve below the bracket), with
-            // every probe printed: `probe,<name>,k,#,load/p_fc,gap,iterations,wall_s`
+            // every solve of the search printed as it ends (the warm-up solve of a fresh D as
+            // probe 0): `probe,<name>,k,#,load/p_fc,gap,iterations,wall_s`
             let p_fc = r.p_fc();
-            let p0 = guess * (1.0 - width.max(1e-2));
-            let (s0, _) = r.solve(p0).expect("warm-up solve");
-            let seed: Vec<(f64, f64)> = if s0.stats.converged {
-                vec![(p0, r.saddle_gap(&s0))]
-            } else {
-                Vec::new()
-            };
-            let mut n = 0;
             let label = format!("{name},{}", d.levels);
-            critical::refined::find_closing_load_seeded(
-                &mut |p| {
-                    let t = Instant::now();
-                    let (s, it) = r.solve(p)?;
-                    let g = r.saddle_gap(&s);
-                    n += 1;
-                    println!(
-                        "probe,{label},{n},{:.15e},{g:.6e},{it},{:.2}",
-                        p / p_fc,
-                        t.elapsed().as_secs_f64()
-                    );
-                    // as `critical_load`: an unconverged probe ends the search
-                    if !s.stats.converged {
-                        return Err(critical::CriticalError::Solver {
-                            load: p,
-                            detail: format!(
-                                "probe not converged ({:?}, violation {:e} h0)",
-                                s.stats.reason, s.stats.max_violation
-                            ),
-                        });
-                    }
-                    Ok(g)
-                },
-                guess,
-                width,
-                &seed,
-                opts,
-            )
+            r.critical_load_traced(Some(guess), width, &mut |p| {
+                println!(
+                    "probe,{label},{},{:.15e},{:.6e},{},{:.2}",
+                    p.index,
+                    p.load / p_fc,
+                    p.saddle_gap,
+                    p.iterations,
+                    p.wall_s
+                );
+            })
             .expect("p_c")
         }
         Err(_) => r.critical_load(Some(guess), width).expect("p_c"),
@@ -196,6 +171,7 @@ fn main() {
     let opts = RefinedOptions {
         tol_gap: env("REFINED_TOL_GAP").unwrap_or(defaults.tol_gap),
         max_iter: env("REFINED_MAX_ITER").map_or(defaults.max_iter, |v| v as usize),
+        rel_tol: env("REFINED_REL_TOL").unwrap_or(defaults.rel_tol),
         search: match std::env::var("REFINED_SEARCH").as_deref() {
             Ok("secant") => Search::Secant,
             Ok("bisection") => Search::Bisection,
@@ -204,7 +180,10 @@ fn main() {
         },
         ..defaults
     };
-    println!("# tol_gap {:e}, max_iter {}", opts.tol_gap, opts.max_iter);
+    println!(
+        "# tol_gap {:e}, max_iter {}, rel_tol {:e}",
+        opts.tol_gap, opts.max_iter, opts.rel_tol
+    );
     let d = Discretisation {
         lattice,
         base_log2,

@@ -104,6 +104,24 @@
 //! and kept (not measured looser; at the end the aimed search spends 1–2 probes on the last
 //! decade, the cheapest ones: 5–15 iterations each).
 //!
+//! A bracket tied to the ladder's smallest |l| instead (session #21, tried, not kept): a 1-2-5
+//! pair moves by at most 0.72 x ε/|l_min| (the factor-2 pairs), so with x ≤ 3.5 (β) a bracket
+//! of 5e-6 |l_min| keeps every running exponent within 6.4e-6 (checked on pure power laws:
+//! 6.3e-6 at the deepest pair). On the paper preset's hexagonal D(4) (1024² base, window 32,
+//! margin 12, tol_gap 5e-12, from D(3)'s p_c, one thread each, side by side:
+//! `REFINED_COMPARE=none REFINED_PC_TRACE=1 REFINED_TOL_GAP=5e-12 REFINED_REL_TOL=…
+//! REFINED_PC_GUESS=0.031722753378181666 refined_ladder hexagonal 10 4 32 12 -1e-4`) it pays:
+//! rel_tol 1e-11 took 22 probes, 367 iterations, 119.3 s, of which the last 13 probes bisect
+//! within the solver's floor (open at gaps of 1e-12 … 9e-11 h0 between closed probes 2e-10
+//! above); 1e-9 took 9 probes, 288 iterations, 87.6 s; the p_c's 1.3e-10 apart. Through the
+//! whole paper study it does not: two cold runs of `saddleflow run --params params/paper.toml
+//! --only near_critical -j 2` (HEAD 6deb0cf against the rule in `refined_ladder` and
+//! `refined_window`), 30 min 45 s and 30 min 46 s wall, 3431 and 3435 CPU-s; per stage
+//! refined_deep_hexagonal 317 → 287 CPU-s (−9 %), every other stage within ±5 % (noise; the
+//! square and triangular deep ladders reach 1e-5, where the rule gives 5e-11, and the early,
+//! far probes cost most). Every running exponent of the draft moved by ≤ 6e-6 with it. Not worth
+//! changing every refined result for.
+//!
 //! The floor: near p_c, dg_s/dδ ≈ 0.1 h0 (square model, affine regime), so a solver tolerance
 //! tol_gap resolves δ ≈ 10 tol_gap: 1e-12 at tol_gap 1e-13, 5e-11 at 5e-12. Below that the
 //! open/closed answer itself is noise and the search ends by bisection (k = 5 at 5e-12: 21
@@ -1107,7 +1125,12 @@ fn at_rounding_floor(stats: &contact::SolveStats, tol_gap: f64) -> bool {
 
 /// The error of a probe whose solve did not converge; at the rounding floor it says so and
 /// names the key to raise.
-fn not_converged(load: f64, stats: &contact::SolveStats, tol_gap: f64) -> CriticalError {
+fn not_converged(
+    load: f64,
+    stats: &contact::SolveStats,
+    tol_gap: f64,
+    starts: &[&str],
+) -> CriticalError {
     let detail = if at_rounding_floor(stats, tol_gap) {
         format!(
             "not converged: {:?} after {} iterations with the violation {:.3e} within {FLOOR_FACTOR} × \
@@ -1121,11 +1144,41 @@ fn not_converged(load: f64, stats: &contact::SolveStats, tol_gap: f64) -> Critic
         )
     } else {
         format!(
-            "not converged (warm, continued and cold): {:?}, violation {:.3e} > tol_gap {:.1e}",
-            stats.reason, stats.max_violation, tol_gap
+            "not converged (started {}): {:?}, violation {:.3e} > tol_gap {:.1e}",
+            join_and(starts),
+            stats.reason,
+            stats.max_violation,
+            tol_gap
         )
     };
     CriticalError::Solver { load, detail }
+}
+
+/// "a", "a and b", "a, b and c".
+fn join_and(items: &[&str]) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.to_string(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    }
+}
+
+/// One solve of a p_c search ([`Refinement::critical_load_traced`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probe {
+    /// 0 for the warm-up solve below the bracket (the search's seed if it converged), then
+    /// 1, 2, … for the search's probes.
+    pub index: usize,
+    /// Load (E* h0/λ).
+    pub load: f64,
+    /// Gap at the refined saddle node (h0).
+    pub saddle_gap: f64,
+    /// Polonsky–Keer iterations of every attempt.
+    pub iterations: usize,
+    /// The last attempt converged.
+    pub converged: bool,
+    /// Wall time of the probe (s).
+    pub wall_s: f64,
 }
 
 /// A callback on every solve: (load, iterations, converged, max violation, wall s).
@@ -1149,6 +1202,8 @@ pub struct Refinement {
     pub iterations: usize,
     /// Called after every solve with (load, iterations, converged, max violation, wall s).
     pub on_solve: Option<SolveHook>,
+    /// The starts the last [`Refinement::solve`] tried, in order (for its error message).
+    last_starts: Vec<&'static str>,
 }
 
 impl Refinement {
@@ -1183,6 +1238,7 @@ impl Refinement {
             solves: 0,
             iterations: 0,
             on_solve: None,
+            last_starts: Vec::new(),
         })
     }
 
@@ -1199,7 +1255,8 @@ impl Refinement {
     pub fn solve(&mut self, load: f64) -> Result<(Refined, usize), CriticalError> {
         let mut iterations = 0;
         let mut last: Option<Refined> = None;
-        for attempt in 0..3 {
+        self.last_starts.clear();
+        for (attempt, name) in ["warm", "continued", "cold"].into_iter().enumerate() {
             let start = match attempt {
                 0 => self.warm.take(),
                 1 => last.take(),
@@ -1208,6 +1265,7 @@ impl Refinement {
             if attempt < 2 && start.is_none() {
                 continue;
             }
+            self.last_starts.push(name);
             let t = Instant::now();
             let r = self
                 .model
@@ -1324,28 +1382,62 @@ impl Refinement {
         guess: Option<f64>,
         width: f64,
     ) -> Result<ClosingLoad, CriticalError> {
+        self.critical_load_traced(guess, width, &mut |_| {})
+    }
+
+    /// [`Refinement::critical_load`], with `on_probe` seeing every solve of the search as it
+    /// ends (the warm-up solve as probe 0), before an unconverged one ends the search.
+    pub fn critical_load_traced(
+        &mut self,
+        guess: Option<f64>,
+        width: f64,
+        on_probe: &mut dyn FnMut(&Probe),
+    ) -> Result<ClosingLoad, CriticalError> {
         let opts = self.opts.clone();
         let (g, w) = match guess {
             Some(g) => (g, width),
             None => (0.5 * self.p_fc(), 0.45),
         };
+        // probe 0 is the warm-up solve of a fresh D
+        let fresh = self.warm.is_none();
+        let mut index = usize::from(!fresh);
+        let mut probe = |this: &mut Self, p: f64| {
+            let t = Instant::now();
+            let (r, iterations) = this.solve(p)?;
+            let saddle_gap = this.saddle_gap(&r);
+            on_probe(&Probe {
+                index,
+                load: p,
+                saddle_gap,
+                iterations,
+                converged: r.stats.converged,
+                wall_s: t.elapsed().as_secs_f64(),
+            });
+            index += 1;
+            Ok::<_, CriticalError>((r, saddle_gap))
+        };
         let mut seed = Vec::new();
-        if self.warm.is_none() {
+        if fresh {
             // a cold start right at p_c can stagnate (k = 4): start 1 % below it (an open probe
             // for the search if converged)
             let p0 = g * (1.0 - w.max(1e-2));
-            let (r, _) = self.solve(p0)?;
+            let (r, gap) = probe(self, p0)?;
             if r.stats.converged {
-                seed.push((p0, self.saddle_gap(&r)));
+                seed.push((p0, gap));
             }
         }
         find_closing_load_seeded(
             &mut |p| {
-                let (r, _) = self.solve(p)?;
+                let (r, gap) = probe(self, p)?;
                 if !r.stats.converged {
-                    return Err(not_converged(p, &r.stats, self.opts.tol_gap));
+                    return Err(not_converged(
+                        p,
+                        &r.stats,
+                        self.opts.tol_gap,
+                        &self.last_starts,
+                    ));
                 }
-                Ok(self.saddle_gap(&r))
+                Ok(gap)
             },
             g,
             w,
@@ -1915,4 +2007,49 @@ pub fn chained_ladder(
         }
     }
     out
+}
+
+/// [`chained_ladder`], or the links alone when they cannot join the uniform part across a gap
+/// and make the longer ladder: the chain reached no link (its note is about the first one),
+/// its uniform part ends above the first link's first usable rung, and the links alone from
+/// that rung ([`chained_ladder`] without a uniform part) have more rungs. The note then says
+/// what was dropped. (The hexagonal β of `params/deep.toml`: its uniform flux is usable at
+/// 5e-2 → 2e-2 only, the deep ladder starts at 5e-3; the two parts have no common rung to be
+/// rescaled at, and the deeper, longer one carries more of the asymptotics.)
+pub fn longest_chained_ladder(
+    uniform: &[ScalingPoint],
+    uniform_pairs: &[LadderPair],
+    links: &[Link<'_>],
+) -> CombinedLadder {
+    let c = chained_ladder(uniform, uniform_pairs, links);
+    let first = links.iter().position(|l| !l.points.is_empty());
+    let Some(end) = c.points.last() else {
+        return c;
+    };
+    // a link joined, there is none, or the chain ended at a later one: nothing to choose
+    if c.junction.is_some() || first.is_none() || c.note_link != first {
+        return c;
+    }
+    let mut alone = chained_ladder(&[], &[], links);
+    let deeper = alone
+        .points
+        .first()
+        .is_some_and(|p| p.l.abs() < end.l.abs());
+    if !deeper || alone.points.len() <= c.points.len() {
+        return c;
+    }
+    let why = format!(
+        "{}; the uniform ladder ends there ({} rungs), above the refined ladder's first usable \
+         rung l = {:e}: the refined ladder alone ({} rungs)",
+        c.note.as_deref().unwrap_or_default(),
+        c.points.len(),
+        alone.points[0].l,
+        alone.points.len()
+    );
+    alone.note = Some(match alone.note.take() {
+        Some(n) => format!("{why}; {n}"),
+        None => why,
+    });
+    alone.note_link = alone.note_link.or(first);
+    alone
 }

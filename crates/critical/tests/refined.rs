@@ -8,7 +8,7 @@ use critical::ladder::extract_window;
 use critical::refined::{
     Discretisation, LadderPair, Link, Measured, PairFlag, RefinedOptions, RefinedRung, Refinement,
     RungFlag, Search, Source, chained_ladder, combined_ladder, find_closing_load,
-    periodic_closing_load, running_exponent, running_zeta,
+    longest_chained_ladder, periodic_closing_load, running_exponent, running_zeta,
 };
 use critical::scaling::{EdgeOptions, blocked_half_length, open_half_width};
 use surface::{Lattice, Surface};
@@ -189,6 +189,49 @@ fn a_solve_at_the_rounding_floor_is_not_retried() {
     let (s1, _) = r.solve(p(&r) * 1.05).unwrap();
     assert!(!s1.stats.converged && s1.stats.max_violation > 100.0 * capped.tol_gap);
     assert_eq!(r.solves, 4, "warm, continued and cold");
+    // a p_c search there: the warm-up solve (cold, unconverged: no seed), then one probe with
+    // its three starts, which the error names
+    let mut r = Refinement::new(d(5, 8, 5), &capped).unwrap();
+    let mut seen = Vec::new();
+    let e = r
+        .critical_load_traced(Some(0.2 * r.p_fc()), 1e-2, &mut |p| seen.push(*p))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("started warm, continued and cold"), "{e}");
+    assert_eq!(seen.iter().map(|p| p.index).collect::<Vec<_>>(), [0, 1]);
+    assert!(seen.iter().all(|p| !p.converged));
+    assert_eq!(seen[1].iterations, 9, "three capped attempts");
+}
+
+/// `critical_load_traced` shows every solve of the search: the warm-up solve as probe 0, then
+/// the search's probes in order; the bracket's ends are probes, open below and closed above,
+/// and the search returns what `critical_load` returns.
+#[test]
+fn the_traced_search_sees_every_probe() {
+    let opts = RefinedOptions {
+        rel_tol: 1e-6,
+        ..Default::default()
+    };
+    let mut r = Refinement::new(d(5, 8, 5), &opts).unwrap();
+    let guess = 0.2286 * r.p_fc();
+    let mut seen = Vec::new();
+    let c = r
+        .critical_load_traced(Some(guess), 1e-2, &mut |p| seen.push(*p))
+        .unwrap();
+    let plain = Refinement::new(d(5, 8, 5), &opts)
+        .unwrap()
+        .critical_load(Some(guess), 1e-2)
+        .unwrap();
+    assert_eq!(c, plain);
+    assert_eq!(seen.len(), c.probes + 1);
+    assert!(
+        seen.iter()
+            .enumerate()
+            .all(|(i, p)| p.index == i && p.converged)
+    );
+    let at = |load: f64| seen.iter().find(|p| p.load == load).expect("a probe");
+    assert!(at(c.lo).saddle_gap > 0.0 && at(c.hi).saddle_gap <= 0.0);
+    assert!(r.solves >= seen.len());
 }
 
 /// A contact line grazing the window's edge is not a window too small: the triangular model on
@@ -337,6 +380,13 @@ fn corrected(a: f64, l: f64) -> f64 {
     a * l.abs().powf(1.2) * (1.0 + 0.8 * l.abs().sqrt())
 }
 
+/// Points of the corrected law at the reduced loads −|l| for every |l| of `ls` (exact, σ 0).
+fn law(a: f64, ls: &[f64]) -> Vec<ScalingPoint> {
+    ls.iter()
+        .map(|&x| ScalingPoint::new(-x, corrected(a, -x), 0.0))
+        .collect()
+}
+
 fn pairs(ls: &[f64], usable: impl Fn(usize) -> bool) -> Vec<LadderPair> {
     ls.windows(2)
         .enumerate()
@@ -422,6 +472,48 @@ fn link<'a>(points: &'a [ScalingPoint], pairs: &'a [LadderPair]) -> Link<'a> {
     Link { points, pairs }
 }
 
+/// Across a gap (the uniform ladder usable at 5e-2 → 2e-2 only, the deep one from 5e-3: the
+/// hexagonal β of `params/deep.toml`) the deep ladder alone is the longer ladder and is taken,
+/// with a note saying what was dropped; a deep ladder no longer than the uniform part alone, or a
+/// chain that joins, is `chained_ladder`'s exactly.
+#[test]
+fn longest_chained_ladder_takes_the_deep_ladder_alone_across_a_gap() {
+    // the uniform ladder usable at its first pair only (5e-2 → 2e-2), the deep one from 5e-3
+    let uniform = law(0.3, &LS);
+    let up = pairs(&LS, |k| k == 0);
+    let dls = &LS[3..];
+    let deep = law(0.2994, dls);
+    let dp = pairs(dls, |_| true);
+    let chain = chained_ladder(&uniform, &up, &[link(&deep, &dp)]);
+    assert_eq!(chain.points.len(), 2);
+    let c = longest_chained_ladder(&uniform, &up, &[link(&deep, &dp)]);
+    assert_eq!(c.points.len(), dls.len());
+    assert_eq!(c.points[0].l, -5e-3);
+    // the deep ladder's own values (scale 1)
+    assert_eq!(c.points, deep);
+    assert!(c.sources.iter().all(|s| *s == Source::Refined));
+    let note = c.note.as_deref().unwrap();
+    assert!(
+        note.contains("no rung at the junction l = -2e-2")
+            && note.contains("the uniform ladder ends there (2 rungs)")
+            && note.contains("the refined ladder alone (9 rungs)"),
+        "{note}"
+    );
+    assert_eq!(c.note_link, Some(0));
+    // the deep ladder flagged at its second pair: alone it has two rungs, no more than the
+    // uniform part, which stays
+    let dp1 = pairs(dls, |k| k == 0);
+    let c1 = longest_chained_ladder(&uniform, &up, &[link(&deep, &dp1)]);
+    assert_eq!(c1, chained_ladder(&uniform, &up, &[link(&deep, &dp1)]));
+    // a chain that joins is never replaced
+    let up_all = pairs(&LS, |k| k <= 5);
+    let joined = chained_ladder(&uniform, &up_all, &[link(&deep, &dp)]);
+    assert_eq!(
+        longest_chained_ladder(&uniform, &up_all, &[link(&deep, &dp)]),
+        joined
+    );
+}
+
 /// A chain uniform → refined → deep: the uniform ladder usable down to 5e-4, a refined one
 /// (prefactor +0.2 %) from 2e-3 whose pairs are flagged below 1e-4 (its grid error grows), and
 /// a deep one (prefactor −0.2 %, another discretisation) from 1e-3 whose window check flags its
@@ -431,11 +523,6 @@ fn link<'a>(points: &'a [ScalingPoint], pairs: &'a [LadderPair]) -> Link<'a> {
 /// chain at 1e-4 with a note naming the link; an empty link is left out.
 #[test]
 fn chained_ladder_continues_link_by_link_and_stops_at_a_gap_or_a_flagged_junction() {
-    let law = |a: f64, ls: &[f64]| -> Vec<ScalingPoint> {
-        ls.iter()
-            .map(|&x| ScalingPoint::new(-x, corrected(a, -x), 0.0))
-            .collect()
-    };
     let uniform = law(0.3, &LS);
     let up = pairs(&LS, |k| k <= 5);
     // refined: 2e-3 … 1e-5, pairs 0 … 3 (2e-3→1e-3 … 2e-4→1e-4) usable

@@ -27,7 +27,7 @@
 //! ladder is continuous (the local slopes are the refined ones). Without a refined ladder, or
 //! when it has no usable pair at the junction, this is the uniform estimate exactly, except
 //! across a gap (the uniform part ends above the refined ladder's first usable rung) where the
-//! refined chain alone is longer: then that chain alone ([`across_a_gap`]; the hexagonal β of
+//! refined chain alone is longer: then that chain alone (`critical::refined::longest_chained_ladder`; the hexagonal β of
 //! the deep preset, whose uniform flux is usable at 5e-2 → 2e-2 only: the two parts have no
 //! common rung to be rescaled at, and the deeper, longer one carries more of the asymptotics).
 //! The uniform-only estimate is kept beside it (`uniform_asymptotic_*` in `exponents.csv`) so that
@@ -103,7 +103,7 @@ use crate::refined_chain::{Depth, Linked};
 use crate::refined_neck::{self, NeckLadder, NeckMeasure};
 use analysis::{AsymptoticEstimate, AsymptoticOptions, Estimate, ScalingPoint};
 use critical::ladder::Rung;
-use critical::refined::{CombinedLadder, LadderPair, Link, Measured, Source, chained_ladder};
+use critical::refined::{LadderPair, Link, Measured, Source, longest_chained_ladder};
 use critical::running::{
     Exponent as Which, MeasureOptions, Resolution, asymptotic, measure, running_records,
 };
@@ -387,45 +387,6 @@ pub fn estimate_combined(
     chain_estimate(&upoints, &upairs, &depths, &data)
 }
 
-/// The chain `c` (of a uniform part and `links`), or the links alone when they cannot join
-/// the uniform part across a gap and make the longer ladder (module docs, "The combined
-/// ladder"): `c` reached no link (its note is about the first one), its uniform part ends
-/// above the first link's first usable rung, and the links alone from that rung
-/// (`chained_ladder` without a uniform part) have more rungs. The note then says what was
-/// dropped.
-fn across_a_gap(c: CombinedLadder, links: &[Link<'_>]) -> CombinedLadder {
-    let first = links.iter().position(|l| !l.points.is_empty());
-    let Some(end) = c.points.last() else {
-        return c;
-    };
-    // a link joined, there is none, or the chain ended at a later one: nothing to choose
-    if c.junction.is_some() || first.is_none() || c.note_link != first {
-        return c;
-    }
-    let mut alone = chained_ladder(&[], &[], links);
-    let deeper = alone
-        .points
-        .first()
-        .is_some_and(|p| p.l.abs() < end.l.abs());
-    if !deeper || alone.points.len() <= c.points.len() {
-        return c;
-    }
-    let why = format!(
-        "{}; the uniform ladder ends there ({} rungs), above the refined ladder's first usable \
-         rung l = {:e}: the refined ladder alone ({} rungs)",
-        c.note.as_deref().unwrap_or_default(),
-        c.points.len(),
-        alone.points[0].l,
-        alone.points.len()
-    );
-    alone.note = Some(match alone.note.take() {
-        Some(n) => format!("{why}; {n}"),
-        None => why,
-    });
-    alone.note_link = alone.note_link.or(first);
-    alone
-}
-
 /// The estimate on the chained ladder of `upoints`/`upairs` (the uniform part; empty: none) and
 /// the links `data` (points and pairs, from the inputs `depths`), and what was used
 /// ([`estimate_combined`], [`estimate_neck`]).
@@ -439,7 +400,7 @@ fn chain_estimate(
         .iter()
         .map(|(points, pairs)| Link { points, pairs })
         .collect();
-    let c = across_a_gap(chained_ladder(upoints, upairs, &links), &links);
+    let c = longest_chained_ladder(upoints, upairs, &links);
     let nref = c.sources.iter().filter(|s| **s == Source::Refined).count();
     let name = |i: usize| depths[i].name();
     let mut method = match c.junctions.first() {
