@@ -1123,14 +1123,11 @@ fn at_rounding_floor(stats: &contact::SolveStats, tol_gap: f64) -> bool {
         && stats.max_violation <= FLOOR_FACTOR * tol_gap
 }
 
-/// The error of a probe whose solve did not converge; at the rounding floor it says so and
-/// names the key to raise.
-fn not_converged(
-    load: f64,
-    stats: &contact::SolveStats,
-    tol_gap: f64,
-    starts: &[&str],
-) -> CriticalError {
+/// The error of a probe of the p_c search whose solve did not converge; at the rounding floor it
+/// says so and names the key to raise. Otherwise [`Refinement::solve`] tried every start: each
+/// probe of the search follows a solve of the same D (the warm-up solve or an earlier probe),
+/// so it starts warm, and only an attempt at the floor ends the retries early.
+fn not_converged(load: f64, stats: &contact::SolveStats, tol_gap: f64) -> CriticalError {
     let detail = if at_rounding_floor(stats, tol_gap) {
         format!(
             "not converged: {:?} after {} iterations with the violation {:.3e} within {FLOOR_FACTOR} × \
@@ -1144,23 +1141,11 @@ fn not_converged(
         )
     } else {
         format!(
-            "not converged (started {}): {:?}, violation {:.3e} > tol_gap {:.1e}",
-            join_and(starts),
-            stats.reason,
-            stats.max_violation,
-            tol_gap
+            "not converged (started warm, continued and cold): {:?}, violation {:.3e} > tol_gap {:.1e}",
+            stats.reason, stats.max_violation, tol_gap
         )
     };
     CriticalError::Solver { load, detail }
-}
-
-/// "a", "a and b", "a, b and c".
-fn join_and(items: &[&str]) -> String {
-    match items {
-        [] => String::new(),
-        [one] => one.to_string(),
-        [init @ .., last] => format!("{} and {last}", init.join(", ")),
-    }
 }
 
 /// One solve of a p_c search ([`Refinement::critical_load_traced`]).
@@ -1202,8 +1187,6 @@ pub struct Refinement {
     pub iterations: usize,
     /// Called after every solve with (load, iterations, converged, max violation, wall s).
     pub on_solve: Option<SolveHook>,
-    /// The starts the last [`Refinement::solve`] tried, in order (for its error message).
-    last_starts: Vec<&'static str>,
 }
 
 impl Refinement {
@@ -1238,7 +1221,6 @@ impl Refinement {
             solves: 0,
             iterations: 0,
             on_solve: None,
-            last_starts: Vec::new(),
         })
     }
 
@@ -1255,8 +1237,7 @@ impl Refinement {
     pub fn solve(&mut self, load: f64) -> Result<(Refined, usize), CriticalError> {
         let mut iterations = 0;
         let mut last: Option<Refined> = None;
-        self.last_starts.clear();
-        for (attempt, name) in ["warm", "continued", "cold"].into_iter().enumerate() {
+        for attempt in 0..3 {
             let start = match attempt {
                 0 => self.warm.take(),
                 1 => last.take(),
@@ -1265,7 +1246,6 @@ impl Refinement {
             if attempt < 2 && start.is_none() {
                 continue;
             }
-            self.last_starts.push(name);
             let t = Instant::now();
             let r = self
                 .model
@@ -1430,12 +1410,7 @@ impl Refinement {
             &mut |p| {
                 let (r, gap) = probe(self, p)?;
                 if !r.stats.converged {
-                    return Err(not_converged(
-                        p,
-                        &r.stats,
-                        self.opts.tol_gap,
-                        &self.last_starts,
-                    ));
+                    return Err(not_converged(p, &r.stats, self.opts.tol_gap));
                 }
                 Ok(gap)
             },
