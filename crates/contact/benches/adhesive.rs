@@ -314,7 +314,10 @@ fn main() {
         }
         if candidates.contains(&e) {
             for beta in [Beta::FletcherReeves, Beta::SteepestDescent, Beta::Lbfgs] {
-                methods.push(Box::new(NonlinearCg { beta }));
+                methods.push(Box::new(NonlinearCg {
+                    beta,
+                    ..NonlinearCg::default()
+                }));
             }
         }
         for (k, m) in methods.iter().enumerate() {

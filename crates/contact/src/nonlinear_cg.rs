@@ -72,6 +72,34 @@
 //! state a cold start reaches is not defined by the physics. From warm starts (paths) the two
 //! agree (tests/nonlinear_cg.rs).
 //!
+//! Nested cold start (session #22). Where a cold adhesive solve's iterations go (above): about
+//! half release the contact that the first long steps overshoot, the rest is the linear rate.
+//! On grids of at least [`NESTED_MIN_NODES`] nodes (256² and up) a cold adhesive solve
+//! therefore first solves the grid of every other node (heights injected: for the lattice
+//! models exactly the coarser grid's own samples) to a force residual of [`NESTED_TOL`], from
+//! its own cold start and itself nested down to 128², interpolates that surface bilinearly and
+//! continues from it on the fine grid without the branch safeguard, as from a cold start (there
+//! is no branch to keep yet). Only where the coarse grid still resolves the cohesive zone
+//! ([`crate::Model::resolves_cohesive_zone`]; otherwise it could sit on another branch than the
+//! fine grid's) and converges; otherwise the fine grid starts cold as before. `iterations` in
+//! the statistics counts the iterations of every grid (a coarse one costs a quarter of the next
+//! finer one's). Measured (`ADHESIVE_NS=8,9,10 ADHESIVE_FIRE= ADHESIVE_PRESSURE=… cargo bench
+//! -p contact --bench adhesive`, the before- and after-binaries alternately, one thread, on a
+//! machine with one core busy; CPU s of the cold solve to 1e-10, iterations as counted):
+//!
+//! | p̄     | 256²                           | 512²                           | 1024²                          |
+//! |-------|--------------------------------|--------------------------------|--------------------------------|
+//! | 0     | 0.115 → 0.085 (55 → 30 + 27)   | 0.495 → 0.413 (49 → 41 + 37)   | 3.46 → 1.93 (53 → 57 + 31)     |
+//! | 0.84  | 0.112 → 0.119 (42 → 26 + 36)   | 0.572 → 0.456 (44 → 42 + 39)   |                                |
+//! | 1.47  | 0.110 → 0.071 (50 → 22 + 21)   | 0.588 → 0.320 (59 → 32 + 27)   | 3.43 → 1.88 (67 → 44 + 32)     |
+//!
+//! (coarse + finest grid's iterations after the arrow). Every state the same (contact set and
+//! mean gap to 2e-12; tests/nonlinear_cg.rs checks it on 256²). The finest grid still takes
+//! 21–39 iterations from the interpolated start: the release phase is gone, the linear rate
+//! (about three iterations per decade of residual, ten decades) is what is left; a coarse
+//! tolerance of 1e-6 or 1e-9 instead of 1e-4 leaves it unchanged (256², 512²: 21–27 fine
+//! iterations at 1e-9). Nesting from 64² instead of 128² saves nothing more.
+//!
 //! Candidates measured against each other (`ADHESIVE_CANDIDATES=8,9 cargo bench -p contact
 //! --bench adhesive`: square model, γ0 = 0.2, ρ = 0.04, zero load, residual ≤ 1e-10;
 //! iterations cold / warm (one 0.01 p_fc step), CPU s of the cold solve):
@@ -153,6 +181,16 @@ pub enum Beta {
     Lbfgs,
 }
 
+/// Grids of at least this many nodes start a cold adhesive solve from the solution on the grid
+/// of every other node ([`NonlinearCg`]'s nested start; 256² and up, so 128² is the coarsest
+/// grid solved from a uniform start). Measured (module docs), CPU of the cold solve plain /
+/// nested: 0.94–1.55 on 256², 1.21–1.84 on 512², 1.79–1.82 on 1024².
+pub const NESTED_MIN_NODES: usize = 1 << 16;
+/// Force residual (E* h0/λ) to which the coarser grids of a nested start are solved (the fine
+/// solve's own tolerance where that is looser). Measured on 256²–1024²: 1e-6 and 1e-9 take the
+/// fine grid as many iterations as 1e-4, at more coarse iterations.
+pub const NESTED_TOL: f64 = 1e-4;
+
 /// Step pairs an L-BFGS direction remembers.
 pub const LBFGS_MEMORY: usize = 5;
 
@@ -161,12 +199,16 @@ pub const LBFGS_MEMORY: usize = 5;
 pub struct NonlinearCg {
     /// Conjugacy formula.
     pub beta: Beta,
+    /// Cold adhesive solves on grids of at least this many nodes start from the solution on
+    /// the grid of every other node ([`NESTED_MIN_NODES`] by default; `usize::MAX`: never).
+    pub nested_min_nodes: usize,
 }
 
 impl Default for NonlinearCg {
     fn default() -> Self {
         NonlinearCg {
             beta: Beta::PolakRibiere,
+            nested_min_nodes: NESTED_MIN_NODES,
         }
     }
 }
@@ -675,6 +717,73 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl NonlinearCg {
+    /// The nested cold start: on a grid of at least `nested_min_nodes` nodes whose sides
+    /// halve to even ones, the same problem on the grid of every other node (the heights
+    /// injected, the same cell, the cohesive zone still resolved, see
+    /// [`Model::resolves_cohesive_zone`]) is solved from its own cold start to [`NESTED_TOL`]
+    /// (itself nested where it is large enough), and its surface, interpolated bilinearly,
+    /// replaces the uniform start `u`. Returns the iterations of all coarser grids, or `None`
+    /// (and `u` untouched) where the grid is too small or odd or the coarse solve fails or does
+    /// not converge: the fine solve then starts cold as before.
+    fn nested_start(
+        &self,
+        model: &Model,
+        interaction: Interaction,
+        pressure: f64,
+        opts: &SolverOptions,
+        u: &mut [f64],
+    ) -> Option<usize> {
+        let g = *model.grid();
+        let (nx, ny) = (g.nx, g.ny);
+        if nx * ny < self.nested_min_nodes || nx % 4 != 0 || ny % 4 != 0 {
+            return None;
+        }
+        let (cx, cy) = (nx / 2, ny / 2);
+        let h = model.heights();
+        let coarse_heights =
+            ndarray::Array2::from_shape_fn((cx, cy), |(i, j)| h[2 * i * ny + 2 * j]);
+        let grid = crate::Grid {
+            nx: cx,
+            ny: cy,
+            shift: (0.5 * g.shift.0, 0.5 * g.shift.1),
+            ..g
+        };
+        let mut coarse = Model::from_heights(grid, coarse_heights.view()).ok()?;
+        if !coarse.resolves_cohesive_zone(interaction) {
+            return None;
+        }
+        let coarse_opts = SolverOptions {
+            tol_force: NESTED_TOL.max(opts.tol_force),
+            trace: false,
+            ..opts.clone()
+        };
+        let mut state = coarse.cold_start(interaction, pressure);
+        let stats = self
+            .relax(&mut coarse, interaction, pressure, &coarse_opts, &mut state)
+            .ok()?;
+        if !stats.converged {
+            return None;
+        }
+        let c = &state.u;
+        for i in 0..cx {
+            let i1 = (i + 1) % cx;
+            for j in 0..cy {
+                let j1 = (j + 1) % cy;
+                let (a, b, d, e) = (
+                    c[i * cy + j],
+                    c[i1 * cy + j],
+                    c[i * cy + j1],
+                    c[i1 * cy + j1],
+                );
+                u[2 * i * ny + 2 * j] = a;
+                u[(2 * i + 1) * ny + 2 * j] = 0.5 * (a + b);
+                u[2 * i * ny + 2 * j + 1] = 0.5 * (a + d);
+                u[(2 * i + 1) * ny + 2 * j + 1] = 0.25 * (a + b + d + e);
+            }
+        }
+        Some(stats.iterations)
+    }
+
     /// d = −z + β d_old on the free nodes; returns ⟨d, r⟩ (< 0 for a descent direction).
     fn direction(&self, w: &mut Work, u: &[f64], h: &[f64]) -> f64 {
         let n = u.len();
@@ -898,6 +1007,16 @@ impl Minimizer for NonlinearCg {
         opts: &SolverOptions,
         state: &mut State,
     ) -> Result<SolveStats, ContactError> {
+        // a uniform surface is the cold start of Model::solve (no branch to follow yet); under
+        // repulsion the safeguard saves iterations there too (128², p̄ = 0.1, 0.3 p_fc: 95, 138
+        // with it, 135, 222 without), so only adhesion drops it
+        let cold = state.u.iter().all(|&x| x == state.u[0])
+            && matches!(interaction, Interaction::Adhesion { .. });
+        let coarse_iterations = if cold {
+            self.nested_start(model, interaction, pressure, opts, &mut state.u)
+        } else {
+            None
+        };
         let Model {
             heights: h, kernel, ..
         } = model;
@@ -910,10 +1029,6 @@ impl Minimizer for NonlinearCg {
         for (ui, hi) in u.iter_mut().zip(h.iter()) {
             *ui = ui.max(*hi);
         }
-        // a uniform surface is the cold start of Model::solve (no branch to follow yet); under
-        // repulsion the safeguard saves iterations there too (128², p̄ = 0.1, 0.3 p_fc: 95, 138
-        // with it, 135, 222 without), so only adhesion drops it
-        let cold = u.iter().all(|&x| x == u[0]);
         let mut w = Work {
             sigma: vec![0.0; n],
             r: vec![0.0; n],
@@ -928,7 +1043,7 @@ impl Minimizer for NonlinearCg {
             energy: (0.0, 0.0),
             history: std::collections::VecDeque::new(),
             clipped: false,
-            guard_range: !(cold && matches!(interaction, Interaction::Adhesion { .. })),
+            guard_range: !cold,
             hits: vec![0.0; n],
             local: vec![(0.0, 0.0); n],
             evaluated: None,
@@ -937,8 +1052,13 @@ impl Minimizer for NonlinearCg {
         // uniform cold start): no transform. It is recomputed before convergence is accepted
         // (stale > 0), so a warm start that breaks the contract costs iterations, not accuracy.
         let mean_p = p.iter().sum::<f64>() / n as f64;
-        for (s, pi) in w.sigma.iter_mut().zip(p.iter()) {
-            *s = pi - mean_p;
+        if coarse_iterations.is_some() {
+            // the prolonged start comes without its stress
+            kernel.stress(u, &mut w.sigma);
+        } else {
+            for (s, pi) in w.sigma.iter_mut().zip(p.iter()) {
+                *s = pi - mean_p;
+            }
         }
         w.stale = 1;
         w.energy = crate::fire::energy(u, &w.sigma, h, interaction, pressure);
@@ -1012,6 +1132,7 @@ impl Minimizer for NonlinearCg {
         for i in 0..n {
             p[i] = w.sigma[i] + pressure;
         }
+        stats.iterations += coarse_iterations.unwrap_or(0);
         Ok(stats)
     }
 }
@@ -1044,6 +1165,83 @@ mod tests {
 
     fn ray(nodes: &RayNodes, a: f64, b: f64) -> Ray<'_> {
         ray_with(Law::new(ADHESION), nodes, a, b)
+    }
+
+    /// The nested start solves the grid of every other node (the heights injected) and
+    /// interpolates its surface: at the shared nodes it is that solution, at the others the
+    /// mean of their neighbours; where the grid is too small, its sides do not halve to even
+    /// ones or the coarse grid does not resolve the cohesive zone, it leaves the start alone.
+    #[test]
+    fn nested_start_interpolates_the_coarse_solution_and_knows_when_not_to() {
+        use crate::{Grid, Lattice, Surface};
+        let opts = SolverOptions {
+            tol_force: 1e-10,
+            ..SolverOptions::default()
+        };
+        let ncg = NonlinearCg {
+            nested_min_nodes: 1 << 14,
+            ..NonlinearCg::default()
+        };
+        let fine = Model::new(&Surface::new(Lattice::Square, 7).unwrap()).unwrap();
+        let coarse_surface = Surface::new(Lattice::Square, 6).unwrap();
+        // the injected heights are the coarse grid's own samples of the surface
+        for i in 0..64 {
+            for j in 0..64 {
+                let (a, b) = (
+                    fine.heights()[2 * i * 128 + 2 * j],
+                    coarse_surface.heights[[i, j]],
+                );
+                assert!((a - b).abs() <= 1e-12, "{i} {j}: {a} {b}");
+            }
+        }
+        // ρ = 0.12: the cohesive zone ρ²E*/γ0 = 0.072 λ spans 4.6 spacings of 64²
+        let wide = Interaction::Adhesion {
+            gamma0: 0.2,
+            rho: 0.12,
+        };
+        let mut coarse = Model::new(&coarse_surface).unwrap();
+        let reference = coarse
+            .solve_with(
+                &NonlinearCg::default(),
+                wide,
+                0.5,
+                &SolverOptions {
+                    tol_force: NESTED_TOL,
+                    ..opts.clone()
+                },
+                None,
+            )
+            .unwrap();
+        let mut u = vec![7.0; 128 * 128];
+        let its = ncg.nested_start(&fine, wide, 0.5, &opts, &mut u);
+        assert_eq!(its, Some(reference.stats.iterations));
+        let c = reference.displacement;
+        for i in 0..64 {
+            for j in 0..64 {
+                let (i1, j1) = ((i + 1) % 64, (j + 1) % 64);
+                assert_eq!(u[2 * i * 128 + 2 * j], c[[i, j]]);
+                assert_eq!(u[(2 * i + 1) * 128 + 2 * j], 0.5 * (c[[i, j]] + c[[i1, j]]));
+                assert_eq!(u[2 * i * 128 + 2 * j + 1], 0.5 * (c[[i, j]] + c[[i, j1]]));
+                let mean = 0.25 * (c[[i, j]] + c[[i1, j]] + c[[i, j1]] + c[[i1, j1]]);
+                assert_eq!(u[(2 * i + 1) * 128 + 2 * j + 1], mean);
+            }
+        }
+        // not nested: too small a grid; ρ = 0.04 on 64² (zone 0.008 λ, half a spacing); sides
+        // that halve to odd ones (2·(2k + 1))
+        let untouched = |model: &Model, inter: Interaction, min: usize| {
+            let mut u = vec![7.0; model.heights().len()];
+            let ncg = NonlinearCg {
+                nested_min_nodes: min,
+                ..NonlinearCg::default()
+            };
+            ncg.nested_start(model, inter, 0.5, &opts, &mut u).is_none()
+                && u.iter().all(|&x| x == 7.0)
+        };
+        assert!(untouched(&fine, wide, 1 << 15));
+        assert!(untouched(&fine, ADHESION, 1 << 14));
+        let g = Grid::periodic(98, 98, 1.0, 1.0).unwrap();
+        let odd = Model::from_heights(g, ndarray::Array2::zeros((98, 98)).view()).unwrap();
+        assert!(untouched(&odd, wide, 1));
     }
 
     /// Nodes (g, d) on a ray, γ(g) from the law.

@@ -425,3 +425,48 @@ fn cold_starts_reach_fires_state() {
         );
     }
 }
+
+/// The nested cold start (256²: from the solution on 128²) reaches the state of the plain cold
+/// start: the same contact nodes and mean gap to the tolerance, at the loads of the adhesive
+/// bench (zero, the coalescence region, near full contact).
+#[test]
+fn nested_cold_start_reaches_the_plain_cold_starts_state() {
+    use contact::nonlinear_cg::{NESTED_MIN_NODES, NonlinearCg};
+    let (s, mut model) = square(8);
+    assert!(s.grid.nx * s.grid.ny >= NESTED_MIN_NODES);
+    let nodes = (s.grid.nx * s.grid.ny) as f64;
+    let opts = SolverOptions {
+        tol_force: TOL_FORCE,
+        ..SolverOptions::default()
+    };
+    let adhesion = Interaction::Adhesion {
+        gamma0: 0.2,
+        rho: RHO,
+    };
+    let plain = NonlinearCg {
+        nested_min_nodes: usize::MAX,
+        ..NonlinearCg::default()
+    };
+    for p in [0.0, 0.53, 1.47] {
+        let a = model
+            .solve_with(&NonlinearCg::default(), adhesion, p, &opts, None)
+            .unwrap();
+        let b = model.solve_with(&plain, adhesion, p, &opts, None).unwrap();
+        assert!(a.stats.converged && b.stats.converged, "p̄ = {p}");
+        let contact =
+            |sol: &contact::Solution| -> Vec<bool> { sol.gap.iter().map(|&g| g == 0.0).collect() };
+        let differ = contact(&a)
+            .iter()
+            .zip(contact(&b))
+            .filter(|(x, y)| **x != *y)
+            .count();
+        // both stop at a force residual of 1e-10: the mean gaps agree to about that over the
+        // contact stiffness (rounding and the stopping point, not the start)
+        assert!(
+            differ == 0 && (a.mean_gap - b.mean_gap).abs() <= 1e-9,
+            "p̄ = {p}: {differ} contact nodes differ of {nodes}, mean gap {} vs {}",
+            a.mean_gap,
+            b.mean_gap
+        );
+    }
+}
