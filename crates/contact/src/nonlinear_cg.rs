@@ -1048,14 +1048,15 @@ impl Minimizer for NonlinearCg {
             local: vec![(0.0, 0.0); n],
             evaluated: None,
         };
-        // σ = K u is p − p̄ by the contract of every minimiser's final state (and of the
-        // uniform cold start): no transform. It is recomputed before convergence is accepted
-        // (stale > 0), so a warm start that breaks the contract costs iterations, not accuracy.
-        let mean_p = p.iter().sum::<f64>() / n as f64;
         if coarse_iterations.is_some() {
-            // the prolonged start comes without its stress
+            // the interpolated start of a nested solve comes without its stress
             kernel.stress(u, &mut w.sigma);
         } else {
+            // σ = K u is p − p̄ by the contract of every minimiser's final state (and of the
+            // uniform cold start): no transform. It is recomputed before convergence is accepted
+            // (stale > 0), so a warm start that breaks the contract costs iterations, not
+            // accuracy.
+            let mean_p = p.iter().sum::<f64>() / n as f64;
             for (s, pi) in w.sigma.iter_mut().zip(p.iter()) {
                 *s = pi - mean_p;
             }
