@@ -10,8 +10,10 @@
 //! window side, 16), `margin` (blockwise margin, 8; `none` = full composite operator),
 //! `one` (1: refine only the axis saddle instead, for comparison), `trim_along` (2),
 //! `trim_across` (1), `loads` (-1e-3,-5e-4,-2e-4,-1e-4), `uniform` (1: also the uniform
-//! reference), `tol_gap` (1e-13), `rel_width` (1e-9), `bracket` (half width of the p_c bracket
-//! around the base grid's p_c, relative, 1e-3).
+//! reference), `tol_gap` (1e-13; the triangular composite at k ≥ 3 stops at its rounding floor
+//! above it, ~9e-12: 2e-11 there), `rel_width` (1e-9), `bracket` (half width of the p_c bracket
+//! around the base grid's p_c, relative, 1e-3; ±2e-4 holds every p_c(D) measured on the 1024²
+//! base, docs/near-critical.md §7.2–7.3).
 use contact::refinement::{
     MultiOptions, Preconditioner, Refined, RefinedModel, Window, flow_saddles,
 };
@@ -204,7 +206,14 @@ fn main() {
         if !r.stats.converged {
             r = model.solve(p, None).expect("refined solve, cold");
         }
-        assert!(r.stats.converged, "refined at {p}: {:?}", r.stats);
+        assert!(
+            r.stats.converged,
+            "refined solve at p = {p} did not converge (warm, then cold): {:?} after {} iterations, \
+             largest violation {:.1e} against tol_gap {tol_gap:e}. Near p_c a composite can stop at \
+             its rounding floor above a tight tol_gap (the triangular k = 3 one at ~9e-12, \
+             docs/near-critical.md §7.3): rerun with a larger tol_gap=",
+            r.stats.reason, r.stats.iterations, r.stats.max_violation
+        );
         solves += 1;
         iterations += r.stats.iterations;
         solve_s += t.elapsed().as_secs_f64();
