@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""How much of the deep running ζ's (and β's) fall can a shift of the load origin absorb?
+"""How much of the deep running ζ's (and β's, υ's) change can a shift of the load origin absorb?
 (docs/near-critical.md §5t, issue 13.)
 
 Each ladder's reduced load is l = p/p_c(D) − 1, with p_c(D) the load at which the refined
@@ -66,6 +66,11 @@ LADDERS = {
         HEX,
         [3.33781, 3.33047, 3.32411, 3.31816, 3.31329],
     ),
+    # υ from the neck's rms width W_2: k = 5 as β above (§5n's level changes), k = 6 from the
+    # example's pair rows
+    "hexagonal υ k=5 w32 (§5n)": (HEX, [0.477644, 0.47890, 0.48002, 0.48176, 0.48329]),
+    "hexagonal υ k=6 w32 (§5n)": (HEX, [0.47757, 0.47877, 0.47968, 0.48092, 0.48244]),
+    "hexagonal υ k=6 w64 (§5t)": (HEX, [0.47762, 0.47871, 0.47951, 0.48050, 0.48153]),
 }
 
 
