@@ -22,6 +22,8 @@ change only.
 """
 import math
 
+from asymptote_check import lstsq  # this directory's linear least squares (plain Python)
+
 # the loads of the deep ladders: `params/deeper.toml` (square, triangular) and `params/deep.toml`
 # (hexagonal; its rungs from −5e-4 down)
 DEEPER = [5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6, 2e-6]
@@ -82,32 +84,27 @@ def rebuild(ls, zetas):
     return lng
 
 
-def line(x, y):
-    """Least-squares y = a + b x: (a, b, sum of squared residuals)."""
-    n = len(x)
-    mx, my = sum(x) / n, sum(y) / n
-    sxx = sum((u - mx) ** 2 for u in x)
-    b = sum((u - mx) * (v - my) for u, v in zip(x, y)) / sxx
-    a = my - b * mx
-    return a, b, sum((v - a - b * u) ** 2 for u, v in zip(x, y))
+def power_law(ls, lng, delta=0.0):
+    """(ζ, rms misfit) of ln g = ln A + ζ ln(|l| + δ) at a given origin shift δ."""
+    (_, z), rms = lstsq([[1.0] * len(ls), [math.log(l + delta) for l in ls]], lng)
+    return z, rms
 
 
 def fit(ls, lng, steps=40000):
-    """ζ and δ of ln g = ln A + ζ ln(|l| + δ), δ scanned over ±|l|_min / 2."""
-    best = None
+    """ζ, δ and rms misfit of ln g = ln A + ζ ln(|l| + δ), δ scanned over ±|l|_min / 2."""
     lmin = min(ls)
+    best = None
     for i in range(-steps, steps + 1):
         d = 0.5 * lmin * i / steps
-        a, z, s = line([math.log(l + d) for l in ls], lng)
-        if best is None or s < best[0]:
-            best = (s, d, z)
-    s, d, z = best
-    return z, d, math.sqrt(s / len(ls))
+        z, rms = power_law(ls, lng, d)
+        if best is None or rms < best[2]:
+            best = (z, d, rms)
+    return best
 
 
 def fixed(ls, lng):
     """ζ of the plain power law (δ = 0) over the same rungs."""
-    return line([math.log(l) for l in ls], lng)[1]
+    return power_law(ls, lng)[0]
 
 
 def selftest():
