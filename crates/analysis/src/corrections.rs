@@ -19,6 +19,16 @@
 //!   first order in B (the O(B²|l|^2ω) remainder is what makes this form differ from the direct
 //!   one). Its statistical error treats neighbouring slopes as independent although they share a
 //!   rung, so it is only indicative; its *value* enters the estimate through the form spread.
+//! - [`Form::Origin`] (only with [`AsymptoticOptions::origin`]): the direct form with the load
+//!   origin free, `ln y = ln A + x ln(|l| + δ) + ln(1 + B|l|^ω)`, ω held at the fixed ω, δ within
+//!   ±[`AsymptoticOptions::origin_bound`] of the window's smallest |l| (fitted as δ/|l|_min, so
+//!   that the solver sees a parameter of order one). It nests the direct fixed-ω fit (δ = 0), so
+//!   it can only fit better; what it measures is how far x moves when the power law's origin is
+//!   not taken to be exactly L_c. Why: a ladder's reduced load is measured from the closing load
+//!   of its own discretisation, and a shift of the origin by δ adds −x δ (1/|l_lo| − 1/|l_hi|)/
+//!   ln(l_hi/l_lo) to a running exponent: a drift growing as 1/|l| near L_c, which a correction
+//!   |l|^ω with ω > 0 cannot mimic (docs/near-critical.md §5t: the hexagonal window change at
+//!   k = 6 is such a shift, a few 1e-8 of L_c). Never the reference; its x enters the spread.
 //!
 //! # The asymptotic estimate ([`asymptotic_estimate`])
 //! Windows: the full ladder, then the ladder with its largest |l| dropped, then the two largest,
@@ -35,7 +45,10 @@
 //! `error = sqrt(σ_stat² + spread²)`, `spread = max |x_v − x_ref|` over all accepted fits v (the
 //! range spread and the form spread are also reported separately). The maximum rather than a
 //! standard deviation is deliberate: the variants are few and not independent, and a
-//! conservative bound is the honest choice. With one accepted fit the spread is not measured
+//! conservative bound is the honest choice. With [`AsymptoticOptions::origin`] each window also
+//! gets the origin fit (after the four, at the fixed ω); it is never the reference, its x enters
+//! `spread` (and `form_spread` on the reference's window), and its own largest change is
+//! reported as `origin_spread`. With one accepted fit the spread is not measured
 //! ([`AsymptoticEstimate::spread_measured`] false) and the error is the statistical one alone.
 //!
 //! Cost: per window 4 small fits (≤ 4 parameters, ≤ ~20 points): microseconds to milliseconds.
@@ -53,6 +66,8 @@ pub enum Form {
     Direct,
     /// `x_eff = x + ωB u_ω` fitted to the running exponents.
     Running,
+    /// `y = A(|l| + δ)^x (1 + B|l|^ω)`, ω held, fitted to the rungs (the load origin free).
+    Origin,
 }
 
 /// The correction exponent: fitted or held.
@@ -79,6 +94,11 @@ pub struct AsymptoticOptions {
     pub max_omega_rel_error: f64,
     /// Most rungs dropped from the large-|l| end (the loop also stops when too few remain).
     pub max_dropped: usize,
+    /// Also fit [`Form::Origin`] on every window (its x enters the spread). Default false.
+    pub origin: bool,
+    /// Largest |δ| of an origin fit, as a fraction of the window's smallest |l|; a fit that
+    /// ends at the bound is rejected ([`WindowIssue::OriginUnconstrained`]). Default 0.5.
+    pub origin_bound: f64,
 }
 
 impl Default for AsymptoticOptions {
@@ -90,6 +110,8 @@ impl Default for AsymptoticOptions {
             min_decades: 1.0,
             max_omega_rel_error: 0.5,
             max_dropped: usize::MAX,
+            origin: false,
+            origin_bound: 0.5,
         }
     }
 }
@@ -113,6 +135,12 @@ impl AsymptoticOptions {
             self.max_omega_rel_error,
             "finite and > 0",
             self.max_omega_rel_error > 0.0,
+        )?;
+        check_arg(
+            "origin_bound",
+            self.origin_bound,
+            "in (0, 1)",
+            self.origin_bound > 0.0 && self.origin_bound < 1.0,
         )
     }
 }
@@ -148,6 +176,12 @@ pub struct CorrectedFit {
     pub converged: bool,
     /// ω ended at one of its bounds.
     pub omega_at_bound: bool,
+    /// The load origin δ (in units of l; 0 for the forms that hold it at L_c).
+    pub origin: f64,
+    /// 1σ of δ (0 if held).
+    pub origin_error: f64,
+    /// δ ended at one of its bounds ([`AsymptoticOptions::origin_bound`]).
+    pub origin_at_bound: bool,
 }
 
 /// Why a fit does not constrain the asymptotic exponent.
@@ -176,6 +210,16 @@ pub enum WindowIssue {
         /// It ended at a bound.
         at_bound: bool,
     },
+    /// The load origin is not determined by the data (an origin fit whose δ ended at its bound
+    /// or has no finite error).
+    OriginUnconstrained {
+        /// Fitted δ.
+        delta: f64,
+        /// Its 1σ.
+        error: f64,
+        /// The bound (± this).
+        bound: f64,
+    },
     /// The fit did not converge or gave a non-finite error.
     NotConverged,
     /// The fit failed outright.
@@ -201,6 +245,14 @@ impl std::fmt::Display for WindowIssue {
                 f,
                 "ω unconstrained: ω = {omega:.3} ± {error:.3}{}",
                 if *at_bound { " (at a bound)" } else { "" }
+            ),
+            WindowIssue::OriginUnconstrained {
+                delta,
+                error,
+                bound,
+            } => write!(
+                f,
+                "load origin unconstrained: δ = {delta:.3e} ± {error:.3e} (bound ±{bound:.3e})"
             ),
             WindowIssue::NotConverged => write!(f, "fit not converged or error not finite"),
             WindowIssue::Failed(e) => write!(f, "fit failed: {e}"),
@@ -267,6 +319,22 @@ fn check_omega(omega: Omega, bounds: (f64, f64)) -> Result<()> {
     check_arg("omega_bounds", lo, "0 < lower < upper", lo > 0.0 && hi > lo)
 }
 
+/// The solver options of a four-parameter direct fit: ln A, x, B free, the fourth (ω, or the
+/// origin form's δ/|l|_min) as `fourth` says; absolute errors when weighted, else scaled by the
+/// misfit (module docs).
+fn direct_options(fourth: ParamSpec, name: &'static str, weighted: bool) -> NonlinearOptions {
+    NonlinearOptions {
+        params: vec![ParamSpec::FREE, ParamSpec::FREE, ParamSpec::FREE, fourth],
+        scale: if weighted {
+            ErrorScale::Absolute
+        } else {
+            ErrorScale::ReducedChi2
+        },
+        names: vec!["lnA", "x", "B", name],
+        ..Default::default()
+    }
+}
+
 /// Fits `y = A|l|^x (1 + B|l|^ω)` to the rungs (the direct form; module docs). Errors: invalid
 /// points (as [`crate::local_slopes`] says), fewer rungs than free parameters + 1, or a failed
 /// fit. Whether the fit constrains x is judged by [`asymptotic_estimate`], not here.
@@ -293,16 +361,7 @@ pub fn fit_corrected_power_law(
     } else {
         ParamSpec::FIXED
     };
-    let opts = NonlinearOptions {
-        params: vec![ParamSpec::FREE, ParamSpec::FREE, ParamSpec::FREE, spec_w],
-        scale: if sl.is_some() {
-            ErrorScale::Absolute
-        } else {
-            ErrorScale::ReducedChi2
-        },
-        names: vec!["lnA", "x", "B", "omega"],
-        ..Default::default()
-    };
+    let opts = direct_options(spec_w, "omega", sl.is_some());
     // ln(1 + B|l|^ω) is undefined for 1 + B|l|^ω ≤ 0: a large finite penalty keeps MPFIT away
     let model =
         |t: f64, q: &[f64]| q[0] + q[1] * t + (1.0 + q[2] * t.exp().powf(q[3])).max(1e-300).ln();
@@ -317,8 +376,18 @@ pub fn fit_corrected_power_law(
     let k = error_factor(&f, sl.is_some());
     let at_bound = free && (f.params[3] - bounds.0).min(bounds.1 - f.params[3]) < 1e-9;
     Ok(CorrectedFit {
-        form: Form::Direct,
         omega_free: free,
+        omega_at_bound: at_bound,
+        ..four_parameter_fit(Form::Direct, &f, k, &a)
+    })
+}
+
+/// A fit of [`direct_options`]' four parameters (ln A, x, B, ω) as a [`CorrectedFit`]: errors
+/// times `k`, ω not free and not at a bound, the origin at L_c; the callers adjust the rest.
+fn four_parameter_fit(form: Form, f: &FitResult, k: f64, a: &[f64]) -> CorrectedFit {
+    CorrectedFit {
+        form,
+        omega_free: false,
         x: f.params[1],
         x_error: k * f.errors[1],
         omega: f.params[3],
@@ -327,11 +396,14 @@ pub fn fit_corrected_power_law(
         amplitude_error: k * f.errors[2],
         points: a.len(),
         dof: f.dof,
-        l_range: l_range(&a),
+        l_range: l_range(a),
         reduced_chi2: f.reduced_chi2(),
         converged: f.status.converged,
-        omega_at_bound: at_bound,
-    })
+        omega_at_bound: false,
+        origin: 0.0,
+        origin_error: 0.0,
+        origin_at_bound: false,
+    }
 }
 
 fn l_range(a: &[f64]) -> (f64, f64) {
@@ -417,6 +489,64 @@ pub fn fit_running_exponent(
         reduced_chi2: f.reduced_chi2(),
         converged: f.status.converged,
         omega_at_bound: free && (w - bounds.0).min(bounds.1 - w) < 1e-9,
+        origin: 0.0,
+        origin_error: 0.0,
+        origin_at_bound: false,
+    })
+}
+
+/// Fits `y = A(|l| + δ)^x (1 + B|l|^ω)` with ω held at `omega` and |δ| ≤ `bound` · min|l| (the
+/// origin form; module docs). Starts from the direct fixed-ω fit's linearised solution at δ = 0.
+/// Errors as [`fit_corrected_power_law`], and `bound` outside (0, 1).
+pub fn fit_origin_power_law(
+    points: &[ScalingPoint],
+    omega: f64,
+    bound: f64,
+) -> Result<CorrectedFit> {
+    check_arg("omega (fixed)", omega, "finite and > 0", omega > 0.0)?;
+    check_arg(
+        "origin bound",
+        bound,
+        "in (0, 1)",
+        bound > 0.0 && bound < 1.0,
+    )?;
+    local_slopes(points)?; // validates the ladder
+    let (a, ly, sl) = log_data(points);
+    let (a_min, _) = l_range(&a);
+    let la: Vec<f64> = a.iter().map(|v| v.ln()).collect();
+    let col2 = |w: f64| a.iter().map(|v| v.powf(w)).collect::<Vec<f64>>();
+    let w = Omega::Fixed(omega);
+    let (_, _, p) =
+        profile(w, (omega, omega * 2.0), &la, &col2, &ly, sl.as_deref()).ok_or_else(|| {
+            FitError::Singular("the linearised corrected power law has no solution".into())
+        })?;
+    let spec_d = ParamSpec {
+        fixed: false,
+        lower: Some(-bound),
+        upper: Some(bound),
+    };
+    let opts = direct_options(spec_d, "delta/l_min", sl.is_some());
+    // q[3] = δ/|l|_min ∈ [−bound, bound] keeps |l| + δ ≥ (1 − bound)|l|_min > 0; the correction
+    // keeps the penalty of the direct form
+    let model = |v: f64, q: &[f64]| {
+        q[0] + q[1] * (v + q[3] * a_min).ln() + (1.0 + q[2] * v.powf(omega)).max(1e-300).ln()
+    };
+    let f = nonlinear_fit(
+        model,
+        &a,
+        &ly,
+        sl.as_deref(),
+        &[p[0], p[1], p[2], 0.0],
+        &opts,
+    )?;
+    let k = error_factor(&f, sl.is_some());
+    Ok(CorrectedFit {
+        omega,
+        omega_error: 0.0,
+        origin: f.params[3] * a_min,
+        origin_error: k * f.errors[3] * a_min,
+        origin_at_bound: bound - f.params[3].abs() < 1e-9,
+        ..four_parameter_fit(Form::Origin, &f, k, &a)
     })
 }
 
@@ -448,6 +578,9 @@ pub struct AsymptoticEstimate {
     pub range_spread: f64,
     /// The same over the accepted fits of other forms or ω modes on the widest window.
     pub form_spread: f64,
+    /// The same over the accepted origin fits, every window ([`Form::Origin`]; NaN if none was
+    /// accepted or [`AsymptoticOptions::origin`] is off). Part of `spread`.
+    pub origin_spread: f64,
     /// More than one fit was accepted (else `spread` = 0 is not a measurement).
     pub spread_measured: bool,
     /// ω of the fixed-ω fits.
@@ -523,6 +656,14 @@ fn judge(
     if !(f.converged && f.x_error.is_finite()) {
         return Err(WindowIssue::NotConverged);
     }
+    if f.form == Form::Origin && (f.origin_at_bound || !f.origin_error.is_finite()) {
+        let (a_min, _) = f.l_range;
+        return Err(WindowIssue::OriginUnconstrained {
+            delta: f.origin,
+            error: f.origin_error,
+            bound: opts.origin_bound * a_min,
+        });
+    }
     if f.omega_free
         && (f.omega_at_bound
             || !f.omega_error.is_finite()
@@ -537,8 +678,9 @@ fn judge(
     Ok(f)
 }
 
-/// One window: the four fits (direct/running × ω free/fixed), judged. `omega_fixed` None skips
-/// the fixed-ω fits (they are added once ω is known).
+/// One window: the four fits (direct/running × ω free/fixed) and, with [`AsymptoticOptions::origin`],
+/// the origin fit, judged. `omega_fixed` None skips the fixed-ω and origin fits (they are added
+/// once ω is known).
 fn fit_window(
     w: &[ScalingPoint],
     dropped: usize,
@@ -548,40 +690,48 @@ fn fit_window(
     let a: Vec<f64> = w.iter().map(|p| p.l.abs()).collect();
     let (lo, hi) = l_range(&a);
     let decades = (hi / lo).log10();
+    let fixed = omega_fixed.map(Omega::Fixed);
+    let mut fits = vec![
+        (Form::Direct, Some(Omega::Free)),
+        (Form::Direct, fixed),
+        (Form::Running, Some(Omega::Free)),
+        (Form::Running, fixed),
+    ];
+    if opts.origin {
+        fits.push((Form::Origin, fixed));
+    }
     let mut out = Vec::new();
-    for form in [Form::Direct, Form::Running] {
-        let modes = [Some(Omega::Free), omega_fixed.map(Omega::Fixed)];
-        for omega in modes.into_iter().flatten() {
-            let free = matches!(omega, Omega::Free);
-            // free parameters: direct ln A, x, B (+ ω); running x, ωB (+ ω)
-            let k = match form {
-                Form::Direct => 3,
-                Form::Running => 2,
-            } + usize::from(free);
-            let values = match form {
-                Form::Direct => w.len(),
-                Form::Running => w.len().saturating_sub(1),
+    for (form, omega) in fits {
+        let Some(omega) = omega else { continue };
+        let free = matches!(omega, Omega::Free);
+        // free parameters: direct ln A, x, B (+ ω); running x, ωB (+ ω); origin ln A, x, B, δ;
+        // the values fitted: the rungs, or for the running form the pairs
+        let (k, values) = match form {
+            Form::Direct => (3, w.len()),
+            Form::Running => (2, w.len().saturating_sub(1)),
+            Form::Origin => (4, w.len()),
+        };
+        let needed = k + usize::from(free) + opts.min_dof;
+        let outcome = if values < needed {
+            Err(WindowIssue::TooFewPoints {
+                got: values,
+                needed,
+            })
+        } else {
+            let r = match (form, omega) {
+                (Form::Direct, _) => fit_corrected_power_law(w, omega, opts.omega_bounds),
+                (Form::Running, _) => fit_running_exponent(w, omega, opts.omega_bounds),
+                (Form::Origin, Omega::Fixed(w0)) => fit_origin_power_law(w, w0, opts.origin_bound),
+                (Form::Origin, Omega::Free) => unreachable!("the origin form holds ω"),
             };
-            let needed = k + opts.min_dof;
-            let outcome = if values < needed {
-                Err(WindowIssue::TooFewPoints {
-                    got: values,
-                    needed,
-                })
-            } else {
-                let r = match form {
-                    Form::Direct => fit_corrected_power_law(w, omega, opts.omega_bounds),
-                    Form::Running => fit_running_exponent(w, omega, opts.omega_bounds),
-                };
-                judge(r, needed, decades, opts)
-            };
-            out.push(Variant {
-                dropped,
-                form,
-                omega_free: free,
-                outcome,
-            });
-        }
+            judge(r, needed, decades, opts)
+        };
+        out.push(Variant {
+            dropped,
+            form,
+            omega_free: free,
+            outcome,
+        });
     }
     out
 }
@@ -651,6 +801,14 @@ pub fn asymptotic_estimate(
     let range_spread =
         dev(&|v| v.form == r.form && v.omega_free == r.omega_free && v.dropped != r.dropped);
     let form_spread = dev(&|v| v.dropped == r.dropped);
+    let origin_spread = if variants
+        .iter()
+        .any(|v| v.form == Form::Origin && v.outcome.is_ok())
+    {
+        dev(&|v| v.form == Form::Origin)
+    } else {
+        f64::NAN
+    };
     let accepted = variants.iter().filter(|v| v.outcome.is_ok()).count();
     Ok(AsymptoticEstimate {
         value: rf.x,
@@ -659,6 +817,7 @@ pub fn asymptotic_estimate(
         spread,
         range_spread,
         form_spread,
+        origin_spread,
         spread_measured: accepted > 1,
         omega_fixed: omega_fixed.unwrap_or(f64::NAN),
         reference,
@@ -728,6 +887,133 @@ mod tests {
             );
             assert!(e.error >= e.spread && e.error >= e.stat_error);
         }
+    }
+
+    /// y = 0.7 (|l| + δ)^x (1 + B|l|^ω) on the default ladder (l < 0), noise-free.
+    fn shifted(x: f64, b: f64, w: f64, delta: f64) -> Vec<ScalingPoint> {
+        ladder(-1.0)
+            .into_iter()
+            .map(|l| {
+                let y = 0.7 * (l.abs() + delta).powf(x) * (1.0 + b * l.abs().powf(w));
+                ScalingPoint::new(l, y, 0.0)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_origin_fit_recovers_a_shifted_origin() {
+        // exact model at the true ω: x, B and δ come back to the solver's tolerance, for a shift
+        // of 1 % and of 20 % of the smallest |l| (1e-5), of either sign
+        for delta in [1e-7, -1e-7, 2e-6, -2e-6] {
+            let p = shifted(1.2, 0.8, 0.5, delta);
+            let f = fit_origin_power_law(&p, 0.5, 0.5).unwrap();
+            assert_eq!(f.form, Form::Origin);
+            assert!((f.x - 1.2).abs() < 1e-8, "δ {delta}: {f:?}");
+            assert!((f.amplitude - 0.8).abs() < 1e-6, "δ {delta}: {f:?}");
+            assert!((f.origin - delta).abs() < 1e-6 * 1e-5, "δ {delta}: {f:?}");
+            assert!(f.converged && !f.origin_at_bound && f.origin_error.is_finite());
+        }
+        // no shift in the data: δ = 0 and the direct fixed-ω fit's x
+        let p = shifted(1.2, 0.8, 0.5, 0.0);
+        let f = fit_origin_power_law(&p, 0.5, 0.5).unwrap();
+        let d = fit_corrected_power_law(&p, Omega::Fixed(0.5), (0.05, 3.0)).unwrap();
+        assert!(
+            f.origin.abs() < 1e-6 * 1e-5 && (f.x - d.x).abs() < 1e-7,
+            "{f:?}"
+        );
+        // bad arguments name themselves
+        let e = fit_origin_power_law(&p, 0.5, 1.0).unwrap_err().to_string();
+        assert!(e.contains("origin bound"), "{e}");
+    }
+
+    /// The estimate with the origin form on, else the default options.
+    fn with_origin(p: &[ScalingPoint]) -> AsymptoticEstimate {
+        let opts = AsymptoticOptions {
+            origin: true,
+            ..Default::default()
+        };
+        asymptotic_estimate(p, &opts).unwrap()
+    }
+
+    #[test]
+    fn the_origin_form_measures_the_bias_of_a_shifted_origin() {
+        // y = 0.7(|l| + δ)^1.2 (1 + 0.8|l|^0.5) with δ = 2e-7 (2 % of the smallest |l|): the
+        // running exponent falls by 1.2 δ (1/|l_lo| − 1/|l_hi|)/ln(l_hi/l_lo) ≈ 0.017 more at
+        // 2e-5 → 1e-5 than the correction says, which the fits with the origin at L_c can only
+        // read as a lower exponent
+        let p = shifted(1.2, 0.8, 0.5, 2e-7);
+        let off = asymptotic_estimate(&p, &AsymptoticOptions::default()).unwrap();
+        assert!(off.variants.iter().all(|v| v.form != Form::Origin));
+        assert!(off.origin_spread.is_nan());
+        let on = with_origin(&p);
+        // the reference fit is the same fit either way (the origin form is never the reference)
+        assert_eq!(on.value, off.value);
+        assert_eq!(on.reference_fit(), off.reference_fit());
+        // the origin fits move towards the truth on every window (measured: x = 1.1897 on the
+        // full ladder … 1.1981 on the deepest 5 rungs, δ = 0.8e-7 … 1.95e-7, the held ω being the
+        // biased direct fit's 0.349 rather than 0.5), so the origin spread alone measures most
+        // of the reference's bias (0.0108 of 0.0126)
+        let bias = (off.value - 1.2).abs();
+        assert!(bias > 0.01, "{off:?}");
+        for v in on.variants.iter().filter(|v| v.form == Form::Origin) {
+            match &v.outcome {
+                Ok(f) => assert!(
+                    (f.x - 1.2).abs() < bias && f.origin > 0.3 * 2e-7 && f.origin < 1.1 * 2e-7,
+                    "{v:?}"
+                ),
+                Err(e) => assert!(matches!(e, WindowIssue::TooFewPoints { .. }), "{v:?}"),
+            }
+        }
+        assert!(
+            on.origin_spread > 0.75 * bias && on.spread >= on.origin_spread,
+            "{on:?}"
+        );
+        assert!((on.value - 1.2).abs() <= on.error, "{on:?}");
+        // without a shift in the data the origin form adds nothing: the fits are exact at the
+        // held ω (the direct free fit's, 0.5 to 1e-6), δ = 0 and x = 1.2 to the solver tolerance
+        let p = shifted(1.2, 0.8, 0.5, 0.0);
+        let on = with_origin(&p);
+        assert!(on.origin_spread < 1e-6, "{on:?}");
+    }
+
+    #[test]
+    fn an_origin_beyond_its_bound_is_rejected_and_named() {
+        // a shift of 80 % of the smallest |l| with the bound at 50 %: every origin fit that
+        // reaches the smallest rung ends at its bound and is rejected, with the reason
+        let p = shifted(1.2, 0.8, 0.5, 8e-6);
+        let opts = AsymptoticOptions {
+            origin: true,
+            omega_fixed: Some(0.5),
+            ..Default::default()
+        };
+        let e = asymptotic_estimate(&p, &opts).unwrap();
+        let origin: Vec<&Variant> = e
+            .variants
+            .iter()
+            .filter(|v| v.form == Form::Origin)
+            .collect();
+        assert!(!origin.is_empty());
+        for v in origin {
+            match &v.outcome {
+                Err(WindowIssue::OriginUnconstrained { delta, bound, .. }) => {
+                    assert!(
+                        (delta.abs() - bound).abs() < 1e-9 * bound && *bound == 5e-6,
+                        "{v:?}"
+                    );
+                    let msg = v.outcome.clone().unwrap_err().to_string();
+                    assert!(msg.starts_with("load origin unconstrained: δ = "), "{msg}");
+                }
+                Err(WindowIssue::TooFewPoints { .. }) => {}
+                other => panic!("{other:?}"),
+            }
+        }
+        assert!(e.origin_spread.is_nan());
+        let bad = AsymptoticOptions {
+            origin_bound: 0.0,
+            ..opts
+        };
+        let msg = asymptotic_estimate(&p, &bad).unwrap_err().to_string();
+        assert!(msg.contains("origin_bound"), "{msg}");
     }
 
     #[test]

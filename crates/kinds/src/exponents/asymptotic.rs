@@ -58,6 +58,18 @@
 //! fit. The identity 3ζ + υ − χ is also taken with these two and the combined ζ
 //! (`beta_identity_neck`).
 //!
+//! # The load origin (session #24)
+//! Every fit above measures |l| from the closing load of its own discretisation, L_c(D). The
+//! window check at k = 6 (docs/near-critical.md §5t) found that the deep running exponents'
+//! change with the window grows as 1/|l|, the signature of a power law whose origin lies a few
+//! 1e-8 of L_c away from L_c(D); with the origin free, g = A(|l| + δ)^ζ, the deepest rungs of
+//! two windows or two levels give the same ζ. So each window is also fitted with the origin
+//! free ([`analysis::Form::Origin`], the direct form with δ ∈ ±½|l|_min and ω held:
+//! [`options`]); its x enters the error through the spread like any other form, and its own
+//! largest change is the column `asymptotic_origin_spread`. It is never the reference: the
+//! fitted δ differs between quantities (the hexagonal υ wants −7e-8 … −1.8e-7 where ζ wants
+//! +5e-9 … +1.5e-7), so it is one more way to read the same data, not a corrected origin.
+//!
 //! # Weights
 //! Every fit here is unweighted (each rung's σ set to 0 before the fit, [`unweighted`]): equal
 //! weight in ln y, the errors scaled by the misfit. The σ a rung carries is not a 1σ of its
@@ -206,6 +218,9 @@ pub struct Asymptotic {
     pub range_spread: f64,
     /// Largest change over the fit forms.
     pub form_spread: f64,
+    /// Largest change over the fits with a free load origin (part of the error; NaN if none
+    /// was accepted).
+    pub origin_spread: f64,
     /// Correction exponent ω of the fixed-ω fits.
     pub omega: f64,
     /// Rungs of the reference fit.
@@ -229,13 +244,14 @@ impl Asymptotic {
         stat_error: f64::NAN,
         range_spread: f64::NAN,
         form_spread: f64::NAN,
+        origin_spread: f64::NAN,
         omega: f64::NAN,
         points: f64::NAN,
         l_min: f64::NAN,
     };
 
     /// The fields, the one list the artefact writer, its reader and the CSV use.
-    pub const FIELDS: [Field; 8] = [
+    pub const FIELDS: [Field; 9] = [
         ("value", |a| a.value, |a, v| a.value = v),
         ("error", |a| a.error, |a, v| a.error = v),
         ("stat_error", |a| a.stat_error, |a, v| a.stat_error = v),
@@ -245,6 +261,11 @@ impl Asymptotic {
             |a, v| a.range_spread = v,
         ),
         ("form_spread", |a| a.form_spread, |a, v| a.form_spread = v),
+        (
+            "origin_spread",
+            |a| a.origin_spread,
+            |a, v| a.origin_spread = v,
+        ),
         ("omega", |a| a.omega, |a, v| a.omega = v),
         ("points", |a| a.points, |a, v| a.points = v),
         ("l_min", |a| a.l_min, |a, v| a.l_min = v),
@@ -280,6 +301,15 @@ impl Asymptotic {
     }
 }
 
+/// The options of every asymptotic fit here: the analysis crate's defaults with the origin
+/// form on (module docs, "The load origin").
+pub fn options() -> AsymptoticOptions {
+    AsymptoticOptions {
+        origin: true,
+        ..AsymptoticOptions::default()
+    }
+}
+
 /// The asymptotic estimate of one exponent from its levels (module docs); `Err` says why none.
 /// The fits are unweighted ([`unweighted`]).
 pub fn estimate(levels: &[Resolution]) -> Result<Asymptotic, String> {
@@ -291,8 +321,7 @@ pub fn estimate(levels: &[Resolution]) -> Result<Asymptotic, String> {
             across: unweighted(&r.across),
         })
         .collect();
-    let e = asymptotic(&levels, GRID_BOUND, &AsymptoticOptions::default())
-        .map_err(|e| e.to_string())?;
+    let e = asymptotic(&levels, GRID_BOUND, &options()).map_err(|e| e.to_string())?;
     Ok(from_estimate(&e))
 }
 
@@ -427,7 +456,7 @@ fn chain_estimate(
         junction: c.junction,
         junctions: c.junctions.iter().map(|&(i, j)| (depths[i], j)).collect(),
     };
-    let est = analysis::asymptotic_estimate(&unweighted(&c.points), &AsymptoticOptions::default())
+    let est = analysis::asymptotic_estimate(&unweighted(&c.points), &options())
         .map(|a| from_estimate(&a))
         .map_err(|e| e.to_string());
     (est, info)
@@ -492,6 +521,7 @@ fn from_estimate(e: &AsymptoticEstimate) -> Asymptotic {
             f64::NAN
         },
         form_spread: e.form_spread,
+        origin_spread: e.origin_spread,
         omega: if f.omega_free { f.omega } else { fixed },
         points: f.points as f64,
         l_min: f.l_range.0,

@@ -330,6 +330,7 @@ mod tests {
             "asymptotic_stat_error",
             "asymptotic_range_spread",
             "asymptotic_form_spread",
+            "asymptotic_origin_spread",
             "asymptotic_omega",
             "asymptotic_points",
             "asymptotic_l_min",
