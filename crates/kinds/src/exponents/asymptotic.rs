@@ -773,8 +773,33 @@ mod tests {
         assert_eq!(a.l_min, 1e-3);
         assert!(a.error < 5e-3 && a.form_spread > 1e-4, "{a:?}");
         assert!(a.stat_error < 1e-8 && a.range_spread < 1e-6, "{a:?}");
+        // the origin fits are on ([`options`]) and exact here (δ = 0 at the true ω)
+        assert!(a.origin_spread < 1e-6, "{a:?}");
         // a single grid: every pair is unknown-flagged, nothing grid-converged to fit
         assert!(estimate(&[level(1.0 / 2048.0, 0.0)]).is_err());
+    }
+
+    /// The load origin (module docs): g = 0.3(|l| + 2e-7)^1.2 (1 + 0.8|l|^0.5), both grids
+    /// alike (every pair converged, down to 1e-5). Measured from the shifted origin, the running
+    /// exponent falls by a further 0.02 at the deepest pair, and the fits with the origin at
+    /// L_c read ζ ≈ 1.187; the origin fits move towards 1.2, and the error holds it.
+    #[test]
+    fn a_shifted_load_origin_enters_the_error() {
+        fn law(a: f64) -> f64 {
+            0.3 * (a + 2e-7).powf(1.2) * (1.0 + 0.8 * a.sqrt())
+        }
+        let a = estimate(&[
+            level_of(law, 1.0 / 2048.0, 0.0),
+            level_of(law, 1.0 / 1024.0, 0.0),
+        ])
+        .unwrap();
+        assert_eq!(a.l_min, 1e-5);
+        assert!(a.value < 1.195, "{a:?}");
+        assert!(
+            a.origin_spread > 0.005 && a.error >= a.origin_spread,
+            "{a:?}"
+        );
+        assert!((a.value - 1.2).abs() <= a.error, "{a:?}");
     }
 
     /// The fits are unweighted (module docs, "Weights"): rungs that carry the uniform ladders'
