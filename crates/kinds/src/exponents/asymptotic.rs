@@ -66,9 +66,10 @@
 //! two windows or two levels give the same ζ. So each window is also fitted with the origin
 //! free ([`analysis::Form::Origin`], the direct form with δ ∈ ±½|l|_min and ω held:
 //! [`options`]); its x enters the error through the spread like any other form, and its own
-//! largest change is the column `asymptotic_origin_spread`. It is never the reference: the
-//! fitted δ differs between quantities (the hexagonal υ wants −7e-8 … −1.8e-7 where ζ wants
-//! +5e-9 … +1.5e-7), so it is one more way to read the same data, not a corrected origin.
+//! largest change is the column `asymptotic_origin_spread` (`asymptotic_origin_fits`: how many
+//! were accepted). It is never the reference: the fitted δ differs between quantities (the
+//! hexagonal υ wants −7e-8 … −1.8e-7 where ζ wants +5e-9 … +1.5e-7), so it is one more way to
+//! read the same data, not a corrected origin.
 //!
 //! # Weights
 //! Every fit here is unweighted (each rung's σ set to 0 before the fit, [`unweighted`]): equal
@@ -221,6 +222,9 @@ pub struct Asymptotic {
     /// Largest change over the fits with a free load origin (part of the error; NaN if none
     /// was accepted).
     pub origin_spread: f64,
+    /// How many origin fits were accepted (of one per window with enough rungs; the others
+    /// ended at the origin's bound or did not converge).
+    pub origin_fits: f64,
     /// Correction exponent ω of the fixed-ω fits.
     pub omega: f64,
     /// Rungs of the reference fit.
@@ -245,13 +249,14 @@ impl Asymptotic {
         range_spread: f64::NAN,
         form_spread: f64::NAN,
         origin_spread: f64::NAN,
+        origin_fits: f64::NAN,
         omega: f64::NAN,
         points: f64::NAN,
         l_min: f64::NAN,
     };
 
     /// The fields, the one list the artefact writer, its reader and the CSV use.
-    pub const FIELDS: [Field; 9] = [
+    pub const FIELDS: [Field; 10] = [
         ("value", |a| a.value, |a, v| a.value = v),
         ("error", |a| a.error, |a, v| a.error = v),
         ("stat_error", |a| a.stat_error, |a, v| a.stat_error = v),
@@ -266,6 +271,7 @@ impl Asymptotic {
             |a| a.origin_spread,
             |a, v| a.origin_spread = v,
         ),
+        ("origin_fits", |a| a.origin_fits, |a, v| a.origin_fits = v),
         ("omega", |a| a.omega, |a, v| a.omega = v),
         ("points", |a| a.points, |a, v| a.points = v),
         ("l_min", |a| a.l_min, |a, v| a.l_min = v),
@@ -522,6 +528,11 @@ fn from_estimate(e: &AsymptoticEstimate) -> Asymptotic {
         },
         form_spread: e.form_spread,
         origin_spread: e.origin_spread,
+        origin_fits: e
+            .variants
+            .iter()
+            .filter(|v| v.form == analysis::Form::Origin && v.outcome.is_ok())
+            .count() as f64,
         omega: if f.omega_free { f.omega } else { fixed },
         points: f.points as f64,
         l_min: f.l_range.0,
@@ -799,6 +810,8 @@ mod tests {
             a.origin_spread > 0.005 && a.error >= a.origin_spread,
             "{a:?}"
         );
+        // one origin fit per window of ≥ 5 rungs (12 rungs: 8 windows), each accepted
+        assert_eq!(a.origin_fits, 8.0, "{a:?}");
         assert!((a.value - 1.2).abs() <= a.error, "{a:?}");
     }
 

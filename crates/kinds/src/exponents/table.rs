@@ -331,6 +331,7 @@ mod tests {
             "asymptotic_range_spread",
             "asymptotic_form_spread",
             "asymptotic_origin_spread",
+            "asymptotic_origin_fits",
             "asymptotic_omega",
             "asymptotic_points",
             "asymptotic_l_min",
