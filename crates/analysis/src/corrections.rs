@@ -319,6 +319,24 @@ fn check_omega(omega: Omega, bounds: (f64, f64)) -> Result<()> {
     check_arg("omega_bounds", lo, "0 < lower < upper", lo > 0.0 && hi > lo)
 }
 
+/// The starting values of a direct fit (module docs): the linearised model
+/// `ln y ≈ ln A + x ln|l| + B|l|^ω` solved by linear least squares at the held ω or, for a free ω,
+/// at the best of the grid over `bounds` (`la` = ln|l|); returns that ω and (ln A, x, B).
+fn linearised_start(
+    a: &[f64],
+    la: &[f64],
+    ly: &[f64],
+    sigma: Option<&[f64]>,
+    omega: Omega,
+    bounds: (f64, f64),
+) -> Result<(f64, Vec<f64>)> {
+    let col2 = |w: f64| a.iter().map(|v| v.powf(w)).collect::<Vec<f64>>();
+    let (_, w0, p) = profile(omega, bounds, la, &col2, ly, sigma).ok_or_else(|| {
+        FitError::Singular("the linearised corrected power law has no solution".into())
+    })?;
+    Ok((w0, p))
+}
+
 /// The solver options of a four-parameter direct fit: ln A, x, B free, the fourth (ω, or the
 /// origin form's δ/|l|_min) as `fourth` says; absolute errors when weighted, else scaled by the
 /// misfit (module docs).
@@ -347,10 +365,7 @@ pub fn fit_corrected_power_law(
     local_slopes(points)?; // validates the ladder
     let (a, ly, sl) = log_data(points);
     let la: Vec<f64> = a.iter().map(|v| v.ln()).collect();
-    let col2 = |w: f64| a.iter().map(|v| v.powf(w)).collect::<Vec<f64>>();
-    let (_, w0, p) = profile(omega, bounds, &la, &col2, &ly, sl.as_deref()).ok_or_else(|| {
-        FitError::Singular("the linearised corrected power law has no solution".into())
-    })?;
+    let (w0, p) = linearised_start(&a, &la, &ly, sl.as_deref(), omega, bounds)?;
     let free = matches!(omega, Omega::Free);
     let spec_w = if free {
         ParamSpec {
@@ -513,13 +528,16 @@ pub fn fit_origin_power_law(
     local_slopes(points)?; // validates the ladder
     let (a, ly, sl) = log_data(points);
     let (a_min, _) = l_range(&a);
+    // bounds are read only for a free ω
     let la: Vec<f64> = a.iter().map(|v| v.ln()).collect();
-    let col2 = |w: f64| a.iter().map(|v| v.powf(w)).collect::<Vec<f64>>();
-    let w = Omega::Fixed(omega);
-    let (_, _, p) =
-        profile(w, (omega, omega * 2.0), &la, &col2, &ly, sl.as_deref()).ok_or_else(|| {
-            FitError::Singular("the linearised corrected power law has no solution".into())
-        })?;
+    let (_, p) = linearised_start(
+        &a,
+        &la,
+        &ly,
+        sl.as_deref(),
+        Omega::Fixed(omega),
+        (omega, omega),
+    )?;
     let spec_d = ParamSpec {
         fixed: false,
         lower: Some(-bound),
